@@ -1,0 +1,87 @@
+"""Planes `dot(normal, p) + d = 0` and the client's plane helpers."""
+
+from __future__ import annotations
+
+from ..constants import EPSILON
+from .vec3 import Vec3
+
+__all__ = ["Plane", "Side"]
+
+
+class Side:
+    """Which side of a plane a point lies on (the client's `Sidedness`)."""
+
+    FRONT = 0
+    BEHIND = 1
+    CLOSE = 2  # within EPSILON: on the plane
+    CROSSING = 3
+
+
+class Plane:
+    __slots__ = ("normal", "d")
+
+    normal: Vec3
+    d: float
+
+    def __init__(self, normal: Vec3, d: float) -> None:
+        self.normal = normal
+        self.d = d
+
+    def __repr__(self) -> str:
+        return f"Plane({self.normal!r}, {self.d!r})"
+
+    def __eq__(self, o: object) -> bool:
+        return isinstance(o, Plane) and self.normal == o.normal and self.d == o.d
+
+    def __hash__(self) -> int:
+        return hash((self.normal, self.d))
+
+    def distance(self, p: Vec3) -> float:
+        """Signed distance of `p` (positive on the normal's side)."""
+        n = self.normal
+        return n.x * p.x + n.y * p.y + n.z * p.z + self.d
+
+    def side(self, p: Vec3, bias: float = 0.0) -> int:
+        dist = self.distance(p) + bias
+        if dist > EPSILON:
+            return Side.FRONT
+        if dist < -EPSILON:
+            return Side.BEHIND
+        return Side.CLOSE
+
+    def snap_to_plane(self, offset: Vec3) -> Vec3:
+        """Replace offset.z so the offset runs along the plane (Plane.SnapToPlane).
+
+        The client measures the xy part from the plane's own height at the
+        origin, which cancels d: z = -dot2d(offset, n) / n.z.
+        """
+        nz = self.normal.z
+        if abs(nz) <= EPSILON:
+            return offset
+        z = -(offset.dot2d(self.normal) + self.d) * (1.0 / nz) - 1.0 / nz * -self.d
+        return Vec3(offset.x, offset.y, z)
+
+    def height_at(self, x: float, y: float) -> float | None:
+        """z of the plane above (x, y), or None for a (near-)vertical plane."""
+        n = self.normal
+        if abs(n.z) <= EPSILON:
+            return None
+        return -((y * n.y + x * n.x + self.d) / n.z)
+
+    @staticmethod
+    def from_points(vertices: list[Vec3]) -> Plane:
+        """The client's Polygon.make_plane: fan-summed normal, mean-vertex d."""
+        v0 = vertices[0]
+        nx = ny = nz = 0.0
+        for i in range(1, len(vertices) - 1):
+            a = vertices[i] - v0
+            b = vertices[i + 1] - v0
+            c = a.cross(b)
+            nx += c.x
+            ny += c.y
+            nz += c.z
+        normal = Vec3(nx, ny, nz).normalized_or_none() or Vec3(0.0, 0.0, 0.0)
+        total = 0.0
+        for v in vertices:
+            total += normal.dot(v)
+        return Plane(normal, -(total / len(vertices)))

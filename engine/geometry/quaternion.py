@@ -1,0 +1,123 @@
+"""Unit quaternions for orientations, stored [w, x, y, z] as in the formats."""
+
+from __future__ import annotations
+
+import math
+
+from ..constants import EPSILON
+from .vec3 import Vec3
+
+__all__ = ["Quat", "IDENTITY"]
+
+
+class Quat:
+    """An orientation quaternion (w + xi + yj + zk)."""
+
+    __slots__ = ("w", "x", "y", "z")
+
+    w: float
+    x: float
+    y: float
+    z: float
+
+    def __init__(self, w: float = 1.0, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> None:
+        self.w = w
+        self.x = x
+        self.y = y
+        self.z = z
+
+    def __eq__(self, o: object) -> bool:
+        return (
+            isinstance(o, Quat)
+            and self.w == o.w
+            and self.x == o.x
+            and self.y == o.y
+            and self.z == o.z
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.w, self.x, self.y, self.z))
+
+    def __repr__(self) -> str:
+        return f"Quat({self.w!r}, {self.x!r}, {self.y!r}, {self.z!r})"
+
+    def as_tuple(self) -> tuple[float, float, float, float]:
+        return (self.w, self.x, self.y, self.z)
+
+    def is_identity(self) -> bool:
+        return self.x == 0.0 and self.y == 0.0 and self.z == 0.0 and self.w == 1.0
+
+    def is_finite(self) -> bool:
+        return all(math.isfinite(c) for c in (self.w, self.x, self.y, self.z))
+
+    def is_valid(self) -> bool:
+        """Finite and of unit length within 5 EPSILON (`Quaternion.IsValid`)."""
+        if not self.is_finite():
+            return False
+        return abs(self.length() - 1.0) <= EPSILON * 5.0
+
+    def length(self) -> float:
+        return math.sqrt(self.w * self.w + self.x * self.x + self.y * self.y + self.z * self.z)
+
+    def normalized(self) -> Quat:
+        n = self.length()
+        if n == 0.0:
+            return Quat()
+        inv = 1.0 / n
+        return Quat(self.w * inv, self.x * inv, self.y * inv, self.z * inv)
+
+    def conjugate(self) -> Quat:
+        return Quat(self.w, -self.x, -self.y, -self.z)
+
+    def __mul__(self, o: Quat) -> Quat:
+        """Hamilton product: rotate by `o` first, then by self."""
+        return Quat(
+            self.w * o.w - self.x * o.x - self.y * o.y - self.z * o.z,
+            self.w * o.x + self.x * o.w + self.y * o.z - self.z * o.y,
+            self.w * o.y - self.x * o.z + self.y * o.w + self.z * o.x,
+            self.w * o.z + self.x * o.y - self.y * o.x + self.z * o.w,
+        )
+
+    def rotation_matrix(self) -> tuple[float, float, float, float, float, float, float, float, float]:
+        """Row-major 3x3 matrix R with R @ v equal to rotating v by self."""
+        w, x, y, z = self.w, self.x, self.y, self.z
+        xx, yy, zz = x * x, y * y, z * z
+        xy, xz, yz = x * y, x * z, y * z
+        wx, wy, wz = w * x, w * y, w * z
+        return (
+            1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy),
+            2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx),
+            2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy),
+        )
+
+    def rotate(self, v: Vec3) -> Vec3:
+        m = self.rotation_matrix()
+        return Vec3(
+            m[0] * v.x + m[1] * v.y + m[2] * v.z,
+            m[3] * v.x + m[4] * v.y + m[5] * v.z,
+            m[6] * v.x + m[7] * v.y + m[8] * v.z,
+        )
+
+    @staticmethod
+    def lerp(a: Quat, b: Quat, t: float) -> Quat:
+        """Normalised linear blend along the shorter arc.
+
+        The client's frame rotation interpolation (AFrame.InterpolateRotation):
+        flip `b` when the two lie in opposite hemispheres, blend, renormalise.
+        """
+        s = 1.0 - t
+        if a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z < 0.0:
+            t = -t
+        return Quat(
+            s * a.w + t * b.w, s * a.x + t * b.x, s * a.y + t * b.y, s * a.z + t * b.z
+        ).normalized()
+
+    @staticmethod
+    def from_heading(degrees: float) -> Quat:
+        """Orientation facing `degrees` clockwise from north (AC heading)."""
+        # AC heading 0 faces +y (north); 90 faces +x (east): a yaw of -heading about z.
+        half = -math.radians(degrees) * 0.5
+        return Quat(math.cos(half), 0.0, 0.0, math.sin(half))
+
+
+IDENTITY = Quat(1.0, 0.0, 0.0, 0.0)
