@@ -1,0 +1,1 @@
+"""The World: loaded landblocks, movers, and moves answered by the engine."""

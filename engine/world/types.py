@@ -1,0 +1,116 @@
+"""The World's public value types: what a mover is and what a move returns.
+
+These are plain dataclasses so that callers (the service, tests, tools) can
+build, compare and serialise them without touching engine internals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..geometry import Plane, Position, Vec3
+
+__all__ = ["SphereSpec", "CylSphereSpec", "MoverSpec", "MoveResult", "ObjectState"]
+
+
+class ObjectState:
+    """ObjectInfoState flag names accepted in `MoverSpec.state` (the client's values)."""
+
+    CONTACT = 0x1
+    ON_WALKABLE = 0x2
+    IS_VIEWER = 0x4
+    PATH_CLIPPED = 0x8
+    FREE_ROTATE = 0x10
+    PERFECT_CLIP = 0x40
+    IS_IMPENETRABLE = 0x80
+    IS_PLAYER = 0x100
+    EDGE_SLIDE = 0x200
+    IGNORE_CREATURES = 0x400
+    IS_PK = 0x800
+    IS_PK_LITE = 0x1000
+
+    BY_NAME = {
+        "Contact": CONTACT,
+        "OnWalkable": ON_WALKABLE,
+        "IsViewer": IS_VIEWER,
+        "PathClipped": PATH_CLIPPED,
+        "FreeRotate": FREE_ROTATE,
+        "PerfectClip": PERFECT_CLIP,
+        "IsImpenetrable": IS_IMPENETRABLE,
+        "IsPlayer": IS_PLAYER,
+        "EdgeSlide": EDGE_SLIDE,
+        "IgnoreCreatures": IGNORE_CREATURES,
+        "IsPK": IS_PK,
+        "IsPKLite": IS_PK_LITE,
+    }
+
+    @classmethod
+    def from_names(cls, names: list[str] | tuple[str, ...]) -> int:
+        bits = 0
+        for n in names:
+            try:
+                bits |= cls.BY_NAME[n]
+            except KeyError:
+                raise ValueError(f"unknown ObjectInfoState flag {n!r}") from None
+        return bits
+
+    @classmethod
+    def to_names(cls, bits: int) -> list[str]:
+        return [n for n, b in cls.BY_NAME.items() if bits & b]
+
+
+@dataclass(frozen=True, slots=True)
+class SphereSpec:
+    """A mover sphere in the mover's own frame (unscaled)."""
+
+    center: tuple[float, float, float]
+    radius: float
+
+
+@dataclass(frozen=True, slots=True)
+class CylSphereSpec:
+    """A cylsphere: low point in the object's frame, radius, height."""
+
+    origin: tuple[float, float, float]
+    radius: float
+    height: float
+
+
+@dataclass(slots=True)
+class MoverSpec:
+    """What an object is, for the physics: its shape and ObjectInfo inputs.
+
+    `state` holds ObjectInfoState flag names ("Contact", "OnWalkable",
+    "IsPlayer", "EdgeSlide", "PathClipped", "IsViewer", ...). Contact and
+    OnWalkable are the starting transient state; the World updates them.
+    """
+
+    spheres: list[SphereSpec]
+    step_up_height: float = 0.4
+    step_down_height: float = 0.4
+    state: list[str] = field(default_factory=list)
+    step_down: bool = True  # False for missiles
+    ethereal: bool = False
+    scale: float = 1.0
+    gravity: bool = True
+    creature: bool | None = None  # default: True for IsPlayer, else False
+    cyl_spheres: list[CylSphereSpec] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class MoveResult:
+    """The resolved outcome of one move (one transition + SetPositionInternal)."""
+
+    ok: bool
+    position: Position
+    transition_state: str  # "OK", "Collided", "Adjusted", "Slid", "Invalid" or "NoTransition"
+    contact: bool
+    on_walkable: bool
+    contact_plane: Plane | None
+    contact_plane_cell: int | None
+    collision_normal: Vec3 | None
+    sliding_normal: Vec3 | None
+    water_contact: bool
+    frames_stationary_fall: int
+    transient_state: list[str]
+    collide_objects: list[int] = field(default_factory=list)
