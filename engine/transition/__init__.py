@@ -1,0 +1,1 @@
+"""The collision transition: Transition, SpherePath, CollisionInfo, ObjectInfo."""

@@ -1,0 +1,289 @@
+"""SpherePath: the moving spheres, the positions of the path and its scratch state."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
+from ..geometry.landdefs import get_block_offset
+from .state import InsertType
+
+if TYPE_CHECKING:
+    from ..geometry.polygon import Polygon
+    from .transition import Transition
+
+__all__ = ["SpherePath"]
+
+
+class SpherePath:
+    """The client's SPHEREPATH.
+
+    Positions are immutable: every "move the check position" here rebinds
+    `check_pos` to a new Position, which is exactly the copy semantics the
+    client's Position assignments have. The global spheres are cached at the
+    check position and shifted in place by offsets, as the client does, so a
+    sub-step costs no matrix work for an upright mover.
+    """
+
+    __slots__ = (
+        "num_sphere",
+        "local_sphere",
+        "local_low_point",
+        "global_sphere",
+        "global_low_point",
+        "local_space_sphere",
+        "local_space_low_point",
+        "local_space_curr_center",
+        "global_curr_center",
+        "local_space_pos",
+        "local_space_z",
+        "begin_cell",
+        "begin_pos",
+        "end_pos",
+        "curr_cell",
+        "curr_pos",
+        "global_offset",
+        "step_up",
+        "step_up_normal",
+        "collide",
+        "check_cell",
+        "check_pos",
+        "insert_type",
+        "step_down",
+        "backup",
+        "backup_cell",
+        "backup_check_pos",
+        "obstruction_ethereal",
+        "hits_interior_cell",
+        "building_check",
+        "walkable_allowance",
+        "walk_interp",
+        "step_down_amt",
+        "walkable_check_pos",
+        "walkable",
+        "check_walkable",
+        "walkable_up",
+        "walkable_pos",
+        "walkable_scale",
+        "cell_array_valid",
+        "neg_step_up",
+        "neg_collision_normal",
+        "neg_poly_hit",
+        "placement_allows_sliding",
+    )
+
+    def __init__(self) -> None:
+        self.num_sphere = 0
+        self.local_sphere: list[Sphere] = []
+        self.local_low_point = ZERO
+        self.global_sphere: list[Sphere] = []
+        self.global_low_point = ZERO
+        self.local_space_sphere: list[Sphere] = []
+        self.local_space_low_point = ZERO
+        self.local_space_curr_center: list[Sphere] = []
+        self.global_curr_center: list[Sphere] = []
+        self.local_space_pos: Position | None = None
+        self.local_space_z = UNIT_Z
+        self.begin_cell: Any = None
+        self.begin_pos: Position | None = None
+        self.end_pos: Position | None = None
+        self.curr_cell: Any = None
+        self.curr_pos: Position | None = None
+        self.global_offset = ZERO
+        self.step_up = False
+        self.step_up_normal = ZERO
+        self.collide = False
+        self.check_cell: Any = None
+        self.check_pos: Position = None  # type: ignore[assignment]
+        self.insert_type = InsertType.TRANSITION
+        self.step_down = False
+        self.backup = InsertType.TRANSITION
+        self.backup_cell: Any = None
+        self.backup_check_pos: Position | None = None
+        self.obstruction_ethereal = False
+        self.hits_interior_cell = False
+        self.building_check = False
+        self.walkable_allowance = 0.0
+        self.walk_interp = 0.0
+        self.step_down_amt = 0.0
+        self.walkable_check_pos: Sphere | None = None
+        self.walkable: Polygon | None = None
+        self.check_walkable = False
+        self.walkable_up = ZERO
+        self.walkable_pos: Position | None = None
+        self.walkable_scale = 1.0
+        self.cell_array_valid = False
+        self.neg_step_up = False
+        self.neg_collision_normal = ZERO
+        self.neg_poly_hit = False
+        self.placement_allows_sliding = True
+
+    # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
+    def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
+        self.begin_pos = begin_pos
+        self.begin_cell = begin_cell
+        self.end_pos = end_pos
+        if begin_pos is not None:
+            self.insert_type = InsertType.TRANSITION
+            self.curr_pos = begin_pos
+        else:
+            self.insert_type = InsertType.PLACEMENT
+            self.curr_pos = end_pos
+        self.curr_cell = begin_cell
+        self.cache_global_curr_center()
+
+    def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
+        """Take at most two spheres (foot, head), scaled into the mover's frame."""
+        self.num_sphere = min(len(spheres), 2)
+        self.local_sphere = [Sphere(s.center * scale, s.radius * scale) for s in spheres[: self.num_sphere]]
+        s0 = self.local_sphere[0]
+        self.local_low_point = Vec3(s0.center.x, s0.center.y, s0.center.z - s0.radius)
+        self.global_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+        self.global_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+        self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+        self.local_space_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+
+    # -- moving the check position ----------------------------------------
+    def add_offset_to_check_pos(self, offset: Vec3) -> None:
+        self.cell_array_valid = False
+        self.check_pos = self.check_pos.moved(offset)
+        self.cache_global_sphere(offset)
+
+    def adjust_check_pos(self, cell_id: int) -> None:
+        """Re-home the check position into `cell_id` (an outdoor cell may be in
+        another landblock: the origin is re-expressed there)."""
+        if (cell_id & 0xFFFF) < 0x100:
+            offset = get_block_offset(cell_id, self.check_pos.cell_id)
+            if offset is not ZERO:
+                self.cache_global_sphere(offset)
+                self.check_pos = Position(cell_id, self.check_pos.frame.with_origin(self.check_pos.frame.origin + offset))
+                return
+        self.check_pos = self.check_pos.with_cell(cell_id)
+
+    def set_check_pos(self, position: Position, cell: Any) -> None:
+        self.check_pos = position
+        self.check_cell = cell
+        self.cell_array_valid = False
+        self.cache_global_sphere(None)
+
+    def save_check_pos(self) -> None:
+        self.backup_cell = self.check_cell
+        self.backup_check_pos = self.check_pos
+
+    def restore_check_pos(self) -> None:
+        assert self.backup_check_pos is not None
+        self.check_pos = self.backup_check_pos
+        self.check_cell = self.backup_cell
+        self.cell_array_valid = False
+        self.cache_global_sphere(None)
+
+    # -- sphere caches -----------------------------------------------------
+    def cache_global_curr_center(self) -> None:
+        pos = self.curr_pos
+        assert pos is not None
+        frame = pos.frame
+        for i in range(self.num_sphere):
+            self.global_curr_center[i].center = frame.local_to_global(self.local_sphere[i].center)
+
+    def cache_global_sphere(self, offset: Vec3 | None) -> None:
+        """Move the global spheres by `offset`, or recompute them at check_pos."""
+        if offset is not None:
+            for s in self.global_sphere:
+                s.center = s.center + offset
+            self.global_low_point = self.global_low_point + offset
+            return
+        frame = self.check_pos.frame
+        for i in range(self.num_sphere):
+            g = self.global_sphere[i]
+            g.radius = self.local_sphere[i].radius
+            g.center = frame.local_to_global(self.local_sphere[i].center)
+        self.global_low_point = frame.local_to_global(self.local_low_point)
+
+    def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
+        """Express the path's spheres in the frame of `pos` (a cell or a part),
+        divided by `scale` (SpherePath.CacheLocalSpaceSphere)."""
+        inv = 1.0 / scale
+        curr = self.curr_pos
+        check = self.check_pos
+        assert curr is not None
+        for i in range(self.num_sphere):
+            local = self.local_sphere[i]
+            self.local_space_curr_center[i].center = pos.local_to_local(curr, local.center) * inv
+            ls = self.local_space_sphere[i]
+            ls.radius = local.radius * inv
+            ls.center = pos.local_to_local(check, local.center) * inv
+        self.local_space_pos = pos
+        z = pos.global_to_local_vec(UNIT_Z)
+        self.local_space_z = z
+        s0 = self.local_space_sphere[0]
+        self.local_space_low_point = s0.center - z * s0.radius
+
+    # -- walkable bookkeeping -----------------------------------------------
+    def check_walkables(self) -> bool:
+        """True unless the remembered walkable polygon no longer holds us up."""
+        if self.walkable is None:
+            return True
+        assert self.walkable_check_pos is not None
+        probe = Sphere(self.walkable_check_pos.center, self.walkable_check_pos.radius * 0.5)
+        return self.walkable.check_walkable(probe, self.walkable_up)
+
+    def set_walkable(self, sphere: Sphere, poly: Polygon, z_axis: Vec3, local_pos: Position, scale: float) -> None:
+        self.walkable_check_pos = sphere.copy()
+        self.walkable = poly
+        self.walkable_up = z_axis
+        self.walkable_pos = local_pos
+        self.walkable_scale = scale
+
+    def set_walkable_check_pos(self, sphere: Sphere) -> None:
+        self.walkable_check_pos = sphere.copy()
+
+    def is_walkable_allowable(self, z: float) -> bool:
+        return z > self.walkable_allowance
+
+    def set_collide(self, collision_normal: Vec3) -> None:
+        """Enter collide mode: remember where we were, look for a floor next."""
+        self.collide = True
+        self.backup_cell = self.check_cell
+        self.backup_check_pos = self.check_pos
+        self.step_up_normal = collision_normal
+        self.walk_interp = 1.0
+
+    def set_neg_poly_hit(self, step_up: bool, collision_normal: Vec3) -> None:
+        """Defer a hit of the head sphere until the foot's result is known."""
+        self.neg_step_up = step_up
+        self.neg_poly_hit = True
+        self.neg_collision_normal = -collision_normal
+
+    def get_curr_pos_check_pos_block_offset(self) -> Vec3:
+        assert self.curr_pos is not None
+        return get_block_offset(self.curr_pos.cell_id, self.check_pos.cell_id)
+
+    # -- slides that live on the path in the client ---------------------------
+    def step_up_slide(self, transition: Transition) -> int:
+        """Slide along the normal that a failed step-up met (StepUpSlide)."""
+        from .slide import slide_sphere
+
+        ci = transition.collision_info
+        ci.contact_plane_valid = False
+        ci.contact_plane_is_water = False
+        return slide_sphere(transition, self.step_up_normal, self.global_curr_center[0].center)
+
+    def precipice_slide(self, transition: Transition) -> int:
+        """Slide along the edge of the walkable we are about to leave (PrecipiceSlide)."""
+        from .slide import slide_sphere
+        from .state import TransitionState
+
+        assert self.walkable is not None and self.walkable_check_pos is not None
+        edge_normal = self.walkable.find_crossed_edge(self.walkable_check_pos, self.walkable_up)
+        if edge_normal is None:
+            self.walkable = None
+            return TransitionState.COLLIDED
+        self.walkable = None
+        self.step_up = False
+        assert self.walkable_pos is not None and self.curr_pos is not None
+        normal = self.walkable_pos.frame.local_to_global_vec(edge_normal)
+        block_offset = get_block_offset(self.curr_pos.cell_id, self.check_pos.cell_id)
+        moved = self.global_sphere[0].center - self.global_curr_center[0].center + block_offset
+        if normal.dot(moved) > 0.0:
+            normal = -normal
+        return slide_sphere(transition, normal, self.global_curr_center[0].center)
