@@ -78,6 +78,13 @@ class ObjectInfo:
         if obj is not None:
             obj.stop_velocity()
 
+    def is_missile(self) -> bool:
+        """The mover's live Missile physics state (a collision may clear it)."""
+        obj = self.obj
+        if obj is not None:
+            return bool(obj.missile)
+        return self.missile
+
     def has(self, flag: int) -> bool:
         return bool(self.state & flag)
 

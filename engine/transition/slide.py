@@ -1,4 +1,87 @@
-"""Slides: turning a blocked step into motion along the obstacle.
+"""Slides: turning a blocked step into motion along the obstacle."""
 
-Placeholder until the transition module lands; see slide_sphere below.
-"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..constants import EPSILON
+from ..geometry import Vec3
+from ..geometry.landdefs import get_block_offset
+from .state import TransitionState
+
+if TYPE_CHECKING:
+    from .transition import Transition
+
+__all__ = ["slide_sphere", "slide_sphere_object"]
+
+
+def slide_sphere(t: Transition, collision_normal: Vec3, curr_center: Vec3) -> int:
+    """Slide the foot sphere along a wall (Sphere.SlideSphere, environment variant).
+
+    The step's displacement (from `curr_center`, the sphere at the current
+    position, to the check position) is projected onto the crease between the
+    wall and the ground we stand on; with no crease (wall parallel to the
+    ground) it is pushed straight out of the wall.
+    """
+    path = t.sphere_path
+    ci = t.collision_info
+    g = path.global_sphere[0]
+    if collision_normal.x == 0.0 and collision_normal.y == 0.0 and collision_normal.z == 0.0:
+        path.add_offset_to_check_pos((curr_center - g.center) * 0.5)
+        return TransitionState.ADJUSTED
+
+    ci.set_collision_normal(collision_normal)
+    assert path.curr_pos is not None
+    block_offset = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
+    displacement = block_offset + (g.center - curr_center)
+
+    plane = ci.contact_plane if ci.contact_plane_valid else ci.last_known_contact_plane
+    crease = collision_normal.cross(plane.normal)
+    crease_len_sq = crease.length_sq()
+    if crease_len_sq >= EPSILON:
+        along = crease * (crease.dot(displacement) * (1.0 / crease_len_sq))
+        if along.length_sq() < EPSILON:
+            return TransitionState.COLLIDED
+        path.add_offset_to_check_pos(along - displacement)
+        return TransitionState.SLID
+
+    if collision_normal.dot(plane.normal) >= 0.0:
+        path.add_offset_to_check_pos(collision_normal * -collision_normal.dot(displacement))
+        return TransitionState.SLID
+
+    # Wall and ground face each other: give up this step, head back.
+    back = (-displacement).normalized_or_none()
+    if back is not None:
+        ci.set_collision_normal(back)
+    return TransitionState.OK
+
+
+def slide_sphere_object(t: Transition, obstacle_center: Vec3, disp: Vec3, sphere_num: int) -> int:
+    """Slide off another object's sphere (Sphere.SlideSphere, object variant)."""
+    path = t.sphere_path
+    ci = t.collision_info
+    g = path.global_sphere[sphere_num]
+    curr = path.global_curr_center[sphere_num].center
+    collision_normal = (curr - obstacle_center).normalized_or_none()
+    if collision_normal is None:
+        return TransitionState.COLLIDED
+    ci.set_collision_normal(collision_normal)
+
+    plane = ci.contact_plane if ci.contact_plane_valid else ci.last_known_contact_plane
+    skid_dir = plane.normal
+    direction = collision_normal.cross(skid_dir)
+    assert path.curr_pos is not None
+    block_offset = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
+    glob_offset = g.center - curr + block_offset
+    dir_len_sq = direction.length_sq()
+    if dir_len_sq >= EPSILON:
+        along = direction * (glob_offset.dot(direction) * (1.0 / dir_len_sq))
+        if along.length_sq() < EPSILON:
+            return TransitionState.COLLIDED
+        path.add_offset_to_check_pos(along - glob_offset)
+        return TransitionState.SLID
+
+    if skid_dir.dot(disp) < 0.0:
+        return TransitionState.COLLIDED
+    path.add_offset_to_check_pos(collision_normal * -glob_offset.dot(collision_normal))
+    return TransitionState.SLID

@@ -111,6 +111,6 @@ class MoveResult:
     collision_normal: Vec3 | None
     sliding_normal: Vec3 | None
     water_contact: bool
-    frames_stationary_fall: int
+    frames_stationary_fall: int | None  # None when no transition ran
     transient_state: list[str]
     collide_objects: list[int] = field(default_factory=list)

@@ -1,0 +1,73 @@
+"""CellArray: the cells a transition's spheres touch."""
+
+from __future__ import annotations
+
+from typing import Any, Iterator
+
+__all__ = ["CellArray"]
+
+
+class CellArray:
+    """An ordered id -> cell map with the client's reuse-in-place order.
+
+    The client resets only the count between cell searches, so cells found
+    earlier in a transition stay in the array and are collided again. Its map
+    also puts a newly added cell into the slot of the most recently removed
+    one, which decides the order cells are tested in; that is reproduced here
+    with an explicit slot list and free list.
+    """
+
+    __slots__ = ("added_outside", "load_cells", "world", "_slots", "_index", "_free")
+
+    def __init__(self, world: Any = None) -> None:
+        #: Where cells are looked up by id (the client's LScape).
+        self.world = world
+        self.added_outside = False
+        self.load_cells = False
+        self._slots: list[tuple[int, Any] | None] = []
+        self._index: dict[int, int] = {}
+        self._free: list[int] = []
+
+    def reset_count(self) -> None:
+        """What the client does at the start of a search: keep the cells."""
+        self.added_outside = False
+
+    def clear(self) -> None:
+        self._slots.clear()
+        self._index.clear()
+        self._free.clear()
+        self.added_outside = False
+
+    def add_cell(self, cell_id: int, cell: Any) -> None:
+        if cell_id in self._index:
+            return
+        if self._free:
+            slot = self._free.pop()
+            self._slots[slot] = (cell_id, cell)
+        else:
+            slot = len(self._slots)
+            self._slots.append((cell_id, cell))
+        self._index[cell_id] = slot
+
+    def remove_cell(self, cell_id: int) -> None:
+        slot = self._index.pop(cell_id, None)
+        if slot is None:
+            return
+        self._slots[slot] = None
+        self._free.append(slot)
+
+    def __contains__(self, cell_id: int) -> bool:
+        return cell_id in self._index
+
+    def __len__(self) -> int:
+        return len(self._index)
+
+    def cells(self) -> list[Any]:
+        """The cells in iteration order (a snapshot: safe to mutate while looping)."""
+        return [e[1] for e in self._slots if e is not None]
+
+    def ids(self) -> list[int]:
+        return [e[0] for e in self._slots if e is not None]
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter(self.cells())

@@ -1,0 +1,76 @@
+"""find_cell_list: which cells a set of spheres at a position touches."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..geometry import Position, Sphere
+from ..geometry.landdefs import get_block_offset
+from .cell_array import CellArray
+from .land_cell import add_all_outside_cells
+
+__all__ = ["find_cell_list"]
+
+
+def find_cell_list(
+    position: Position,
+    num_sphere: int,
+    spheres: list[Sphere],
+    cell_array: CellArray,
+    find_cell: bool,
+    path: Any,
+) -> Any:
+    """Fill `cell_array` with the cells the spheres touch (ObjCell.find_cell_list).
+
+    With `find_cell`, also return the cell that contains the first sphere's
+    centre (an EnvCell wins at once); otherwise return None. Cells found by
+    earlier searches of the same transition stay in the array, as in the
+    client: only the outdoor-added marker is reset.
+    """
+    world = cell_array.world
+    cell_array.reset_count()
+    cell_id = position.cell_id
+    visible_cell = world.get_landcell(cell_id) if cell_id else None
+
+    if (cell_id & 0xFFFF) >= 0x100:
+        if path is not None:
+            path.hits_interior_cell = True
+        cell_array.add_cell(cell_id, visible_cell)
+    else:
+        add_all_outside_cells(world, position, num_sphere, spheres, cell_array)
+
+    found = None
+    if visible_cell is not None and num_sphere != 0:
+        # Cells appended while we walk are visited too (an index loop over a growing list).
+        i = 0
+        while True:
+            cells = cell_array.cells()
+            if i >= len(cells):
+                break
+            cell = cells[i]
+            if cell is not None:
+                cell.find_transit_cells(position, num_sphere, spheres, cell_array, path)
+            i += 1
+
+        if find_cell:
+            center = spheres[0].center
+            for cell in cell_array.cells():
+                if cell is None:
+                    continue
+                local_point = center - get_block_offset(cell_id, cell.id)
+                if cell.point_in_cell(local_point):
+                    found = cell
+                    if (cell.id & 0xFFFF) >= 0x100:
+                        if path is not None:
+                            path.hits_interior_cell = True
+                        return found
+
+    if not cell_array.load_cells and (cell_id & 0xFFFF) >= 0x100 and visible_cell is not None:
+        # Indoors, only cells on the current EnvCell's stab list stay.
+        stab = visible_cell.visible_cell_ids
+        for cell in cell_array.cells():
+            if cell is None or cell.id == visible_cell.id:
+                continue
+            if cell.id not in stab:
+                cell_array.remove_cell(cell.id)
+    return found

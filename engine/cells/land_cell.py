@@ -1,0 +1,149 @@
+"""LandCell: a 24 m outdoor cell of terrain (two triangles), maybe with a building."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from ..constants import CELL_LENGTH, LAND_LENGTH
+from ..geometry import Position, Sphere, Vec3
+from ..geometry.landdefs import adjust_to_outside, get_block_offset
+from ..terrain.triangle import TerrainTriangle
+from ..terrain.water import WaterType
+from ..transition.state import OI, TransitionState
+from .obj_cell import ObjCell
+
+if TYPE_CHECKING:
+    from ..transition.transition import Transition
+    from .cell_array import CellArray
+
+__all__ = ["LandCell", "add_all_outside_cells", "outdoor_cell_id_at_lcoord"]
+
+
+def outdoor_cell_id_at_lcoord(x: int, y: int) -> int:
+    """Cell id of the outdoor cell at world cell coordinates (x, y)."""
+    return ((((x >> 3) << 8) | (y >> 3)) << 16) | ((x & 7) * 8 + (y & 7) + 1)
+
+
+class LandCell(ObjCell):
+    """The client's CLandCell (a SortCell: it may carry one building)."""
+
+    __slots__ = ("polygons", "building")
+
+    def __init__(self, cell_id: int, pos: Position, polygons: tuple[TerrainTriangle, TerrainTriangle]) -> None:
+        super().__init__(cell_id, pos)
+        self.polygons = polygons
+        self.building: Any = None
+
+    def find_collisions(self, transition: Transition) -> int:
+        """Terrain first, then the building, then objects (LandCell.FindCollisions)."""
+        state = self.find_env_collisions(transition)
+        if state == TransitionState.OK:
+            building = self.building
+            if building is not None:
+                state = building.find_building_collisions(transition)
+            if state == TransitionState.OK and self.shadow_objects:
+                state = self.find_obj_collisions(transition)
+        return state
+
+    def find_terrain_poly(self, point: Vec3) -> TerrainTriangle | None:
+        """The triangle under a landblock-local point, if it is over this cell."""
+        for tri in self.polygons:
+            if tri.point_in_poly_2d(point):
+                return tri
+        return None
+
+    def find_env_collisions(self, transition: Transition) -> int:
+        """Collide the path's foot sphere with the terrain (LandCell.FindEnvCollisions)."""
+        if self.restriction is not None:
+            state = self.check_entry_restrictions(transition)
+            if state != TransitionState.OK:
+                return state
+        path = transition.sphere_path
+        block_offset = get_block_offset(path.check_pos.cell_id, self.id)
+        local_point = path.global_low_point - block_offset
+        walkable = self.find_terrain_poly(local_point)
+        if walkable is None:
+            return TransitionState.OK
+
+        obj_info = transition.object_info
+        if (
+            self.landblock is not None
+            and self.landblock.water_type == WaterType.ENTIRELY_WATER
+            and not obj_info.state & OI.IS_VIEWER
+            and not obj_info.is_missile()
+        ):
+            return TransitionState.COLLIDED
+
+        water_depth = self.get_water_depth(local_point)
+        g = path.global_sphere[0]
+        check_sphere = Sphere(g.center - block_offset, g.radius)
+        return transition.validate_walkable(
+            check_sphere, walkable.plane, self.water_type != WaterType.NOT_WATER, water_depth, self.id
+        )
+
+    def point_in_cell(self, point: Vec3) -> bool:
+        return self.find_terrain_poly(point) is not None
+
+    def find_transit_cells(
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+    ) -> None:
+        """Outdoor neighbours, then whatever the building lets the spheres reach."""
+        add_all_outside_cells(cell_array.world, position, num_sphere, spheres, cell_array)
+        if self.building is not None:
+            self.building.find_building_transit_cells(position, num_sphere, spheres, cell_array, path)
+
+
+def _add_outside_cell(world: Any, cell_array: CellArray, x: int, y: int) -> None:
+    if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
+        cell_id = outdoor_cell_id_at_lcoord(x, y)
+        cell = world.get_landcell(cell_id)
+        if cell is not None:
+            cell_array.add_cell(cell_id, cell)
+
+
+def add_all_outside_cells(
+    world: Any, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray
+) -> None:
+    """Add the outdoor cells under each sphere and those its radius reaches into
+    (LandCell.add_all_outside_cells with check_add_cell_boundary)."""
+    if cell_array.added_outside:
+        return
+    if num_sphere == 0:
+        cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
+        if cell_id:
+            x, y = _lcoord(cell_id)
+            _add_outside_cell(world, cell_array, x, y)
+        return
+    for sphere in spheres[:num_sphere]:
+        cell_id, center = adjust_to_outside(position.cell_id, sphere.center)
+        if not cell_id:
+            break
+        px = center.x - math.floor(center.x / CELL_LENGTH) * CELL_LENGTH
+        py = center.y - math.floor(center.y / CELL_LENGTH) * CELL_LENGTH
+        min_rad = sphere.radius
+        max_rad = CELL_LENGTH - min_rad
+        x, y = _lcoord(cell_id)
+        _add_outside_cell(world, cell_array, x, y)
+        if px > max_rad:
+            _add_outside_cell(world, cell_array, x + 1, y)
+            if py > max_rad:
+                _add_outside_cell(world, cell_array, x + 1, y + 1)
+            if py < min_rad:
+                _add_outside_cell(world, cell_array, x + 1, y - 1)
+        if px < min_rad:
+            _add_outside_cell(world, cell_array, x - 1, y)
+            if py > max_rad:
+                _add_outside_cell(world, cell_array, x - 1, y + 1)
+            if py < min_rad:
+                _add_outside_cell(world, cell_array, x - 1, y - 1)
+        if py > max_rad:
+            _add_outside_cell(world, cell_array, x, y + 1)
+        if py < min_rad:
+            _add_outside_cell(world, cell_array, x, y - 1)
+
+
+def _lcoord(cell_id: int) -> tuple[int, int]:
+    """World cell coordinates of an outdoor cell id (LandDefs.gid_to_lcoord)."""
+    index = (cell_id & 0xFFFF) - 1
+    return ((cell_id >> 24) & 0xFF) * 8 + (index >> 3), ((cell_id >> 16) & 0xFF) * 8 + (index & 7)

@@ -1,0 +1,112 @@
+"""ObjCell: what every cell (outdoor LandCell, indoor EnvCell) has in common."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..geometry import Position, Vec3
+from ..terrain.water import WaterType
+from ..transition.state import InsertType, TransitionState
+
+if TYPE_CHECKING:
+    from ..transition.transition import Transition
+    from .cell_array import CellArray
+
+__all__ = ["ObjCell", "EntryRestriction"]
+
+#: Signature of an entry-restriction hook: (cell, transition) -> TransitionState.
+EntryRestriction = Any
+
+
+class ObjCell:
+    """A cell of the world: an id, a placement, water, and the objects in it.
+
+    `shadow_objects` lists the objects whose shadows reach into the cell, in
+    the order they were added; they are tested newest first.
+    """
+
+    __slots__ = ("id", "pos", "water_type", "landblock", "shadow_objects", "restriction", "__weakref__")
+
+    def __init__(self, cell_id: int, pos: Position) -> None:
+        self.id = cell_id
+        self.pos = pos
+        self.water_type = WaterType.NOT_WATER
+        self.landblock: Any = None
+        self.shadow_objects: list[Any] = []
+        #: Optional hook: an entry restriction (housing barrier, PK zone) that
+        #: may refuse a mover. None means anyone may enter.
+        self.restriction: EntryRestriction = None
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.id:08X})"
+
+    # -- collision entry points --------------------------------------------
+    def find_collisions(self, transition: Transition) -> int:
+        raise NotImplementedError
+
+    def find_env_collisions(self, transition: Transition) -> int:
+        raise NotImplementedError
+
+    def check_entry_restrictions(self, transition: Transition) -> int:
+        """ObjCell.check_entry_restrictions: ask the cell's restriction hook.
+
+        The client refuses a mover at a housing barrier here. A cell with no
+        hook lets everyone in; the cell the path began in never refuses.
+        """
+        hook = self.restriction
+        if hook is None:
+            return TransitionState.OK
+        begin = transition.sphere_path.begin_cell
+        if begin is not None and begin.id == self.id:
+            return TransitionState.OK
+        return hook(self, transition)
+
+    def find_obj_collisions(self, transition: Transition) -> int:
+        """Collide the path with the objects shadowed into this cell, newest first
+        (ObjCell.FindObjCollisions)."""
+        shadows = self.shadow_objects
+        if not shadows:
+            return TransitionState.OK
+        path = transition.sphere_path
+        if path.insert_type == InsertType.INITIAL_PLACEMENT:
+            return TransitionState.OK
+        mover = transition.object_info.obj
+        for i in range(len(shadows) - 1, -1, -1):
+            obj = shadows[i]
+            if obj is mover:
+                continue
+            state = obj.find_obj_collisions(transition)
+            if state != TransitionState.OK:
+                # the reference lets a placement pass through ethereal objects
+                if path.insert_type == InsertType.PLACEMENT and obj.ethereal:
+                    continue
+                return state
+        return TransitionState.OK
+
+    # -- membership ---------------------------------------------------------
+    def point_in_cell(self, point: Vec3) -> bool:
+        return False
+
+    def find_transit_cells(
+        self, position: Position, num_sphere: int, spheres: list[Any], cell_array: CellArray, path: Any
+    ) -> None:
+        """Add the cells this cell's contents let the spheres reach (none here)."""
+        return None
+
+    def get_water_depth(self, point: Vec3) -> float:
+        """ObjCell.get_water_depth: how far below the ground a mover floats."""
+        from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH
+
+        wt = self.water_type
+        if wt == WaterType.NOT_WATER:
+            return 0.0
+        if wt == WaterType.ENTIRELY_WATER:
+            return ENTIRELY_WATER_DEPTH
+        if self.landblock is not None:
+            return self.landblock.calc_water_depth(self.id, point)
+        return SHORE_DEPTH
+
+    def get_block_water_type(self) -> int:
+        if self.landblock is not None:
+            return self.landblock.water_type
+        return WaterType.NOT_WATER

@@ -1,0 +1,39 @@
+"""Errors the engine raises: clear, specific, and all ValueErrors."""
+
+from __future__ import annotations
+
+__all__ = [
+    "EngineError",
+    "UnknownCellError",
+    "LandblockNotLoadedError",
+    "NonFiniteError",
+    "UnknownMoverError",
+    "SceneFormatError",
+]
+
+
+class EngineError(ValueError):
+    """Base of every error the engine raises on bad input."""
+
+
+class UnknownCellError(EngineError):
+    """A cell id that is malformed or names no cell of a loaded landblock."""
+
+
+class LandblockNotLoadedError(EngineError):
+    """A move or query needs a landblock the World does not hold."""
+
+
+class NonFiniteError(EngineError):
+    """A NaN or infinite coordinate, orientation or velocity."""
+
+
+class UnknownMoverError(EngineError, KeyError):
+    """No mover with that id is registered."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else "unknown mover"
+
+
+class SceneFormatError(EngineError):
+    """A scene or trace file that does not follow its format."""

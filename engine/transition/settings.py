@@ -1,0 +1,33 @@
+"""Engine settings: retail behaviour by default, the reference port's on request."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..constants import ACE_MAX_STEPS, RETAIL_MAX_STEPS
+
+__all__ = ["EngineSettings", "RETAIL", "ACE_COMPAT"]
+
+
+@dataclass(frozen=True, slots=True)
+class EngineSettings:
+    """Knobs that change results. The defaults are the retail client's.
+
+    - `max_steps`: sub-step cap of FindTransitionalPosition (retail 30, ACE 1000).
+    - `ace_normals`: store collision/sliding normals un-normalised as ACE does.
+    - `ace_outdoor_viewer`: ACE's terrain check for cameras, which only lets a
+      camera clear the ground when its path began indoors (so an outdoor
+      camera never moves). Retail lets it move.
+    """
+
+    max_steps: int = RETAIL_MAX_STEPS
+    ace_normals: bool = False
+    ace_outdoor_viewer: bool = False
+
+    def with_ace_step_cap(self) -> EngineSettings:
+        return EngineSettings(ACE_MAX_STEPS, self.ace_normals, self.ace_outdoor_viewer)
+
+
+RETAIL = EngineSettings()
+#: What replaying the reference traces needs (ACE's known departures from retail).
+ACE_COMPAT = EngineSettings(max_steps=ACE_MAX_STEPS, ace_normals=True, ace_outdoor_viewer=True)

@@ -1,0 +1,81 @@
+"""The terrain contact rule: ObjectInfo.ValidateWalkable."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..constants import EPSILON
+from ..geometry import Plane, Sphere, Vec3
+from .object_info import is_valid_walkable
+from .state import OI, TransitionState
+
+if TYPE_CHECKING:
+    from .transition import Transition
+
+__all__ = ["validate_walkable"]
+
+
+def validate_walkable(
+    t: Transition, check_sphere: Sphere, plane: Plane, is_water: bool, water_depth: float, cell_id: int
+) -> int:
+    """Decide how a sphere meets a terrain plane (ObjectInfo.ValidateWalkable).
+
+    `check_sphere` and `plane` are in the frame of cell `cell_id`'s landblock.
+    A camera is pulled back along its path to stay above ground. Anything else
+    rests on the plane when its low point is within EPSILON of it (lifted by
+    the water depth), or is pushed up onto it when below.
+    """
+    path = t.sphere_path
+    ci = t.collision_info
+    state = t.object_info.state
+    normal = plane.normal
+
+    if state & OI.IS_VIEWER:
+        center = check_sphere.center
+        dist = center.dot(normal) + plane.d - check_sphere.radius
+        begin = path.begin_pos
+        began_indoors = begin is not None and (begin.cell_id & 0xFFFF) >= 0x100
+        # Retail: a camera clear of the ground is fine; ACE only says so for
+        # paths that began indoors (so its outdoor cameras never move).
+        clear_ok = began_indoors or not t.settings.ace_outdoor_viewer
+        if dist > -EPSILON and clear_ok:
+            return TransitionState.OK
+        offset = center - path.global_curr_center[0].center
+        denom = offset.dot(normal)
+        angle = dist / denom if denom != 0.0 else (float("inf") if dist >= 0.0 else float("-inf"))
+        if (angle <= 0.0 or angle > 1.0) and clear_ok:
+            return TransitionState.OK
+        path.add_offset_to_check_pos(offset * -angle)
+        ci.set_collision_normal(normal)
+        ci.collided_with_environment = True
+        return TransitionState.ADJUSTED
+
+    c = check_sphere.center
+    dist = c.x * normal.x + c.y * normal.y + (c.z - check_sphere.radius) * normal.z + plane.d + water_depth
+    if dist >= -EPSILON:
+        if dist > EPSILON:
+            return TransitionState.OK
+        if path.step_down or not state & OI.ON_WALKABLE or is_valid_walkable(normal):
+            ci.set_contact_plane(plane, is_water)
+            ci.contact_plane_cell_id = cell_id
+        if not state & OI.CONTACT and not path.step_down:
+            ci.set_collision_normal(normal)
+            ci.collided_with_environment = True
+        return TransitionState.OK
+
+    if path.check_walkable:
+        return TransitionState.COLLIDED
+    z_dist = dist / normal.z
+    if path.step_down or not state & OI.ON_WALKABLE or is_valid_walkable(normal):
+        ci.set_contact_plane(plane, is_water)
+        ci.contact_plane_cell_id = cell_id
+        if path.step_down:
+            interp = (1.0 - -1.0 / (path.step_down_amt * path.walk_interp) * z_dist) * path.walk_interp
+            if interp >= path.walk_interp or interp < -0.1:
+                return TransitionState.COLLIDED
+            path.walk_interp = interp
+        path.add_offset_to_check_pos(Vec3(0.0, 0.0, -z_dist))
+    if not state & OI.CONTACT and not path.step_down:
+        ci.set_collision_normal(normal)
+        ci.collided_with_environment = True
+    return TransitionState.ADJUSTED

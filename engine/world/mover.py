@@ -1,0 +1,287 @@
+"""Mover: the physics object a World moves (the part of PhysicsObj that moves).
+
+It carries what the client's PhysicsObj carries from one transition to the
+next: position and cell, contact plane and its cell, the transient flags
+(Contact, OnWalkable, Sliding, WaterContact, Stationary*), the sliding normal
+and the velocity collision responses act on.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from ..constants import (
+    DEFAULT_FRICTION,
+    EPSILON,
+    FLOOR_Z,
+    GRAVITY,
+    MAX_VELOCITY,
+    MAX_VELOCITY_SQ,
+    SMALL_VELOCITY_SQ,
+)
+from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
+from ..geometry.quaternion import Quat
+from ..transition.object_info import ObjectInfo
+from ..transition.settings import EngineSettings
+from ..transition.state import OI
+from ..transition.transition import Transition
+from .transient import TS
+
+if TYPE_CHECKING:
+    from .world import World
+
+__all__ = ["Mover"]
+
+DEFAULT_ELASTICITY = 0.05
+
+#: ObjectInfo flags that are properties of the object, not transient state.
+_STATIC_OI = ~(OI.CONTACT | OI.ON_WALKABLE)
+
+
+class Mover:
+    """A moving physics object."""
+
+    __slots__ = (
+        "id",
+        "spheres",
+        "cyl_spheres",
+        "scale",
+        "step_up_height",
+        "step_down_height",
+        "oi_flags",
+        "gravity",
+        "missile",
+        "ethereal",
+        "creature",
+        "position",
+        "cell",
+        "transient",
+        "contact_plane",
+        "contact_plane_cell_id",
+        "sliding_normal",
+        "velocity",
+        "acceleration",
+        "elasticity",
+        "friction",
+        "shadow_cells",
+        "__weakref__",
+    )
+
+    def __init__(
+        self,
+        mover_id: int,
+        spheres: list[Sphere],
+        *,
+        oi_flags: int = 0,
+        scale: float = 1.0,
+        step_up_height: float = 0.4,
+        step_down_height: float = 0.4,
+        gravity: bool = True,
+        missile: bool = False,
+        ethereal: bool = False,
+        creature: bool = False,
+        cyl_spheres: list[Any] | None = None,
+    ) -> None:
+        if not spheres:
+            spheres = [Sphere(Vec3(0.0, 0.0, 0.1), 0.1)]  # the client's dummy sphere
+        self.id = mover_id
+        self.spheres = spheres
+        self.cyl_spheres = cyl_spheres or []
+        self.scale = scale
+        self.step_up_height = step_up_height
+        self.step_down_height = step_down_height
+        self.oi_flags = oi_flags & _STATIC_OI
+        self.gravity = gravity
+        self.missile = missile
+        self.ethereal = ethereal
+        self.creature = creature
+        self.position: Position = Position(0, Frame(ZERO))
+        self.cell: Any = None
+        self.transient = TS.ACTIVE
+        self.contact_plane = Plane(ZERO, 0.0)
+        self.contact_plane_cell_id = 0
+        self.sliding_normal = ZERO
+        self.velocity = ZERO
+        self.acceleration = ZERO
+        self.elasticity = DEFAULT_ELASTICITY
+        self.friction = DEFAULT_FRICTION
+        self.shadow_cells: list[Any] = []
+
+    # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------
+    def set_velocity(self, velocity: Vec3) -> None:
+        if velocity != self.velocity:
+            length = velocity.length()
+            if length > MAX_VELOCITY:
+                velocity = velocity * (MAX_VELOCITY / length)
+            self.velocity = velocity
+        self.transient |= TS.ACTIVE
+
+    def stop_velocity(self) -> None:
+        self.set_velocity(ZERO)
+
+    def calc_acceleration(self) -> None:
+        if self.transient & TS.CONTACT and self.transient & TS.ON_WALKABLE:
+            self.acceleration = ZERO
+        elif self.gravity:
+            self.acceleration = Vec3(0.0, 0.0, GRAVITY)
+        else:
+            self.acceleration = ZERO
+
+    def check_contact(self, contact: bool) -> bool:
+        """Moving away from the contact plane breaks contact (PhysicsObj.check_contact)."""
+        if self.transient & TS.CONTACT and self.velocity.dot(self.contact_plane.normal) > EPSILON:
+            return False
+        return contact
+
+    # -- one transition (PhysicsObj.transition) --------------------------------
+    def make_transition(self, world: World, settings: EngineSettings) -> Transition:
+        """A Transition set up from this object's carried state (get_object_info)."""
+        t = Transition(world, settings)
+        state = self.oi_flags
+        if self.transient & TS.CONTACT:
+            is_water = bool(self.transient & TS.WATER_CONTACT)
+            if self.check_contact(True):
+                t.init_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
+                state |= OI.CONTACT
+                if self.transient & TS.ON_WALKABLE:
+                    state |= OI.ON_WALKABLE
+            else:
+                t.init_last_known_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
+        if self.transient & TS.SLIDING:
+            t.init_sliding_normal(self.sliding_normal)
+        if self.missile:
+            state |= OI.PATH_CLIPPED
+        t.init_object(
+            ObjectInfo(
+                state,
+                obj=self,
+                scale=self.scale,
+                step_up_height=self.step_up_height * self.scale,
+                step_down_height=self.step_down_height * self.scale,
+                ethereal=self.ethereal,
+                step_down=not self.missile,
+                gravity=self.gravity,
+            )
+        )
+        t.init_sphere(self.spheres, self.scale)
+        return t
+
+    def transition(self, world: World, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
+        t = self.make_transition(world, settings)
+        t.init_path(self.cell, old_pos, new_pos)
+        ci = t.collision_info
+        if self.transient & TS.STATIONARY_STUCK:
+            ci.frames_stationary_fall = 3
+        elif self.transient & TS.STATIONARY_STOP:
+            ci.frames_stationary_fall = 2
+        elif self.transient & TS.STATIONARY_FALL:
+            ci.frames_stationary_fall = 1
+        if not t.find_valid_position():
+            return None
+        return t
+
+    # -- applying a result (PhysicsObj.SetPositionInternal) ----------------------
+    def set_position_internal(self, t: Transition) -> None:
+        path = t.sphere_path
+        ci = t.collision_info
+        prev_on_walkable = bool(self.transient & TS.ON_WALKABLE)
+        prev_contact = bool(self.transient & TS.CONTACT)
+        assert path.curr_pos is not None
+        self.position = path.curr_pos
+        self.cell = path.curr_cell
+
+        self.contact_plane_cell_id = ci.contact_plane_cell_id
+        self.contact_plane = ci.contact_plane
+        if ci.contact_plane_valid:
+            self.transient |= TS.CONTACT
+        else:
+            self.transient &= ~TS.CONTACT
+        self.calc_acceleration()
+        if ci.contact_plane_is_water:
+            self.transient |= TS.WATER_CONTACT
+        else:
+            self.transient &= ~TS.WATER_CONTACT
+        if self.transient & TS.CONTACT:
+            if self.contact_plane.normal.z < FLOOR_Z:
+                self.transient &= ~TS.ON_WALKABLE
+            else:
+                self.transient |= TS.ON_WALKABLE
+        else:
+            self.transient &= ~TS.ON_WALKABLE
+        self.calc_acceleration()
+
+        self.sliding_normal = ci.sliding_normal
+        if ci.sliding_normal_valid:
+            self.transient |= TS.SLIDING
+        else:
+            self.transient &= ~TS.SLIDING
+        self.handle_all_collisions(t, prev_contact, prev_on_walkable)
+
+    def handle_all_collisions(self, t: Transition, prev_contact: bool, prev_on_walkable: bool) -> None:
+        """Bounce off what we hit and track the stationary-fall flags."""
+        ci = t.collision_info
+        apply_bounce = not (prev_on_walkable and self.transient & TS.ON_WALKABLE)
+        fsf = ci.frames_stationary_fall
+        if fsf <= 1:
+            if apply_bounce and ci.collision_normal_valid:
+                angle = self.velocity.dot(ci.collision_normal)
+                if angle < 0.0:
+                    self.velocity = self.velocity + ci.collision_normal * -(angle * (self.elasticity + 1.0))
+        else:
+            self.velocity = ZERO
+            if fsf == 3:
+                self.transient &= ~TS.STATIONARY_COMPLETE
+                return
+        # The client sets these bits without clearing the lower ones.
+        if fsf == 0:
+            self.transient &= ~TS.STATIONARY_COMPLETE
+        elif fsf == 1:
+            self.transient |= TS.STATIONARY_FALL
+        elif fsf == 2:
+            self.transient |= TS.STATIONARY_STOP
+        else:
+            self.transient |= TS.STATIONARY_STUCK
+
+    # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
+    def integrate(self, motion: Vec3, dt: float) -> Frame:
+        """Where this object wants to be after `dt`: its own motion `motion`
+        (object frame, applied only on walkable ground), plus velocity and
+        gravity, with friction on the ground and the speed clamp."""
+        if self.transient & TS.ON_WALKABLE:
+            local = motion * self.scale
+        else:
+            local = ZERO
+        frame = self.position.frame
+        origin = frame.local_to_global(local)
+
+        v = self.velocity
+        v2 = v.length_sq()
+        if v2 > 0.0:
+            if v2 > MAX_VELOCITY_SQ:
+                v = v * (MAX_VELOCITY / math.sqrt(v2))
+                v2 = MAX_VELOCITY_SQ
+            v = self._friction(v, dt)
+            if v2 - SMALL_VELOCITY_SQ < EPSILON:
+                v = ZERO
+            a = self.acceleration
+            origin = origin + a * (0.5 * dt * dt) + v * dt
+        self.velocity = v + self.acceleration * dt
+        return frame.with_origin(origin)
+
+    def _friction(self, v: Vec3, dt: float) -> Vec3:
+        """Ground friction (PhysicsObj.calc_friction)."""
+        if not self.transient & TS.ON_WALKABLE:
+            return v
+        n = self.contact_plane.normal
+        angle = v.dot(n)
+        if angle >= 0.25:
+            return v
+        v = v - n * angle
+        return v * math.pow(1.0 - self.friction, dt)
+
+    def orientation(self) -> Quat:
+        return self.position.frame.orientation
+
+    def up(self) -> Vec3:
+        return UNIT_Z

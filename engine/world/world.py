@@ -1,0 +1,280 @@
+"""World: loaded landblocks and the movers in them; answers moves.
+
+    world = load_scene("rolling.json")
+    mid = world.add_mover(MoverSpec(spheres=[SphereSpec((0, 0, 0.48), 0.48)]),
+                          Position.at(0xA9B40001, Vec3(10, 10, 52)))
+    result = world.move(mid, Position.at(0xA9B40001, Vec3(11, 10, 52)))
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Iterable
+
+from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError, UnknownMoverError
+from ..geometry import Frame, Plane, Position, Quat, Sphere, Vec3
+from ..geometry.landdefs import adjust_to_outside, cell_in_range
+from ..transition.object_info import is_valid_walkable
+from ..transition.settings import RETAIL, EngineSettings
+from ..transition.state import OI, STATE_NAMES
+from .landblock import Landblock
+from .mover import Mover
+from .transient import TS, transient_names
+from .types import MoveResult, MoverSpec, ObjectState
+
+__all__ = ["World"]
+
+#: A loader the World calls for a landblock it does not hold: id -> Landblock or None.
+LandblockLoader = Callable[[int], "Landblock | None"]
+
+
+class World:
+    """Holds landblocks (loaded up front or on demand) and movers."""
+
+    def __init__(self, settings: EngineSettings = RETAIL, loader: LandblockLoader | None = None) -> None:
+        self.settings = settings
+        self.landblocks: dict[int, Landblock] = {}
+        self.movers: dict[int, Mover] = {}
+        self._next_mover_id = 1
+        self._loader = loader
+        self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
+
+    # -- landblocks -------------------------------------------------------------
+    def add_landblock(self, landblock: Landblock) -> None:
+        self.landblocks[landblock.id] = landblock
+        self.stats["landblock_loads"] += 1
+
+    def load_landblock(self, landblock_id: int) -> Landblock:
+        """Make sure a landblock is loaded (from the World's source) and return it."""
+        lb = self.landblocks.get(landblock_id)
+        if lb is not None:
+            return lb
+        if self._loader is None:
+            raise LandblockNotLoadedError(f"landblock {landblock_id:04X} is not loaded and this world has no source to load it from")
+        lb = self._loader(landblock_id)
+        if lb is None:
+            raise LandblockNotLoadedError(f"landblock {landblock_id:04X} is not in this world's source")
+        self.add_landblock(lb)
+        return lb
+
+    def unload_landblock(self, landblock_id: int) -> None:
+        if self.landblocks.pop(landblock_id, None) is None:
+            raise LandblockNotLoadedError(f"landblock {landblock_id:04X} is not loaded")
+        self.stats["landblock_unloads"] += 1
+
+    def loaded_landblocks(self) -> list[int]:
+        return sorted(self.landblocks)
+
+    def get_landcell(self, cell_id: int) -> Any:
+        """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
+        lb = self.landblocks.get((cell_id >> 16) & 0xFFFF)
+        if lb is None:
+            return None
+        return lb.get_cell(cell_id)
+
+    # -- movers -------------------------------------------------------------------
+    def add_mover(
+        self,
+        spec: MoverSpec,
+        position: Position,
+        contact_plane: Plane | None = None,
+        contact_plane_cell: int | None = None,
+        *,
+        sliding_normal: Vec3 | None = None,
+        water_contact: bool = False,
+    ) -> int:
+        """Register a mover at `position` with its starting contact state."""
+        self._check_position(position)
+        mover = _mover_from_spec(self._next_mover_id, spec)
+        mover.position = position
+        mover.cell = self._cell_for(position)
+        flags = ObjectState.from_names(spec.state)
+        if contact_plane is not None:
+            if not (contact_plane.normal.is_finite() and math.isfinite(contact_plane.d)):
+                raise NonFiniteError("contact plane has non-finite numbers")
+            mover.contact_plane = contact_plane
+            mover.contact_plane_cell_id = contact_plane_cell if contact_plane_cell is not None else position.cell_id
+            if flags & OI.CONTACT:
+                mover.transient |= TS.CONTACT
+                if flags & OI.ON_WALKABLE:
+                    mover.transient |= TS.ON_WALKABLE
+            if water_contact:
+                mover.transient |= TS.WATER_CONTACT
+        if sliding_normal is not None:
+            mover.sliding_normal = sliding_normal
+            mover.transient |= TS.SLIDING
+        mover.calc_acceleration()
+        self.movers[mover.id] = mover
+        self._next_mover_id += 1
+        return mover.id
+
+    def mover(self, mover_id: int) -> Mover:
+        try:
+            return self.movers[mover_id]
+        except KeyError:
+            raise UnknownMoverError(f"no mover with id {mover_id}") from None
+
+    def remove_mover(self, mover_id: int) -> None:
+        self.mover(mover_id)
+        del self.movers[mover_id]
+
+    def update_mover(self, mover_id: int, spec: MoverSpec) -> None:
+        """Change a mover's shape and flags, keeping its position and contact state."""
+        old = self.mover(mover_id)
+        new = _mover_from_spec(mover_id, spec)
+        for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration"):
+            setattr(new, name, getattr(old, name))
+        self.movers[mover_id] = new
+
+    def mover_state(self, mover_id: int) -> MoveResult:
+        return _result(self.mover(mover_id), True, "NoTransition", None)
+
+    # -- moves ----------------------------------------------------------------------
+    def move(self, mover_id: int, target: Position, velocity: Vec3 | None = None) -> MoveResult:
+        """Move a mover toward `target` (one PhysicsObj.transition + SetPositionInternal).
+
+        `velocity` is the mover's velocity while the move is resolved (what the
+        contact checks and collision responses see); None keeps its own.
+        """
+        mover = self.mover(mover_id)
+        self._check_position(target)
+        if velocity is not None:
+            if not velocity.is_finite():
+                raise NonFiniteError("velocity has non-finite components")
+            mover.velocity = velocity
+        return self._move_mover(mover, target)
+
+    def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
+        """Advance a mover by `dt` seconds with its own motion `motion` (object
+        frame) under velocity, gravity and friction (UpdateObjectInternal)."""
+        mover = self.mover(mover_id)
+        if not motion.is_finite() or not math.isfinite(dt):
+            raise NonFiniteError("motion or dt has non-finite numbers")
+        if dt < 0.0:
+            raise ValueError(f"dt must not be negative, got {dt}")
+        frame = mover.integrate(motion, dt)
+        target = Position(mover.position.cell_id, frame)
+        return self._move_mover(mover, target)
+
+    def _move_mover(self, mover: Mover, target: Position) -> MoveResult:
+        current = mover.position
+        if target.frame.equals_within_epsilon(current.frame) and target.cell_id == current.cell_id:
+            mover.position = Position(current.cell_id, target.frame)
+            return _result(mover, True, "NoTransition", None)
+        if _block_dist(current.cell_id, target.cell_id) > 1:
+            return _result(mover, False, "NoTransition", None)
+        self._ensure_loaded(target.cell_id)
+        t = mover.transition(self, current, target, self.settings)
+        if t is None or t.sphere_path.curr_cell is None:
+            mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
+            return _result(mover, False, "Invalid", t)
+        mover.set_position_internal(t)
+        return _result(mover, True, "OK", t)
+
+    # -- checks -----------------------------------------------------------------------
+    def _check_position(self, position: Position) -> None:
+        if not position.frame.is_finite():
+            raise NonFiniteError(f"position {position!r} has non-finite numbers")
+        index = position.cell_id & 0xFFFF
+        if not cell_in_range(index) or index == 0xFFFF or index == 0:
+            raise UnknownCellError(f"cell id {position.cell_id:08X} is not a valid cell id")
+        self._ensure_loaded(position.cell_id)
+        if index >= 0x100 and self.get_landcell(position.cell_id) is None:
+            raise UnknownCellError(f"cell {position.cell_id:08X} does not exist in landblock {position.cell_id >> 16:04X}")
+
+    def _ensure_loaded(self, cell_id: int) -> None:
+        lb_id = (cell_id >> 16) & 0xFFFF
+        if lb_id not in self.landblocks:
+            if self._loader is not None:
+                self.load_landblock(lb_id)
+            else:
+                raise LandblockNotLoadedError(f"landblock {lb_id:04X} (cell {cell_id:08X}) is not loaded")
+
+    def _cell_for(self, position: Position) -> Any:
+        cell = self.get_landcell(position.cell_id)
+        if cell is None and (position.cell_id & 0xFFFF) < 0x100:
+            cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
+            cell = self.get_landcell(cell_id)
+        return cell
+
+    # -- terrain queries -----------------------------------------------------------------
+    def terrain_height(self, cell_id: int, x: float, y: float) -> float:
+        """Terrain z under landblock-local (x, y) of the landblock of `cell_id`."""
+        lb = self.landblocks.get((cell_id >> 16) & 0xFFFF)
+        if lb is None:
+            raise LandblockNotLoadedError(f"landblock {(cell_id >> 16) & 0xFFFF:04X} is not loaded")
+        return lb.terrain.height_at(x, y)
+
+
+def _block_dist(a: int, b: int) -> int:
+    return max(abs(((a >> 24) & 0xFF) - ((b >> 24) & 0xFF)), abs(((a >> 16) & 0xFF) - ((b >> 16) & 0xFF)))
+
+
+def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
+    flags = ObjectState.from_names(spec.state)
+    spheres = [Sphere(Vec3(*s.center), float(s.radius)) for s in spec.spheres]
+    for s in spheres:
+        if not s.center.is_finite() or not math.isfinite(s.radius) or s.radius <= 0.0:
+            raise NonFiniteError(f"mover sphere {s!r} must have finite centre and positive radius")
+    creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
+    return Mover(
+        mover_id,
+        spheres,
+        oi_flags=flags,
+        scale=spec.scale,
+        step_up_height=spec.step_up_height,
+        step_down_height=spec.step_down_height,
+        gravity=spec.gravity,
+        missile=bool(flags & OI.PATH_CLIPPED) or not spec.step_down,
+        ethereal=spec.ethereal,
+        creature=creature,
+        cyl_spheres=list(spec.cyl_spheres),
+    )
+
+
+def _result(mover: Mover, ok: bool, state: str, t: Any) -> MoveResult:
+    """What a move did. Collision normal and the stationary-fall counter are the
+    transition's own; a move that ran no transition has neither."""
+    ts = mover.transient
+    collision_normal = None
+    fsf = None
+    collide_objects: list[int] = []
+    if t is not None:
+        ci = t.collision_info
+        if ci.collision_normal_valid:
+            collision_normal = ci.collision_normal
+        fsf = ci.frames_stationary_fall
+        collide_objects = [o.id for o in ci.collide_object]
+    contact = bool(ts & TS.CONTACT)
+    # the plane is reported whenever the object is in contact
+    return MoveResult(
+        ok=ok,
+        position=mover.position,
+        transition_state=state,
+        contact=contact,
+        on_walkable=bool(ts & TS.ON_WALKABLE),
+        contact_plane=mover.contact_plane if contact else None,
+        contact_plane_cell=mover.contact_plane_cell_id if contact else None,
+        collision_normal=collision_normal,
+        sliding_normal=mover.sliding_normal if ts & TS.SLIDING else None,
+        water_contact=bool(ts & TS.WATER_CONTACT),
+        frames_stationary_fall=fsf,
+        transient_state=transient_names(ts),
+        collide_objects=collide_objects,
+    )
+
+
+def _from_scene_dict(cls: type[World], data: Any, settings: EngineSettings = RETAIL) -> World:
+    from ..formats.scene import world_from_scene_dict
+
+    return world_from_scene_dict(data, settings=settings)
+
+
+def _open_dat_dir(cls: type[World], path: Any = None, settings: EngineSettings = RETAIL, cache_size: int = 64) -> World:
+    from ..formats.dat_world import open_dat_world
+
+    return open_dat_world(path, settings=settings, cache_size=cache_size)
+
+
+World.from_scene_dict = classmethod(_from_scene_dict)  # type: ignore[attr-defined]
+World.open_dat_dir = classmethod(_open_dat_dir)  # type: ignore[attr-defined]
