@@ -1,0 +1,21 @@
+"""acphys clients: the Python client library and the `acphys` command line.
+
+    from clients import Client, Move
+"""
+
+from .client import Client, Subscription
+from .errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
+from .types import InstanceInfo, Move, MoverState
+
+__all__ = [
+    "AcphysError",
+    "BusyError",
+    "Client",
+    "InstanceInfo",
+    "Move",
+    "MoverState",
+    "NoServiceError",
+    "RequestTimeout",
+    "ServiceError",
+    "Subscription",
+]

@@ -1,0 +1,362 @@
+"""The synchronous client: talk to acphys service instances over Zenoh.
+
+    with Client() as c:                       # tcp/127.0.0.1:7447, loopback
+        st = c.register(spec, Position.at(0xA9B40001, Vec3(10, 10, 52)))
+        st = c.move(st.id, offset=(1, 0, 0))
+
+The client remembers which landblock each mover it has seen is in (from
+every state it receives) and sends that mover's requests to that
+landblock's key; when the service answers that a mover was handed over to
+another instance, it follows and retries.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import msgpack
+import zenoh
+
+from engine.geometry import Plane, Position, Vec3
+from engine.world.types import MoverSpec
+from service.codec import encode_mover_spec, encode_plane, encode_position, encode_vec
+from service.wire import DEFAULT_PREFIX, PROTOCOL_VERSION, ErrorKind, Keys
+from service.zconfig import DEFAULT_ENDPOINT, make_config
+
+from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
+from .types import InstanceInfo, Move, MoverState, item_result
+
+__all__ = ["Client", "Subscription"]
+
+log = logging.getLogger("acphys.client")
+
+#: Error kinds that say "ask again at landblock `landblock`".
+_REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
+_MAX_REDIRECTS = 4
+
+
+def _pack(content: dict[str, Any]) -> bytes:
+    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+
+
+def _unpack(data: bytes) -> Any:
+    return msgpack.unpackb(data, raw=False, strict_map_key=False)
+
+
+class Subscription:
+    """A live subscription; `close()` (or leaving a `with` block) ends it."""
+
+    def __init__(self, subscribers: list[Any]) -> None:
+        self._subs = subscribers
+
+    def close(self) -> None:
+        for s in self._subs:
+            try:
+                s.undeclare()
+            except Exception:  # the session may already be closed
+                pass
+        self._subs = []
+
+    def __enter__(self) -> Subscription:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
+
+
+class Client:
+    def __init__(
+        self,
+        connect: Sequence[str] | None = None,
+        *,
+        config_file: str | None = None,
+        prefix: str = DEFAULT_PREFIX,
+        timeout: float = 5.0,
+        session: zenoh.Session | None = None,
+    ) -> None:
+        """Connect to `connect` endpoints (default tcp/127.0.0.1:7447) or as a zenoh config file says."""
+        self.keys = Keys(prefix)
+        self.timeout = timeout
+        self._own_session = session is None
+        if session is None:
+            if config_file is None and not connect:
+                connect = [DEFAULT_ENDPOINT]
+            session = zenoh.open(make_config(config_file=config_file, connect=list(connect or [])))
+        self.session = session
+        self._where: dict[int, int] = {}
+        self._lock = threading.Lock()
+
+    # -- lifecycle ------------------------------------------------------------------
+    def close(self) -> None:
+        if self._own_session and not self.session.is_closed():
+            self.session.close()
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
+
+    # -- plumbing -------------------------------------------------------------------
+    def _learn(self, st: MoverState) -> MoverState:
+        self._where[st.id] = st.landblock
+        return st
+
+    def locate(self, mover_id: int, landblock: int) -> None:
+        """Tell the client where a mover it has not seen is (e.g. registered by another client)."""
+        self._where[mover_id] = landblock
+
+    def landblock_of(self, mover_id: int) -> int:
+        try:
+            return self._where[mover_id]
+        except KeyError:
+            raise AcphysError(
+                f"landblock of mover {mover_id:X} is unknown to this client: call locate(id, landblock) first"
+            ) from None
+
+    def _replies(self, key: str, content: dict[str, Any] | None, timeout: float | None, *, all_instances: bool) -> list[Any]:
+        kwargs: dict[str, Any] = {"timeout": self.timeout if timeout is None else timeout}
+        if content is not None:
+            kwargs["payload"] = _pack(content)
+        if all_instances:
+            kwargs["target"] = zenoh.QueryTarget.ALL
+            kwargs["consolidation"] = zenoh.ConsolidationMode.NONE
+        return list(self.session.get(key, **kwargs))
+
+    def _request(self, key: str, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
+        """One request to the instance serving `key`: its reply map, or an exception."""
+        replies = self._replies(key, content, timeout, all_instances=False)
+        if not replies:
+            raise NoServiceError(f"no service answers on {key}")
+        r = replies[0]
+        if r.ok is not None:
+            msg = _unpack(r.ok.payload.to_bytes())
+            if not isinstance(msg, dict):
+                raise ServiceError(ErrorKind.MALFORMED, f"unreadable reply on {key}")
+            return msg
+        raw = r.err.payload.to_bytes()
+        try:
+            err = _unpack(raw)["error"]
+        except Exception:
+            text = raw.decode("utf-8", "replace")
+            if "timeout" in text.lower():
+                raise RequestTimeout(f"no answer on {key} within {self.timeout if timeout is None else timeout} s") from None
+            raise ServiceError(ErrorKind.MALFORMED, f"unreadable error reply on {key}: {text}") from None
+        raise ServiceError.from_wire(err)
+
+    def _lb_request(self, lb: int, op: str, content: dict[str, Any], mover_id: int | None = None,
+                    timeout: float | None = None) -> dict[str, Any]:
+        """A per-landblock request, following `moved` / `wrong_landblock` redirects."""
+        for _ in range(_MAX_REDIRECTS):
+            try:
+                return self._request(self.keys.lb(lb, op), content, timeout)
+            except ServiceError as e:
+                target = e.details.get("landblock")
+                if e.kind not in _REDIRECTS or not isinstance(target, int) or target == lb:
+                    raise
+                lb = target
+                if mover_id is not None:
+                    self._where[mover_id] = lb
+        return self._request(self.keys.lb(lb, op), content, timeout)
+
+    def _all(self, key: str, timeout: float | None) -> list[InstanceInfo]:
+        out = []
+        for r in self._replies(key, {}, timeout, all_instances=True):
+            if r.ok is None:
+                continue
+            msg = _unpack(r.ok.payload.to_bytes())
+            if isinstance(msg, dict):
+                out.append(InstanceInfo(str(msg.get("instance", "?")), msg))
+        return out
+
+    # -- movers -----------------------------------------------------------------------
+    def register(
+        self,
+        spec: MoverSpec,
+        position: Position,
+        *,
+        contact_plane: Plane | None = None,
+        contact_plane_cell: int | None = None,
+        sliding_normal: Vec3 | None = None,
+        water_contact: bool = False,
+        mover_id: int | None = None,
+        timeout: float | None = None,
+    ) -> MoverState:
+        """Add a mover at `position`; its id is `mover_id` or one the service assigns."""
+        content: dict[str, Any] = {"mover": encode_mover_spec(spec), "position": encode_position(position)}
+        if mover_id is not None:
+            content["id"] = mover_id
+        if contact_plane is not None:
+            content["contact_plane"] = encode_plane(contact_plane)
+            content["contact_plane_cell"] = position.cell_id if contact_plane_cell is None else contact_plane_cell
+        if sliding_normal is not None:
+            content["sliding_normal"] = encode_vec(sliding_normal)
+        if water_contact:
+            content["water_contact"] = True
+        reply = self._lb_request(position.landblock, "register", content, timeout=timeout)
+        return self._learn(MoverState.from_wire(reply["state"]))
+
+    def update(self, mover_id: int, spec: MoverSpec, timeout: float | None = None) -> MoverState:
+        reply = self._lb_request(self.landblock_of(mover_id), "update",
+                                 {"id": mover_id, "mover": encode_mover_spec(spec)}, mover_id, timeout)
+        return self._learn(MoverState.from_wire(reply["state"]))
+
+    def remove(self, mover_id: int, timeout: float | None = None) -> None:
+        self._lb_request(self.landblock_of(mover_id), "remove", {"id": mover_id}, mover_id, timeout)
+        self._where.pop(mover_id, None)
+
+    def get(self, mover_id: int, timeout: float | None = None) -> tuple[MoverState, dict[str, Any]]:
+        """A mover's current state and its spec (as the wire map)."""
+        reply = self._lb_request(self.landblock_of(mover_id), "get", {"id": mover_id}, mover_id, timeout)
+        return self._learn(MoverState.from_wire(reply["state"])), reply["mover"]
+
+    # -- moves --------------------------------------------------------------------------
+    def move(
+        self,
+        mover_id: int,
+        to: Position | None = None,
+        *,
+        offset: Vec3 | tuple[float, float, float] | None = None,
+        velocity: Vec3 | tuple[float, float, float] | None = None,
+        tag: int | str | None = None,
+        timeout: float | None = None,
+    ) -> MoverState:
+        """One transition toward `to` (or current position + `offset`); raises ServiceError on failure."""
+        return self.send(Move(mover_id, to=to, offset=offset, velocity=velocity, tag=tag), timeout)
+
+    def step(self, mover_id: int, motion: Vec3 | tuple[float, float, float], dt: float, *,
+             tag: int | str | None = None, timeout: float | None = None) -> MoverState:
+        """One physics step: own motion `motion` (object frame) over `dt` seconds, with gravity."""
+        return self.send(Move(mover_id, motion=motion, dt=dt, tag=tag), timeout)
+
+    def send(self, move: Move, timeout: float | None = None) -> MoverState:
+        lb = self._where.get(move.id)
+        if lb is None:
+            lb = self.landblock_of(move.id) if move.to is None else move.to.landblock
+        reply = self._lb_request(lb, "move", {"move": move.to_wire()}, move.id, timeout)
+        return self._learn(MoverState.from_wire(reply["state"]))
+
+    def move_many(self, moves: Sequence[Move], timeout: float | None = None) -> list[MoverState | AcphysError]:
+        """A batch: one request per landblock, each mover's moves in order.
+
+        Returns one entry per move, in order: its State, or the error for that move alone.
+        """
+        results: list[MoverState | AcphysError | None] = [None] * len(moves)
+        pending = list(range(len(moves)))
+        for attempt in range(_MAX_REDIRECTS + 1):
+            groups: dict[int, list[int]] = {}
+            for i in pending:
+                m = moves[i]
+                lb = self._where.get(m.id)
+                if lb is None:
+                    if m.to is None:
+                        results[i] = AcphysError(f"landblock of mover {m.id:X} is unknown: call locate() first")
+                        continue
+                    lb = m.to.landblock
+                groups.setdefault(lb, []).append(i)
+            retry: list[int] = []
+            for lb, idx in groups.items():
+                try:
+                    reply = self._request(self.keys.move(lb), {"moves": [moves[i].to_wire() for i in idx]}, timeout)
+                except AcphysError as e:
+                    for i in idx:
+                        results[i] = e
+                    continue
+                entries = reply.get("results")
+                if not isinstance(entries, list) or len(entries) != len(idx):
+                    err = ServiceError(ErrorKind.MALFORMED, "batch reply does not match the request")
+                    for i in idx:
+                        results[i] = err
+                    continue
+                for i, entry in zip(idx, entries):
+                    r = item_result(entry)
+                    target = r.details.get("landblock") if isinstance(r, ServiceError) else None
+                    if isinstance(r, ServiceError) and r.kind in _REDIRECTS and isinstance(target, int) \
+                            and attempt < _MAX_REDIRECTS:
+                        self._where[moves[i].id] = target
+                        retry.append(i)
+                        continue
+                    results[i] = self._learn(r) if isinstance(r, MoverState) else r
+            if not retry:
+                break
+            pending = sorted(retry)
+        return [r if r is not None else AcphysError("no result") for r in results]
+
+    def push(self, moves: Sequence[Move]) -> None:
+        """Fire-and-forget: states arrive on the state keys, errors on the error keys."""
+        groups: dict[int, list[dict[str, Any]]] = {}
+        for m in moves:
+            lb = self._where.get(m.id)
+            if lb is None:
+                lb = self.landblock_of(m.id) if m.to is None else m.to.landblock
+            groups.setdefault(lb, []).append(m.to_wire())
+        for lb, items in groups.items():
+            body = {"move": items[0]} if len(items) == 1 else {"moves": items}
+            self.session.put(self.keys.push(lb), _pack(body))
+
+    # -- subscriptions -------------------------------------------------------------------
+    def subscribe(self, callback: Callable[[MoverState], None], mover_id: int | None = None) -> Subscription:
+        """Call `callback` with every state published for `mover_id` (or every mover)."""
+        key = self.keys.state(mover_id if mover_id is not None else "*")
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            try:
+                st = MoverState.from_wire(_unpack(sample.payload.to_bytes())["state"])
+            except Exception:
+                log.warning("unreadable state on %s", sample.key_expr)
+                return
+            self._learn(st)
+            callback(st)
+
+        return Subscription([self.session.declare_subscriber(key, on_sample)])
+
+    def subscribe_errors(self, callback: Callable[[int | None, ServiceError], None],
+                         mover_id: int | None = None) -> Subscription:
+        """Errors of fire-and-forget moves: `callback(mover_id or None, error)`."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            try:
+                msg = _unpack(sample.payload.to_bytes())
+                callback(msg.get("id"), ServiceError.from_wire(msg["error"]))
+            except Exception:
+                log.warning("unreadable error message on %s", sample.key_expr)
+
+        subs = [self.session.declare_subscriber(self.keys.obj_error(mover_id if mover_id is not None else "*"), on_sample)]
+        if mover_id is None:
+            subs.append(self.session.declare_subscriber(self.keys.errors, on_sample))
+        return Subscription(subs)
+
+    # -- landblocks, health, stats -------------------------------------------------------------
+    def load_landblock(self, lb: int, timeout: float | None = None) -> bool:
+        """Load a landblock on its owner; True when it was loaded already."""
+        return bool(self._request(self.keys.lb(lb, "load"), {}, timeout).get("already"))
+
+    def unload_landblock(self, lb: int, timeout: float | None = None) -> None:
+        self._request(self.keys.lb(lb, "unload"), {}, timeout)
+
+    def landblocks(self, timeout: float | None = None) -> list[InstanceInfo]:
+        """Every instance's owned and loaded landblocks."""
+        return self._all(self.keys.landblocks, timeout)
+
+    def health(self, timeout: float | None = None) -> list[InstanceInfo]:
+        return self._all(self.keys.health, timeout)
+
+    def stats(self, timeout: float | None = None) -> list[InstanceInfo]:
+        return self._all(self.keys.stats, timeout)
+
+    def wait_ready(self, instances: int = 1, timeout: float = 10.0) -> list[InstanceInfo]:
+        """Block until `instances` instances answer on the health key."""
+        import time
+
+        deadline = time.monotonic() + timeout
+        while True:
+            found = [h for h in self.health(timeout=1.0) if h.get("status") == "ok"]
+            if len(found) >= instances:
+                return found
+            if time.monotonic() >= deadline:
+                raise RequestTimeout(f"{len(found)} of {instances} service instance(s) ready after {timeout} s")
+            time.sleep(0.05)
+

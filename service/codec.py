@@ -1,0 +1,248 @@
+"""The engine's value types to and from their wire maps (docs/protocol.md).
+
+Only the engine's plain value types are used here (geometry and
+`engine.world.types`), so the client library can share this codec without
+pulling in the World. Decoders validate as they go and raise ProtocolError
+naming the field; encoders trust their input.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from engine.geometry import Plane, Position, Quat, Vec3
+from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
+
+from .errors import ProtocolError
+from .validate import (
+    as_bool,
+    as_float,
+    as_list,
+    as_map,
+    as_quat,
+    as_str,
+    as_uint,
+    as_vec3,
+    field_path,
+    get_field,
+    opt_field,
+)
+from .wire import ErrorKind
+
+__all__ = [
+    "decode_position",
+    "decode_plane",
+    "decode_mover_spec",
+    "encode_position",
+    "encode_plane",
+    "encode_vec",
+    "encode_mover_spec",
+    "encode_state",
+    "decode_state",
+    "MAX_SPHERES",
+]
+
+MAX_SPHERES = 32
+
+
+# -- decoding (requests) --------------------------------------------------
+def decode_position(
+    value: Any,
+    path: str,
+    *,
+    default_cell: int | None = None,
+    default_orientation: Quat | None = None,
+) -> Position:
+    """`{"cell", "origin", "orientation"}`; cell/orientation may default."""
+    m = as_map(value, path)
+    raw_cell = opt_field(m, "cell")
+    if raw_cell is None:
+        if default_cell is None:
+            get_field(m, "cell", path)  # raises missing_field
+        cell = default_cell
+    else:
+        cell = as_uint(raw_cell, field_path(path, "cell"), 32)
+    origin = Vec3(*as_vec3(get_field(m, "origin", path), field_path(path, "origin")))
+    raw_q = opt_field(m, "orientation")
+    if raw_q is None:
+        q = default_orientation if default_orientation is not None else Quat()
+    else:
+        q = Quat(*as_quat(raw_q, field_path(path, "orientation")))
+    assert cell is not None
+    return Position.at(cell, origin, q)
+
+
+def decode_plane(value: Any, path: str) -> Plane:
+    m = as_map(value, path)
+    nx, ny, nz = as_vec3(get_field(m, "normal", path), field_path(path, "normal"))
+    d = as_float(get_field(m, "d", path), field_path(path, "d"))
+    if abs((nx * nx + ny * ny + nz * nz) ** 0.5 - 1.0) > 1e-3:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}.normal: not a unit vector", field_path(path, "normal"))
+    return Plane(Vec3(nx, ny, nz), d)
+
+
+def _positive(value: Any, path: str) -> float:
+    f = as_float(value, path)
+    if f <= 0.0:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: must be positive, got {f}", path)
+    return f
+
+
+def _non_negative(value: Any, path: str) -> float:
+    f = as_float(value, path)
+    if f < 0.0:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: must not be negative, got {f}", path)
+    return f
+
+
+def _opt(m: dict[str, Any], key: str, path: str, reader: Any, default: Any) -> Any:
+    raw = opt_field(m, key)
+    return default if raw is None else reader(raw, field_path(path, key))
+
+
+def decode_mover_spec(value: Any, path: str) -> MoverSpec:
+    """A MoverSpec map (the trace format's `object` block)."""
+    m = as_map(value, path)
+    sp_path = field_path(path, "spheres")
+    raw_spheres = as_list(get_field(m, "spheres", path), sp_path, MAX_SPHERES)
+    if not raw_spheres:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{sp_path}: at least one sphere is needed", sp_path)
+    spheres = []
+    for i, raw in enumerate(raw_spheres):
+        p = field_path(sp_path, i)
+        s = as_map(raw, p)
+        spheres.append(
+            SphereSpec(
+                as_vec3(get_field(s, "center", p), field_path(p, "center")),
+                _positive(get_field(s, "radius", p), field_path(p, "radius")),
+            )
+        )
+    cyl_path = field_path(path, "cyl_spheres")
+    cyls = []
+    for i, raw in enumerate(as_list(opt_field(m, "cyl_spheres") or [], cyl_path, MAX_SPHERES)):
+        p = field_path(cyl_path, i)
+        c = as_map(raw, p)
+        cyls.append(
+            CylSphereSpec(
+                as_vec3(get_field(c, "origin", p), field_path(p, "origin")),
+                _positive(get_field(c, "radius", p), field_path(p, "radius")),
+                _non_negative(get_field(c, "height", p), field_path(p, "height")),
+            )
+        )
+    st_path = field_path(path, "state")
+    names = [as_str(v, field_path(st_path, i)) for i, v in enumerate(as_list(opt_field(m, "state") or [], st_path, 32))]
+    for i, n in enumerate(names):
+        if n not in ObjectState.BY_NAME:
+            p = field_path(st_path, i)
+            raise ProtocolError(
+                ErrorKind.BAD_VALUE, f"{p}: unknown ObjectInfoState flag {n!r} (known: {', '.join(ObjectState.BY_NAME)})", p
+            )
+    creature_raw = opt_field(m, "creature")
+    return MoverSpec(
+        spheres=spheres,
+        step_up_height=_opt(m, "step_up_height", path, _non_negative, 0.4),
+        step_down_height=_opt(m, "step_down_height", path, _non_negative, 0.4),
+        state=names,
+        step_down=_opt(m, "step_down", path, as_bool, True),
+        ethereal=_opt(m, "ethereal", path, as_bool, False),
+        scale=_opt(m, "scale", path, _positive, 1.0),
+        gravity=_opt(m, "gravity", path, as_bool, True),
+        creature=None if creature_raw is None else as_bool(creature_raw, field_path(path, "creature")),
+        cyl_spheres=cyls,
+    )
+
+
+# -- encoding (replies, states) -------------------------------------------
+def encode_vec(v: Vec3 | None) -> list[float] | None:
+    return None if v is None else [v.x, v.y, v.z]
+
+
+def encode_position(p: Position) -> dict[str, Any]:
+    o, q = p.frame.origin, p.frame.orientation
+    return {"cell": p.cell_id, "origin": [o.x, o.y, o.z], "orientation": [q.w, q.x, q.y, q.z]}
+
+
+def encode_plane(p: Plane | None) -> dict[str, Any] | None:
+    if p is None:
+        return None
+    return {"normal": [p.normal.x, p.normal.y, p.normal.z], "d": p.d}
+
+
+def encode_mover_spec(s: MoverSpec) -> dict[str, Any]:
+    return {
+        "spheres": [{"center": list(sp.center), "radius": sp.radius} for sp in s.spheres],
+        "step_up_height": s.step_up_height,
+        "step_down_height": s.step_down_height,
+        "state": list(s.state),
+        "step_down": s.step_down,
+        "ethereal": s.ethereal,
+        "scale": s.scale,
+        "gravity": s.gravity,
+        "creature": s.creature,
+        "cyl_spheres": [{"origin": list(c.origin), "radius": c.radius, "height": c.height} for c in s.cyl_spheres],
+    }
+
+
+def encode_state(
+    mover_id: int, seq: int, r: MoveResult, collide_ids: list[int], tag: int | str | None = None
+) -> dict[str, Any]:
+    """The State map: what a move resolved to, as published and replied."""
+    out: dict[str, Any] = {
+        "id": mover_id,
+        "seq": seq,
+        "ok": r.ok,
+        "position": encode_position(r.position),
+        "landblock": r.position.landblock,
+        "transition_state": r.transition_state,
+        "contact": r.contact,
+        "on_walkable": r.on_walkable,
+        "contact_plane": encode_plane(r.contact_plane),
+        "contact_plane_cell": r.contact_plane_cell,
+        "collision_normal": encode_vec(r.collision_normal),
+        "sliding_normal": encode_vec(r.sliding_normal),
+        "water_contact": r.water_contact,
+        "frames_stationary_fall": r.frames_stationary_fall,
+        "transient_state": list(r.transient_state),
+        "collide_objects": collide_ids,
+    }
+    if tag is not None:
+        out["tag"] = tag
+    return out
+
+
+def _vec_or_none(v: Any, path: str) -> Vec3 | None:
+    return None if v is None else Vec3(*as_vec3(v, path))
+
+
+def _opt_int(v: Any) -> int | None:
+    return None if v is None else int(v)
+
+
+def decode_state(value: Any, path: str = "state") -> tuple[int, int, int | str | None, MoveResult]:
+    """A State map back to (id, seq, tag, MoveResult): the client's side."""
+    m = as_map(value, path)
+    plane_raw = opt_field(m, "contact_plane")
+    cpc = opt_field(m, "contact_plane_cell")
+    ts = as_str(get_field(m, "transition_state", path), field_path(path, "transition_state"))
+    result = MoveResult(
+        ok=as_bool(get_field(m, "ok", path), field_path(path, "ok")),
+        position=decode_position(get_field(m, "position", path), field_path(path, "position")),
+        transition_state=ts,
+        contact=as_bool(get_field(m, "contact", path), field_path(path, "contact")),
+        on_walkable=as_bool(get_field(m, "on_walkable", path), field_path(path, "on_walkable")),
+        contact_plane=None if plane_raw is None else decode_plane(plane_raw, field_path(path, "contact_plane")),
+        contact_plane_cell=None if cpc is None else as_uint(cpc, field_path(path, "contact_plane_cell"), 32),
+        collision_normal=_vec_or_none(opt_field(m, "collision_normal"), field_path(path, "collision_normal")),
+        sliding_normal=_vec_or_none(opt_field(m, "sliding_normal"), field_path(path, "sliding_normal")),
+        water_contact=bool(opt_field(m, "water_contact")),
+        frames_stationary_fall=_opt_int(opt_field(m, "frames_stationary_fall")),
+        transient_state=[str(s) for s in (opt_field(m, "transient_state") or [])],
+        collide_objects=[int(i) for i in (opt_field(m, "collide_objects") or [])],
+    )
+    tag = opt_field(m, "tag")
+    return (
+        as_uint(get_field(m, "id", path), field_path(path, "id")),
+        as_uint(get_field(m, "seq", path), field_path(path, "seq")),
+        tag,
+        result,
+    )

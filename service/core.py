@@ -1,0 +1,339 @@
+"""ServiceCore: the service's state and operations, without the bus.
+
+Runs on the engine thread only (the World is not thread-safe); talks to
+the outside through a `BusPort` so it can be tested without zenoh. Every
+operation returns the reply map's content or raises ProtocolError.
+"""
+
+from __future__ import annotations
+
+import logging
+import random
+import time
+from dataclasses import dataclass, replace
+from typing import Any, Protocol
+
+from engine.geometry import Plane, Position, Vec3
+from engine.world.types import MoverSpec, MoveResult
+
+from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec
+from .engine_errors import to_protocol_error
+from .errors import ProtocolError
+from .ownership import Ownership
+from .requests import HandoverRequest, ItemError, MoveBatch, MoveItem, RegisterRequest
+from .stats import ServiceStats
+from .wire import ErrorKind, lb_hex
+
+__all__ = ["BusPort", "MoverRecord", "ServiceCore"]
+
+log = logging.getLogger("acphys.service")
+
+#: How many handed-over movers an instance remembers (to answer `moved`).
+FORWARD_MEMORY = 100_000
+_TRANSIENT = ("Contact", "OnWalkable")
+
+
+class BusPort(Protocol):
+    """What the core needs from the bus (service.node implements it)."""
+
+    def publish_state(self, mover_id: int, state: dict[str, Any]) -> None: ...
+
+    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
+
+    def forward_push(self, lb: int, item: dict[str, Any]) -> None: ...
+
+    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
+        """Send a mover to `lb`'s owner; its reply map, or ProtocolError."""
+        ...
+
+
+@dataclass(slots=True)
+class MoverRecord:
+    id: int  # the id on the wire
+    engine_id: int  # the World's id (changes on re-add)
+    spec: MoverSpec
+    seq: int
+    last: MoveResult
+
+
+def spec_with_contact(spec: MoverSpec, r: MoveResult) -> MoverSpec:
+    """The spec whose starting transient flags are the result's (to re-add a mover)."""
+    names = [n for n in spec.state if n not in _TRANSIENT]
+    if r.contact:
+        names.append("Contact")
+    if r.on_walkable:
+        names.append("OnWalkable")
+    return replace(spec, state=names)
+
+
+class ServiceCore:
+    def __init__(self, world: Any, bus: BusPort, *, ownership: Ownership, instance: str, stats: ServiceStats) -> None:
+        self.world = world
+        self.bus = bus
+        self.ownership = ownership
+        self.instance = instance
+        self.stats = stats
+        self.movers: dict[int, MoverRecord] = {}
+        self._by_engine: dict[int, int] = {}
+        self._forwarded: dict[int, int] = {}
+        # assigned ids sit above 2^32 so they never collide with AC guids a client may choose
+        self._id_base = (random.getrandbits(24) + 1) << 32
+        self._next_id = 1
+        # snapshots other threads may read (health/stats are answered off the engine thread)
+        self.loaded: tuple[int, ...] = ()
+        self.engine_cache: dict[str, Any] = {}
+        self._cache_read_at = 0.0
+        self._refresh()
+
+    def _refresh(self) -> None:
+        self.loaded = tuple(sorted(self.world.loaded_landblocks()))
+        self.engine_cache = self.cache_stats()
+        self._cache_read_at = time.monotonic()
+
+    # -- helpers ------------------------------------------------------------
+    def _record(self, mover_id: int, path: str | None = None) -> MoverRecord:
+        rec = self.movers.get(mover_id)
+        if rec is not None:
+            return rec
+        lb = self._forwarded.get(mover_id)
+        if lb is not None:
+            raise ProtocolError(
+                ErrorKind.MOVED, f"mover {mover_id:X} was handed over to landblock {lb_hex(lb)}", path, landblock=lb
+            )
+        raise ProtocolError(ErrorKind.UNKNOWN_MOVER, f"no mover {mover_id:X} here", path)
+
+    def _state(self, rec: MoverRecord, tag: int | str | None = None) -> dict[str, Any]:
+        ids = [self._by_engine[e] for e in rec.last.collide_objects if e in self._by_engine]
+        return encode_state(rec.id, rec.seq, rec.last, ids, tag)
+
+    def _add(self, mover_id: int, spec: MoverSpec, position: Position, plane: Plane | None, plane_cell: int | None,
+             seq: int = 0, sliding_normal: Vec3 | None = None, water_contact: bool = False) -> MoverRecord:
+        try:
+            eid = self.world.add_mover(
+                spec, position, plane, plane_cell, sliding_normal=sliding_normal, water_contact=water_contact
+            )
+            last = self.world.mover_state(eid)
+        except Exception as e:
+            raise to_protocol_error(e, "position") from None
+        rec = MoverRecord(mover_id, eid, spec, seq, last)
+        self.movers[mover_id] = rec
+        self._by_engine[eid] = mover_id
+        self._forwarded.pop(mover_id, None)
+        return rec
+
+    def _drop(self, rec: MoverRecord) -> None:
+        self.world.remove_mover(rec.engine_id)
+        self.movers.pop(rec.id, None)
+        self._by_engine.pop(rec.engine_id, None)
+
+    def _check_owner(self, lb: int, what: str) -> None:
+        if not self.ownership.owns(lb):
+            raise ProtocolError(
+                ErrorKind.WRONG_LANDBLOCK, f"{what} is in landblock {lb_hex(lb)}, which this instance does not own",
+                None, landblock=lb,
+            )
+
+    # -- movers ---------------------------------------------------------------
+    def register(self, req: RegisterRequest) -> dict[str, Any]:
+        self._check_owner(req.position.landblock, "the start position")
+        if req.id is None:
+            while (self._id_base | self._next_id) in self.movers:
+                self._next_id += 1
+            mover_id = self._id_base | self._next_id
+            self._next_id += 1
+        else:
+            mover_id = req.id
+            if mover_id in self.movers:
+                raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {mover_id:X} is already registered", "id")
+        rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
+                        sliding_normal=req.sliding_normal, water_contact=req.water_contact)
+        state = self._state(rec)
+        self.bus.publish_state(rec.id, state)
+        return {"state": state}
+
+    def update(self, mover_id: int, spec: MoverSpec) -> dict[str, Any]:
+        rec = self._record(mover_id, "id")
+        try:
+            self.world.update_mover(rec.engine_id, spec)
+            rec.last = self.world.mover_state(rec.engine_id)
+        except Exception as e:
+            raise to_protocol_error(e, "mover") from None
+        rec.spec = spec
+        return {"state": self._state(rec)}
+
+    def remove(self, mover_id: int) -> dict[str, Any]:
+        rec = self._record(mover_id, "id")
+        try:
+            self._drop(rec)
+        except Exception as e:
+            raise to_protocol_error(e, "id") from None
+        return {"id": mover_id, "removed": True}
+
+    def get(self, mover_id: int) -> dict[str, Any]:
+        rec = self._record(mover_id, "id")
+        return {"state": self._state(rec), "mover": encode_mover_spec(rec.spec)}
+
+    # -- moves ----------------------------------------------------------------
+    def _apply(self, rec: MoverRecord, item: MoveItem) -> MoveResult:
+        pos = rec.last.position
+        try:
+            if item.to is not None:
+                return self.world.move(rec.engine_id, item.to.resolve(pos), item.velocity)
+            if item.offset is not None:
+                return self.world.move(rec.engine_id, pos.moved(item.offset), item.velocity)
+            assert item.motion is not None and item.dt is not None
+            return self.world.step(rec.engine_id, item.motion, item.dt)
+        except Exception as e:
+            err = to_protocol_error(e, item.path or None)
+            if err.kind == ErrorKind.INTERNAL:
+                log.exception("engine failed on move of %X", rec.id)
+            raise err from None
+
+    def move_one(self, item: MoveItem, received: float) -> dict[str, Any]:
+        """Apply one move; returns its State (published too) or raises."""
+        rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
+        t0 = time.perf_counter()
+        result = self._apply(rec, item)
+        t1 = time.perf_counter()
+        prev, prev_seq = rec.last, rec.seq
+        rec.last, rec.seq = result, rec.seq + 1
+        state = self._state(rec, item.tag)
+        lb = result.position.landblock
+        if not self.ownership.owns(lb):
+            self._hand_over(rec, prev, prev_seq, lb)
+        now = time.monotonic()
+        self.stats.move_done(now - received, t1 - t0)
+        if now - self._cache_read_at > 1.0:
+            self._refresh()
+        self.bus.publish_state(rec.id, state)
+        return state
+
+    def moves(self, batch: MoveBatch, received: float) -> list[dict[str, Any] | ItemError]:
+        """Every item in order; an item's failure is its own result only."""
+        out: list[dict[str, Any] | ItemError] = []
+        for item in batch.items:
+            if isinstance(item, ItemError):
+                out.append(item)
+                continue
+            try:
+                out.append(self.move_one(item, received))
+            except ProtocolError as e:
+                out.append(ItemError(e, item.id, item.tag))
+        return out
+
+    def push(self, batch: MoveBatch, raw_items: list[Any], received: float) -> None:
+        """Fire-and-forget: states are published; errors go to the object's error key."""
+        for item, raw in zip(batch.items, raw_items):
+            if isinstance(item, ItemError):
+                self.stats.error(item.error.kind)
+                self.bus.publish_error(item.id, item.to_wire())
+                continue
+            fwd = self._forwarded.get(item.id)
+            if item.id not in self.movers and fwd is not None:
+                # keep the mover's order: everything sent here after the hand-over follows it
+                self.bus.forward_push(fwd, raw)
+                continue
+            try:
+                self.move_one(item, received)
+            except ProtocolError as e:
+                self.stats.error(e.kind)
+                self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire())
+
+    # -- hand-over (scale-out) ----------------------------------------------------
+    def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:
+        r = rec.last
+        return {
+            "id": rec.id,
+            "seq": rec.seq,
+            "mover": encode_mover_spec(spec_with_contact(rec.spec, r)),
+            "position": encode_position(r.position),
+            "contact_plane": encode_plane(r.contact_plane),
+            "contact_plane_cell": r.contact_plane_cell,
+            "sliding_normal": encode_vec(r.sliding_normal),
+            "water_contact": r.water_contact,
+            "from": self.instance,
+        }
+
+    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int) -> None:
+        """Pass the mover to `lb`'s owner, or put it back where it was and refuse the move."""
+        try:
+            self.bus.handover(lb, self._handover_payload(rec))
+        except ProtocolError as e:
+            self.stats.bump("handovers", "failed")
+            self._drop(rec)
+            spec = spec_with_contact(rec.spec, prev)
+            back = self._add(rec.id, spec, prev.position, prev.contact_plane, prev.contact_plane_cell, prev_seq,
+                             prev.sliding_normal, prev.water_contact)
+            back.spec = rec.spec
+            raise ProtocolError(
+                ErrorKind.NO_OWNER,
+                f"the move ends in landblock {lb_hex(lb)} and no instance took the mover ({e.kind}: {e.message}); "
+                "it stays where it was",
+                None, landblock=lb,
+            ) from None
+        self.stats.bump("handovers", "out")
+        self._drop(rec)
+        self._forwarded[rec.id] = lb
+        if len(self._forwarded) > FORWARD_MEMORY:
+            del self._forwarded[next(iter(self._forwarded))]
+
+    def handover_in(self, req: HandoverRequest) -> dict[str, Any]:
+        self._check_owner(req.position.landblock, "the handed-over position")
+        if req.id in self.movers:
+            raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {req.id:X} is already here", "id")
+        lb = req.position.landblock
+        if lb not in set(self.world.loaded_landblocks()):
+            self.load(lb)
+        rec = self._add(req.id, req.spec, req.position, req.contact_plane, req.contact_plane_cell, req.seq,
+                        req.sliding_normal, req.water_contact)
+        self.stats.bump("handovers", "in")
+        log.info("took mover %X from %s in %s", req.id, req.source, lb_hex(lb))
+        return {"id": rec.id, "accepted": True}
+
+    # -- landblocks -----------------------------------------------------------
+    def load(self, lb: int) -> dict[str, Any]:
+        if lb in set(self.world.loaded_landblocks()):
+            self.stats.bump("lb_cache", "hits")
+            return {"landblock": lb, "loaded": True, "already": True}
+        self.stats.bump("lb_cache", "misses")
+        try:
+            self.world.load_landblock(lb)
+        except Exception as e:
+            # whatever the source's reason (absent, unreadable, corrupt), the answer is the same kind
+            if not isinstance(e, (KeyError, ValueError, OSError)):
+                log.exception("loading landblock %s failed", lb_hex(lb))
+            msg = to_protocol_error(e).message
+            raise ProtocolError(ErrorKind.LANDBLOCK_UNAVAILABLE, f"landblock {lb_hex(lb)} cannot be loaded: {msg}") from None
+        self._refresh()
+        return {"landblock": lb, "loaded": True, "already": False}
+
+    def unload(self, lb: int) -> dict[str, Any]:
+        if lb not in set(self.world.loaded_landblocks()):
+            raise ProtocolError(ErrorKind.LANDBLOCK_NOT_LOADED, f"landblock {lb_hex(lb)} is not loaded")
+        inside = [r.id for r in self.movers.values() if r.last.position.landblock == lb]
+        if inside:
+            shown = ", ".join(f"{i:X}" for i in inside[:10])
+            raise ProtocolError(
+                ErrorKind.LANDBLOCK_IN_USE, f"landblock {lb_hex(lb)} holds {len(inside)} mover(s): {shown}", None,
+                movers=inside[:100],
+            )
+        try:
+            self.world.unload_landblock(lb)
+        except Exception as e:
+            raise to_protocol_error(e) from None
+        self._refresh()
+        return {"landblock": lb, "loaded": False}
+
+    def cache_stats(self) -> dict[str, Any]:
+        """The engine's own cache counters, when it keeps any."""
+        out: dict[str, Any] = {}
+        try:
+            raw = getattr(self.world, "stats", None)
+            if isinstance(raw, dict):
+                out.update(raw)
+            fn = getattr(self.world, "cache_stats", None)
+            if callable(fn):
+                out.update(fn())
+        except Exception:  # a stats call must never fail the stats reply
+            pass
+        return {k: v for k, v in out.items() if isinstance(v, (int, float))}

@@ -1,0 +1,47 @@
+"""Engine exceptions to protocol errors.
+
+Mapped by class name along the exception's MRO, so the service neither
+depends on engine.errors' exact module layout nor breaks if a subclass is
+added: an unknown EngineError still becomes `engine_error`.
+"""
+
+from __future__ import annotations
+
+from .errors import ProtocolError
+from .wire import ErrorKind
+
+__all__ = ["to_protocol_error"]
+
+_BY_CLASS = {
+    "UnknownCellError": ErrorKind.UNKNOWN_CELL,
+    "LandblockNotLoadedError": ErrorKind.LANDBLOCK_NOT_LOADED,
+    "NonFiniteError": ErrorKind.NON_FINITE,
+    "UnknownMoverError": ErrorKind.UNKNOWN_MOVER,
+}
+
+
+def to_protocol_error(exc: BaseException, path: str | None = None, *, key_error_kind: str | None = None) -> ProtocolError:
+    """The ProtocolError for an exception the engine raised.
+
+    `key_error_kind` is what a bare KeyError means in the caller's context
+    (e.g. load_landblock raises KeyError for a landblock its source lacks).
+    """
+    if isinstance(exc, ProtocolError):
+        return exc
+    names = [c.__name__ for c in type(exc).__mro__]
+    for name in names:
+        kind = _BY_CLASS.get(name)
+        if kind is not None:
+            return ProtocolError(kind, _describe(exc), path)
+    if "EngineError" in names:
+        return ProtocolError(ErrorKind.ENGINE_ERROR, _describe(exc), path)
+    if isinstance(exc, KeyError) and key_error_kind is not None:
+        return ProtocolError(key_error_kind, _describe(exc), path)
+    if isinstance(exc, ValueError):
+        return ProtocolError(ErrorKind.ENGINE_ERROR, _describe(exc), path)
+    return ProtocolError(ErrorKind.INTERNAL, f"internal error: {_describe(exc)}", path)
+
+
+def _describe(exc: BaseException) -> str:
+    text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

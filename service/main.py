@@ -1,0 +1,103 @@
+"""Running the service: command-line options, signals, clean exit.
+
+`acphys serve` (clients/cli.py) and `python -m service` both end up in
+`serve()`. SIGINT and SIGTERM stop taking requests, finish what is queued,
+undeclare and exit 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+from typing import Any
+
+from .node import NodeOptions, ServiceNode
+from .ownership import Ownership
+from .wire import DEFAULT_PREFIX
+from .zconfig import DEFAULT_ENDPOINT, make_config
+
+__all__ = ["add_serve_arguments", "serve", "main"]
+
+log = logging.getLogger("acphys.service")
+
+
+def add_serve_arguments(p: argparse.ArgumentParser) -> None:
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--scene", metavar="FILE", help="acphys-scene/1 JSON file to serve")
+    src.add_argument("--dat-dir", metavar="DIR", help="directory with client_cell_1.dat and client_portal.dat")
+    z = p.add_argument_group("zenoh")
+    z.add_argument("--listen", metavar="ENDPOINT", action="append",
+                   help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT} unless --zenoh-config)")
+    z.add_argument("--connect", metavar="ENDPOINT", action="append", help="endpoint to connect to (repeatable)")
+    z.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file (replaces the loopback defaults)")
+    z.add_argument("--mode", choices=("peer", "client", "router"), help="zenoh mode (default peer)")
+    z.add_argument("--multicast-scouting", action="store_true", default=None,
+                   help="discover peers by UDP multicast (off by default)")
+    p.add_argument("--prefix", default=DEFAULT_PREFIX, help="key expression prefix (default %(default)s)")
+    p.add_argument("--own", metavar="LANDBLOCKS", default="*",
+                   help="landblocks this instance owns: * or XXYY,XXYY,... (default: all)")
+    p.add_argument("--queue", type=int, default=1024, metavar="N", help="queued requests before 'busy' (default %(default)s)")
+    p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S", help="seconds to wait for a hand-over")
+    p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+
+
+def serve(args: argparse.Namespace, world: Any = None) -> int:
+    """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
+    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if world is None:
+        from .world_source import open_world
+
+        try:
+            world = open_world(scene=args.scene, dat_dir=args.dat_dir)
+        except Exception as e:
+            print(f"acphys serve: cannot open the world: {e}", file=sys.stderr)
+            return 2
+    listen = args.listen
+    if listen is None and not args.zenoh_config:
+        listen = [DEFAULT_ENDPOINT]
+    try:
+        config = make_config(
+            config_file=args.zenoh_config, listen=listen, connect=args.connect, mode=args.mode,
+            multicast=args.multicast_scouting,
+        )
+        ownership = Ownership.parse(args.own)
+    except Exception as e:
+        print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
+        return 2
+    options = NodeOptions(
+        prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout
+    )
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        log.info("signal %d: shutting down", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    node = ServiceNode(world, config, options)
+    try:
+        node.start()
+    except Exception as e:
+        print(f"acphys serve: cannot start: {e}", file=sys.stderr)
+        node.shutdown()
+        return 2
+    print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
+          flush=True)
+    while not stop.wait(0.5):
+        pass
+    node.shutdown()
+    log.info("stopped")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m service", description="Run the acphys physics service on Zenoh.")
+    add_serve_arguments(p)
+    args = p.parse_args(argv)
+    if args.scene is None and args.dat_dir is None:
+        p.error("give --scene or --dat-dir (`acphys serve` serves the built-in demo world by default)")
+    return serve(args)

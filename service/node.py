@@ -1,0 +1,354 @@
+"""ServiceNode: the service on the Zenoh bus.
+
+Zenoh callbacks only decode and queue; the engine thread does the engine
+work and sends the replies. Health, stats and the landblock list are
+answered straight from the callback (they read snapshots and counters), so
+they work even when the move queue is full.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import Any, Callable
+
+import msgpack
+import zenoh
+
+from .core import ServiceCore
+from .errors import ProtocolError
+from .jobqueue import JobQueue
+from .ownership import Ownership
+from .requests import (
+    ItemError,
+    decode_envelope,
+    parse_handover,
+    parse_id,
+    parse_moves,
+    parse_register,
+    parse_update,
+)
+from .stats import ServiceStats
+from .wire import LB_QUERY_OPS, PROTOCOL_VERSION, ErrorKind, Keys, parse_lb_hex
+
+__all__ = ["NodeOptions", "ServiceNode"]
+
+log = logging.getLogger("acphys.service")
+
+
+def pack(content: dict[str, Any]) -> bytes:
+    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+
+
+class NodeOptions:
+    def __init__(
+        self,
+        *,
+        prefix: str = "acphys",
+        ownership: Ownership | None = None,
+        queue_capacity: int = 1024,
+        handover_timeout: float = 2.0,
+        publish_states: bool = True,
+    ) -> None:
+        self.keys = Keys(prefix)
+        self.ownership = ownership or Ownership()
+        self.queue_capacity = queue_capacity
+        self.handover_timeout = handover_timeout
+        self.publish_states = publish_states
+
+
+class ServiceNode:
+    """Open with `start()`, stop with `shutdown()` (finishes queued work first)."""
+
+    def __init__(self, world: Any, config: zenoh.Config, options: NodeOptions | None = None) -> None:
+        self.options = options or NodeOptions()
+        self.keys = self.options.keys
+        self.config = config
+        self.world = world
+        self.stats = ServiceStats()
+        self.queue = JobQueue(self.options.queue_capacity)
+        self.session: zenoh.Session | None = None
+        self.core: ServiceCore | None = None
+        self._declared: list[Any] = []
+        self._thread: threading.Thread | None = None
+        self._draining = False
+
+    # -- lifecycle ------------------------------------------------------------
+    def start(self) -> None:
+        self.session = zenoh.open(self.config)
+        instance = str(self.session.zid())
+        self.core = ServiceCore(
+            self.world, self, ownership=self.options.ownership, instance=instance, stats=self.stats
+        )
+        self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
+        self._thread.start()
+        s = self.session
+        for part in self.options.ownership.key_parts():
+            for op in LB_QUERY_OPS:
+                self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._query_handler(op)))
+            self._declared.append(s.declare_subscriber(self.keys.push(part), self._on_push))
+        self._declared.append(s.declare_queryable(self.keys.health, self._on_health))
+        self._declared.append(s.declare_queryable(self.keys.stats, self._on_stats))
+        self._declared.append(s.declare_queryable(self.keys.landblocks, self._on_landblocks))
+        log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
+
+    @property
+    def instance(self) -> str:
+        return self.core.instance if self.core else "?"
+
+    def shutdown(self, timeout: float = 30.0) -> None:
+        """Stop taking requests, finish the queued ones, undeclare, close."""
+        self._draining = True
+        for d in self._declared:
+            try:
+                d.undeclare()
+            except Exception:  # already gone with the session: nothing to undo
+                pass
+        self._declared.clear()
+        self.queue.close()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+
+    def _engine_loop(self) -> None:
+        while True:
+            job = self.queue.get()
+            if job is None:
+                return
+            self._run_job(job)
+
+    def _run_job(self, job: Callable[[], None]) -> None:
+        try:
+            job()
+        except Exception:  # a job must never take the engine thread down
+            log.exception("engine job failed")
+            self.stats.error(ErrorKind.INTERNAL)
+
+    # -- replies ----------------------------------------------------------------
+    def _reply_ok(self, query: zenoh.Query, content: dict[str, Any]) -> None:
+        try:
+            query.reply(query.key_expr, pack(content))
+        finally:
+            query.drop()
+
+    def _reply_err(self, query: zenoh.Query, err: ProtocolError) -> None:
+        self.stats.error(err.kind)
+        try:
+            query.reply_err(pack({"error": err.to_wire()}))
+        finally:
+            query.drop()
+
+    def _refuse(self, query: zenoh.Query) -> None:
+        if self.queue.closed:
+            self._reply_err(query, ProtocolError(ErrorKind.SHUTTING_DOWN, "the service is shutting down"))
+        else:
+            self._reply_err(
+                query, ProtocolError(ErrorKind.BUSY, f"the service's queue is full ({self.queue.capacity}); retry later")
+            )
+
+    @staticmethod
+    def _payload(query_or_sample: Any) -> bytes | None:
+        p = query_or_sample.payload
+        return None if p is None else p.to_bytes()
+
+    def _key_lb(self, key: str) -> int:
+        # <prefix>/lb/<XXYY>/<op>: the landblock is the second-to-last chunk
+        part = key.rsplit("/", 2)[-2]
+        try:
+            return parse_lb_hex(part)
+        except ValueError:
+            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: {part!r} is not a landblock id (XXYY)") from None
+
+    # -- per-landblock queries -----------------------------------------------------
+    def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
+        def handler(query: zenoh.Query) -> None:
+            received = time.monotonic()
+            self.stats.request(op)
+            try:
+                lb = self._key_lb(str(query.key_expr))
+                msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
+                work = self._prepare(op, lb, msg, received)
+            except ProtocolError as e:
+                self._reply_err(query, e)
+                return
+            except Exception as e:  # decoding must never kill the callback thread
+                log.exception("decoding %s failed", op)
+                self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error: {e}"))
+                return
+
+            def job() -> None:
+                try:
+                    content = work()
+                except ProtocolError as e:
+                    self._reply_err(query, e)
+                    return
+                except Exception as e:
+                    log.exception("%s failed", op)
+                    self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error: {type(e).__name__}: {e}"))
+                    return
+                self._reply_ok(query, content)
+
+            if op == "handover":
+                # never refused, and served even while this instance waits on its own hand-over
+                self.queue.put_priority(job)
+            elif not self.queue.offer(job):
+                self._refuse(query)
+
+        return handler
+
+    def _prepare(self, op: str, lb: int, msg: dict[str, Any], received: float) -> Callable[[], dict[str, Any]]:
+        """Decode on the callback thread; the returned closure runs on the engine thread."""
+        core = self.core
+        assert core is not None
+        if op == "move":
+            batch = parse_moves(msg)
+            if batch.single:
+                item = batch.items[0]
+                assert not isinstance(item, ItemError)
+                return lambda: {"state": core.move_one(item, received)}
+
+            def run_batch() -> dict[str, Any]:
+                results = core.moves(batch, received)
+                for r in results:
+                    if isinstance(r, ItemError):
+                        self.stats.error(r.error.kind)
+                return {"results": [r.to_wire() if isinstance(r, ItemError) else r for r in results]}
+
+            return run_batch
+        if op == "register":
+            req = parse_register(msg)
+            return lambda: core.register(req)
+        if op == "update":
+            mover_id, spec = parse_update(msg)
+            return lambda: core.update(mover_id, spec)
+        if op == "remove":
+            mover_id = parse_id(msg)
+            return lambda: core.remove(mover_id)
+        if op == "get":
+            mover_id = parse_id(msg)
+            return lambda: core.get(mover_id)
+        if op == "load":
+            return lambda: core.load(lb)
+        if op == "unload":
+            return lambda: core.unload(lb)
+        if op == "handover":
+            req = parse_handover(msg)
+            return lambda: core.handover_in(req)
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
+
+    # -- fire-and-forget ---------------------------------------------------------
+    def _on_push(self, sample: zenoh.Sample) -> None:
+        received = time.monotonic()
+        self.stats.request("push")
+        try:
+            msg = decode_envelope(self._payload(sample))
+            batch = parse_moves(msg)
+        except ProtocolError as e:
+            self.stats.error(e.kind)
+            self._put(self.keys.errors, {"key": str(sample.key_expr), "error": e.to_wire()})
+            return
+        except Exception as e:
+            log.exception("decoding a push failed")
+            self._put(self.keys.errors, {"key": str(sample.key_expr), "error": {"kind": ErrorKind.INTERNAL, "message": str(e)}})
+            return
+        raw = [msg["move"]] if batch.single else list(msg["moves"])
+        core = self.core
+        assert core is not None
+        if not self.queue.offer(lambda: core.push(batch, raw, received)):
+            kind = ErrorKind.SHUTTING_DOWN if self.queue.closed else ErrorKind.BUSY
+            for item in batch.items:
+                self.stats.error(kind)
+                err = ProtocolError(kind, "the service's queue is full; this move was dropped" if kind == ErrorKind.BUSY
+                                    else "the service is shutting down; this move was dropped")
+                self.publish_error(item.id, ItemError(err, item.id, item.tag).to_wire())
+
+    # -- per-instance queries (answered on the callback thread) -------------------------
+    def _on_health(self, query: zenoh.Query) -> None:
+        self.stats.request("health")
+        core = self.core
+        self._reply_ok(query, {
+            "instance": self.instance,
+            "status": "draining" if self._draining else "ok",
+            "protocol": PROTOCOL_VERSION,
+            "uptime_s": time.monotonic() - self.stats.started,
+            "queue_depth": len(self.queue),
+            "queue_capacity": self.queue.capacity,
+            "movers": len(core.movers) if core else 0,
+        })
+
+    def _on_stats(self, query: zenoh.Query) -> None:
+        self.stats.request("stats")
+        core = self.core
+        snap = self.stats.snapshot()
+        snap["cache"] = {**snap.pop("landblock_cache"), **(core.engine_cache if core else {})}
+        self._reply_ok(query, {
+            "instance": self.instance,
+            **snap,
+            "loaded_landblocks": list(core.loaded) if core else [],
+            "movers": len(core.movers) if core else 0,
+            "queue_depth": len(self.queue),
+            "queue_capacity": self.queue.capacity,
+        })
+
+    def _on_landblocks(self, query: zenoh.Query) -> None:
+        self.stats.request("landblocks")
+        core = self.core
+        assert core is not None
+        self._reply_ok(query, {
+            "instance": self.instance,
+            "owned": self.options.ownership.to_wire(),
+            "loaded": list(core.loaded),
+        })
+
+    # -- BusPort (called by the core on the engine thread) -------------------------
+    def _put(self, key: str, content: dict[str, Any]) -> None:
+        if self.session is not None:
+            self.session.put(key, pack(content))
+
+    def publish_state(self, mover_id: int, state: dict[str, Any]) -> None:
+        if self.options.publish_states:
+            self._put(self.keys.state(mover_id), {"state": state})
+
+    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
+        key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
+        self._put(key, error)
+
+    def forward_push(self, lb: int, item: dict[str, Any]) -> None:
+        self._put(self.keys.push(lb), {"move": item})
+
+    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
+        """Ask `lb`'s owner to take a mover; serve arriving hand-overs while waiting."""
+        assert self.session is not None
+        replies: list[zenoh.Reply] = []
+        done = threading.Event()
+
+        def on_done() -> None:
+            done.set()
+            self.queue.put_priority(lambda: None)  # wake the waiting loop below
+
+        self.session.get(
+            self.keys.lb(lb, "handover"),
+            zenoh.handlers.Callback(replies.append, on_done),
+            payload=pack(payload),
+            timeout=self.options.handover_timeout,
+        )
+        deadline = time.monotonic() + self.options.handover_timeout + 1.0
+        while not done.is_set() and time.monotonic() < deadline:
+            job = self.queue.get_priority(timeout=max(0.0, deadline - time.monotonic()))
+            if job is not None:
+                self._run_job(job)
+        for r in replies:
+            if r.ok is not None:
+                return dict(msgpack.unpackb(r.ok.payload.to_bytes(), raw=False))
+        for r in replies:
+            try:
+                err = msgpack.unpackb(r.err.payload.to_bytes(), raw=False)["error"]
+                raise ProtocolError(err.get("kind", ErrorKind.INTERNAL), err.get("message", ""))
+            except ProtocolError:
+                raise
+            except Exception:
+                raise ProtocolError(ErrorKind.NO_OWNER, r.err.payload.to_bytes().decode("utf-8", "replace")) from None
+        raise ProtocolError(ErrorKind.NO_OWNER, "no instance owns that landblock")

@@ -1,0 +1,87 @@
+"""Counters and latency samples the service reports on its stats key."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import Counter, deque
+from typing import Any
+
+__all__ = ["LatencyWindow", "ServiceStats"]
+
+
+class LatencyWindow:
+    """The most recent `size` samples (seconds); percentiles are over those."""
+
+    def __init__(self, size: int = 20000) -> None:
+        self._samples: deque[float] = deque(maxlen=size)
+        self.count = 0
+
+    def add(self, seconds: float) -> None:
+        self._samples.append(seconds)
+        self.count += 1
+
+    def summary_ms(self) -> dict[str, float | int]:
+        data = sorted(self._samples)
+        out: dict[str, float | int] = {"count": self.count, "window": len(data)}
+        if not data:
+            return out | {"p50": 0.0, "p90": 0.0, "p99": 0.0, "max": 0.0, "mean": 0.0}
+
+        def pct(p: float) -> float:
+            # nearest-rank percentile: a value that was actually observed
+            k = max(0, min(len(data) - 1, int(round(p / 100.0 * len(data) + 0.5)) - 1))
+            return data[k] * 1000.0
+
+        return out | {
+            "p50": pct(50),
+            "p90": pct(90),
+            "p99": pct(99),
+            "max": data[-1] * 1000.0,
+            "mean": sum(data) / len(data) * 1000.0,
+        }
+
+
+class ServiceStats:
+    """Thread-safe: bumped from zenoh callbacks and from the engine thread."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.started = time.monotonic()
+        self.requests: Counter[str] = Counter()
+        self.errors: Counter[str] = Counter()
+        self.moves = 0
+        self.handovers: Counter[str] = Counter()
+        self.lb_cache: Counter[str] = Counter()
+        self.latency = LatencyWindow()  # receipt to result, per move
+        self.engine_time = LatencyWindow()  # inside the engine, per move
+
+    def request(self, op: str) -> None:
+        with self._lock:
+            self.requests[op] += 1
+
+    def error(self, kind: str) -> None:
+        with self._lock:
+            self.errors[kind] += 1
+
+    def move_done(self, latency: float, engine: float) -> None:
+        with self._lock:
+            self.moves += 1
+            self.latency.add(latency)
+            self.engine_time.add(engine)
+
+    def bump(self, counter: str, key: str) -> None:
+        with self._lock:
+            getattr(self, counter)[key] += 1
+
+    def snapshot(self) -> dict[str, Any]:
+        with self._lock:
+            return {
+                "uptime_s": time.monotonic() - self.started,
+                "requests": dict(self.requests),
+                "moves": self.moves,
+                "errors": dict(self.errors),
+                "latency_ms": self.latency.summary_ms(),
+                "engine_ms": self.engine_time.summary_ms(),
+                "handovers": {k: self.handovers.get(k, 0) for k in ("out", "in", "failed")},
+                "landblock_cache": {k: self.lb_cache.get(k, 0) for k in ("hits", "misses")},
+            }
