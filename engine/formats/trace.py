@@ -14,6 +14,7 @@ from typing import Any
 
 from ..errors import SceneFormatError
 from ..geometry import Frame, Plane, Position, Quat, Vec3
+from ..geometry.f32 import f32, vec_f32
 from ..transition.settings import ACE_COMPAT, EngineSettings
 from ..world.types import CylSphereSpec, MoveResult, MoverSpec, SphereSpec
 from ..world.world import World
@@ -34,16 +35,18 @@ def load_trace(path: str | Path) -> dict[str, Any]:
     return data
 
 
+# The reference's numbers are single precision written as shortest decimals:
+# reading them back as float32 recovers exactly what it computed with.
 def _vec(v: Any) -> Vec3:
-    return Vec3(float(v[0]), float(v[1]), float(v[2]))
+    return vec_f32(Vec3(float(v[0]), float(v[1]), float(v[2])))
 
 
 def _quat(q: Any) -> Quat:
-    return Quat(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+    return Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3])))
 
 
 def _plane(p: Any) -> Plane:
-    return Plane(_vec(p["normal"]), float(p["d"]))
+    return Plane(_vec(p["normal"]), f32(float(p["d"])))
 
 
 def mover_spec_from_case(obj: dict[str, Any], scene: dict[str, Any] | None = None) -> MoverSpec:
@@ -134,6 +137,8 @@ def run_case(world: World, case: dict[str, Any], settings: EngineSettings = ACE_
         mover_id = _add_case_mover(world, case)
         physics = case.get("physics")
         dt = float(physics["dt"]) if physics else 0.0
+        if physics and physics.get("velocity") is not None:
+            world.mover(mover_id).velocity = _vec(physics["velocity"])
         results: list[dict[str, Any]] = []
         for move in case["moves"]:
             result = replay_move(world, mover_id, move, physics is not None, dt, use_offsets)

@@ -21,6 +21,7 @@ from ..constants import (
     SMALL_VELOCITY_SQ,
 )
 from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
+from ..geometry.f32 import plane_f32, vec_f32
 from ..geometry.quaternion import Quat
 from ..transition.object_info import ObjectInfo
 from ..transition.settings import EngineSettings
@@ -188,11 +189,13 @@ class Mover:
         prev_on_walkable = bool(self.transient & TS.ON_WALKABLE)
         prev_contact = bool(self.transient & TS.CONTACT)
         assert path.curr_pos is not None
-        self.position = path.curr_pos
+        # what the object keeps, it keeps in the client's single precision
+        cur = path.curr_pos
+        self.position = Position(cur.cell_id, cur.frame.with_origin(vec_f32(cur.frame.origin)))
         self.cell = path.curr_cell
 
         self.contact_plane_cell_id = ci.contact_plane_cell_id
-        self.contact_plane = ci.contact_plane
+        self.contact_plane = plane_f32(ci.contact_plane)
         if ci.contact_plane_valid:
             self.transient |= TS.CONTACT
         else:
@@ -211,7 +214,7 @@ class Mover:
             self.transient &= ~TS.ON_WALKABLE
         self.calc_acceleration()
 
-        self.sliding_normal = ci.sliding_normal
+        self.sliding_normal = vec_f32(ci.sliding_normal)
         if ci.sliding_normal_valid:
             self.transient |= TS.SLIDING
         else:
@@ -246,10 +249,12 @@ class Mover:
     # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
     def integrate(self, motion: Vec3, dt: float) -> Frame:
         """Where this object wants to be after `dt`: its own motion `motion`
-        (object frame, applied only on walkable ground), plus velocity and
-        gravity, with friction on the ground and the speed clamp."""
+        (metres in the object frame, already scaled to the object's size, as
+        the client's animation offset is; applied only on walkable ground),
+        plus velocity and gravity, with friction on the ground and the speed
+        clamp."""
         if self.transient & TS.ON_WALKABLE:
-            local = motion * self.scale
+            local = motion
         else:
             local = ZERO
         frame = self.position.frame
