@@ -110,12 +110,30 @@ class Client:
         self._where[mover_id] = landblock
 
     def landblock_of(self, mover_id: int) -> int:
-        try:
-            return self._where[mover_id]
-        except KeyError:
-            raise AcphysError(
-                f"landblock of mover {mover_id:X} is unknown to this client: call locate(id, landblock) first"
-            ) from None
+        """Where the mover is, as last seen; asks every instance when it has not been seen."""
+        lb = self._where.get(mover_id)
+        if lb is None:
+            lb = self.find(mover_id).landblock
+        return lb
+
+    def find(self, mover_id: int, timeout: float | None = None) -> MoverState:
+        """Ask every instance for the mover (a `get` on every landblock key); its state."""
+        errors: list[ServiceError] = []
+        for r in self._replies(self.keys.lb("*", "get"), {"id": mover_id}, timeout, all_instances=True):
+            if r.ok is not None:
+                msg = _unpack(r.ok.payload.to_bytes())
+                return self._learn(MoverState.from_wire(msg["state"]))
+            try:
+                errors.append(ServiceError.from_wire(_unpack(r.err.payload.to_bytes())["error"]))
+            except Exception:
+                continue
+        for e in errors:
+            if e.kind == ErrorKind.MOVED and isinstance(e.details.get("landblock"), int):
+                self._where[mover_id] = e.details["landblock"]
+                return self.get(mover_id, timeout)[0]
+        if errors:
+            raise errors[0]
+        raise NoServiceError(f"no service instance answers for mover {mover_id:X}")
 
     def _replies(self, key: str, content: dict[str, Any] | None, timeout: float | None, *, all_instances: bool) -> list[Any]:
         kwargs: dict[str, Any] = {"timeout": self.timeout if timeout is None else timeout}
@@ -233,9 +251,7 @@ class Client:
         return self.send(Move(mover_id, motion=motion, dt=dt, tag=tag), timeout)
 
     def send(self, move: Move, timeout: float | None = None) -> MoverState:
-        lb = self._where.get(move.id)
-        if lb is None:
-            lb = self.landblock_of(move.id) if move.to is None else move.to.landblock
+        lb = self.landblock_of(move.id)
         reply = self._lb_request(lb, "move", {"move": move.to_wire()}, move.id, timeout)
         return self._learn(MoverState.from_wire(reply["state"]))
 
@@ -250,12 +266,11 @@ class Client:
             groups: dict[int, list[int]] = {}
             for i in pending:
                 m = moves[i]
-                lb = self._where.get(m.id)
-                if lb is None:
-                    if m.to is None:
-                        results[i] = AcphysError(f"landblock of mover {m.id:X} is unknown: call locate() first")
-                        continue
-                    lb = m.to.landblock
+                try:
+                    lb = self.landblock_of(m.id)
+                except AcphysError as e:
+                    results[i] = e
+                    continue
                 groups.setdefault(lb, []).append(i)
             retry: list[int] = []
             for lb, idx in groups.items():
@@ -289,10 +304,7 @@ class Client:
         """Fire-and-forget: states arrive on the state keys, errors on the error keys."""
         groups: dict[int, list[dict[str, Any]]] = {}
         for m in moves:
-            lb = self._where.get(m.id)
-            if lb is None:
-                lb = self.landblock_of(m.id) if m.to is None else m.to.landblock
-            groups.setdefault(lb, []).append(m.to_wire())
+            groups.setdefault(self.landblock_of(m.id), []).append(m.to_wire())
         for lb, items in groups.items():
             body = {"move": items[0]} if len(items) == 1 else {"moves": items}
             self.session.put(self.keys.push(lb), _pack(body))

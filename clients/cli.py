@@ -1,0 +1,202 @@
+"""The `acphys` command line: serve, move, demo, stats.
+
+    acphys serve                      # the demo world on tcp/127.0.0.1:7447
+    acphys demo --out walk.png        # walk the demo (embedded service if none runs)
+    acphys move --start A9B40001 20 20 60 --offset 1 0 0
+    acphys stats
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from service.main import add_serve_arguments, serve
+from service.wire import DEFAULT_PREFIX
+
+__all__ = ["main", "build_parser"]
+
+
+def _conn_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("connection")
+    g.add_argument("--connect", metavar="ENDPOINT", action="append",
+                   help="service endpoint (repeatable; default tcp/127.0.0.1:7447)")
+    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file instead of --connect")
+    g.add_argument("--prefix", default=DEFAULT_PREFIX, help="key expression prefix (default %(default)s)")
+    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer (default %(default)s)")
+
+
+def _client(args: argparse.Namespace) -> Any:
+    from .client import Client
+
+    return Client(args.connect, config_file=args.zenoh_config, prefix=args.prefix, timeout=args.timeout)
+
+
+def _hex(text: str) -> int:
+    return int(text, 16)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="acphys", description="Asheron's Call collision physics on a Zenoh bus.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("serve", help="run the service (the built-in demo world unless --scene/--dat-dir)")
+    add_serve_arguments(s)
+
+    m = sub.add_parser("move", help="send one move and print the result")
+    _conn_args(m)
+    who = m.add_mutually_exclusive_group(required=True)
+    who.add_argument("--id", type=_hex, help="move this registered mover (hex id)")
+    who.add_argument("--start", nargs=4, metavar=("CELL", "X", "Y", "Z"),
+                     help="register a player-sized mover here (hex cell id, landblock metres), move it, remove it")
+    m.add_argument("--landblock", type=_hex, help="landblock (hex XXYY) the --id mover is in")
+    what = m.add_mutually_exclusive_group(required=True)
+    what.add_argument("--to", nargs="+", metavar="V", help="target: X Y Z in the current cell, or CELL X Y Z")
+    what.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="target = current + offset")
+    what.add_argument("--motion", nargs=3, type=float, metavar=("DX", "DY", "DZ"),
+                      help="physics step with this own motion (object frame); needs --dt")
+    m.add_argument("--dt", type=float, default=0.1, help="seconds of a --motion step (default %(default)s)")
+    m.add_argument("--json", action="store_true", help="print the State map as JSON")
+
+    d = sub.add_parser("demo", help="walk a mover over the demo world; print a table and save a map")
+    _conn_args(d)
+    d.add_argument("--embedded", action="store_true", help="always start an embedded service")
+    d.add_argument("--out", default="acphys-demo.png", help="PNG map to write (default %(default)s)")
+    d.add_argument("--quiet", action="store_true", help="no progress display")
+
+    st = sub.add_parser("stats", help="print every instance's health and statistics")
+    _conn_args(st)
+    st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "serve":
+            if args.scene is None and args.dat_dir is None:
+                from .demo_world import demo_scene_path
+
+                args.scene = str(demo_scene_path())
+            return serve(args)
+        if args.command == "move":
+            return _cmd_move(args)
+        if args.command == "demo":
+            from .demo_cmd import run_demo
+
+            return run_demo(args)
+        if args.command == "stats":
+            return _cmd_stats(args)
+    except KeyboardInterrupt:
+        return 130
+    except Exception as e:
+        from .errors import AcphysError
+
+        if isinstance(e, AcphysError):
+            print(f"acphys {args.command}: {e}", file=sys.stderr)
+            return 1
+        raise
+    return 2
+
+
+def _state_rows(st: Any) -> list[tuple[str, str]]:
+    r = st.result
+    o, q = r.position.origin, r.position.frame.orientation
+
+    def vec(v: Any) -> str:
+        return "-" if v is None else f"({v.x:.4f}, {v.y:.4f}, {v.z:.4f})"
+
+    plane = "-" if r.contact_plane is None else (
+        f"n {vec(r.contact_plane.normal)} d {r.contact_plane.d:.4f} (cell {r.contact_plane_cell:08X})")
+    return [
+        ("mover", f"{st.id:X}"),
+        ("seq", str(st.seq)),
+        ("ok", str(r.ok)),
+        ("transition", r.transition_state),
+        ("cell", f"{r.position.cell_id:08X}"),
+        ("origin", f"({o.x:.4f}, {o.y:.4f}, {o.z:.4f})"),
+        ("orientation", f"[{q.w:.4f}, {q.x:.4f}, {q.y:.4f}, {q.z:.4f}]"),
+        ("contact", str(r.contact)),
+        ("on walkable", str(r.on_walkable)),
+        ("contact plane", plane),
+        ("collision normal", vec(r.collision_normal)),
+        ("sliding normal", vec(r.sliding_normal)),
+        ("transient state", ", ".join(r.transient_state) or "-"),
+    ]
+
+
+def _cmd_move(args: argparse.Namespace) -> int:
+    from engine.geometry import Position, Vec3
+    from service.codec import encode_state
+
+    from .demo_walk import demo_mover
+    from .types import Move
+
+    with _client(args) as c:
+        temp = args.id is None
+        if temp:
+            cell = _hex(args.start[0])
+            x, y, z = (float(v) for v in args.start[1:])
+            mover_id = c.register(demo_mover(), Position.at(cell, Vec3(x, y, z))).id
+        else:
+            mover_id = args.id
+            if args.landblock is not None:
+                c.locate(mover_id, args.landblock)
+        try:
+            if args.to is not None:
+                vals = args.to
+                if len(vals) not in (3, 4):
+                    print("acphys move: --to takes X Y Z or CELL X Y Z", file=sys.stderr)
+                    return 2
+                cell_part = _hex(vals[0]) if len(vals) == 4 else None
+                x, y, z = (float(v) for v in vals[-3:])
+                target = Position.at(cell_part or 0, Vec3(x, y, z))
+                move = Move(mover_id, to=target, keep_cell=cell_part is not None)
+            elif args.offset is not None:
+                move = Move(mover_id, offset=tuple(args.offset))
+            else:
+                move = Move(mover_id, motion=tuple(args.motion), dt=args.dt)
+            st = c.send(move)
+        finally:
+            if temp:
+                c.remove(mover_id)
+    if args.json:
+        print(json.dumps(encode_state(st.id, st.seq, st.result, st.result.collide_objects, st.tag), indent=2))
+    else:
+        for k, v in _state_rows(st):
+            print(f"{k:>17}  {v}")
+    return 0
+
+
+def _cmd_stats(args: argparse.Namespace) -> int:
+    with _client(args) as c:
+        stats = c.stats()
+    if not stats:
+        print("acphys stats: no service instance answered", file=sys.stderr)
+        return 1
+    if args.json:
+        print(json.dumps([s.data for s in stats], indent=2, default=str))
+        return 0
+    for s in stats:
+        d = s.data
+        lat = d.get("latency_ms", {})
+        print(f"instance {s.instance}")
+        print(f"  uptime        {d.get('uptime_s', 0):.1f} s   movers {d.get('movers', 0)}   "
+              f"queue {d.get('queue_depth', 0)}/{d.get('queue_capacity', 0)}")
+        print(f"  requests      " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("requests", {}).items())))
+        print(f"  moves         {d.get('moves', 0)}")
+        errs = d.get("errors", {})
+        print(f"  errors        " + (", ".join(f"{k} {v}" for k, v in sorted(errs.items())) or "none"))
+        print(f"  latency (ms)  p50 {lat.get('p50', 0):.3f}  p90 {lat.get('p90', 0):.3f}  "
+              f"p99 {lat.get('p99', 0):.3f}  max {lat.get('max', 0):.3f}  over {lat.get('window', 0)} moves")
+        print(f"  landblocks    " + " ".join(f"{lb:04X}" for lb in d.get("loaded_landblocks", [])))
+        print(f"  cache         " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("cache", {}).items())))
+        h = d.get("handovers", {})
+        print(f"  hand-overs    out {h.get('out', 0)}, in {h.get('in', 0)}, failed {h.get('failed', 0)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
