@@ -154,12 +154,14 @@ class ServiceNode:
         p = query_or_sample.payload
         return None if p is None else p.to_bytes()
 
-    def _key_lb(self, key: str) -> int:
-        # <prefix>/lb/<XXYY>/<op>: the landblock is the second-to-last chunk
+    def _key_lb(self, key: str, op: str) -> int | None:
+        """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none."""
         part = key.rsplit("/", 2)[-2]
         try:
             return parse_lb_hex(part)
         except ValueError:
+            if op not in ("load", "unload") and ("*" in part or "$" in part):
+                return None  # e.g. a `get` sent to every instance to find a mover
             raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: {part!r} is not a landblock id (XXYY)") from None
 
     # -- per-landblock queries -----------------------------------------------------
@@ -168,7 +170,7 @@ class ServiceNode:
             received = time.monotonic()
             self.stats.request(op)
             try:
-                lb = self._key_lb(str(query.key_expr))
+                lb = self._key_lb(str(query.key_expr), op)
                 msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
                 work = self._prepare(op, lb, msg, received)
             except ProtocolError as e:
@@ -199,7 +201,7 @@ class ServiceNode:
 
         return handler
 
-    def _prepare(self, op: str, lb: int, msg: dict[str, Any], received: float) -> Callable[[], dict[str, Any]]:
+    def _prepare(self, op: str, lb: int | None, msg: dict[str, Any], received: float) -> Callable[[], dict[str, Any]]:
         """Decode on the callback thread; the returned closure runs on the engine thread."""
         core = self.core
         assert core is not None
@@ -231,8 +233,10 @@ class ServiceNode:
             mover_id = parse_id(msg)
             return lambda: core.get(mover_id)
         if op == "load":
+            assert lb is not None
             return lambda: core.load(lb)
         if op == "unload":
+            assert lb is not None
             return lambda: core.unload(lb)
         if op == "handover":
             req = parse_handover(msg)
