@@ -83,6 +83,16 @@ def _polys(node: Mapping[str, Any], polygons: Mapping[int, Polygon]) -> tuple[li
         raise ValueError(f"BSP node lists polygon {e.args[0]}, which the polygon table lacks") from None
 
 
+def _portal_poly(entry: Any, polygons: Mapping[int, Polygon]) -> PortalPoly:
+    """A drawing portal entry: `[portal_index, polygon_id]` as the dat stores
+    it, or `{"portal_index", "polygon_id"}`."""
+    if isinstance(entry, Mapping):
+        index, poly_id = int(entry.get("portal_index", -1)), int(entry["polygon_id"])
+    else:
+        index, poly_id = int(entry[0]), int(entry[1])
+    return PortalPoly(index, polygons.get(poly_id))
+
+
 def _build_node(node: Mapping[str, Any], polygons: Mapping[int, Polygon], physics: bool, path: str) -> BSPNode:
     tag = node["type"]
     if tag == "LEAF":
@@ -116,10 +126,7 @@ def _build_node(node: Mapping[str, Any], polygons: Mapping[int, Polygon], physic
     sphere = _sphere(node.get("sphere"))
     polys, ids = _polys(node, polygons)
     if tag == "PORT":
-        portals = [
-            PortalPoly(int(p.get("portal_index", -1)), polygons.get(int(p["polygon_id"])))
-            for p in node.get("in_portals") or ()
-        ]
+        portals = [_portal_poly(p, polygons) for p in node.get("in_portals") or ()]
         return BSPPortal(plane, pos, neg, sphere, polys, ids, portals)
     return BSPNode(plane, pos, neg, sphere, polys, ids, tag)
 

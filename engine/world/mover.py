@@ -36,8 +36,9 @@ __all__ = ["Mover"]
 
 DEFAULT_ELASTICITY = 0.05
 
-#: ObjectInfo flags that are properties of the object, not transient state.
-_STATIC_OI = ~(OI.CONTACT | OI.ON_WALKABLE)
+#: ObjectInfo flags that are properties of the object. Contact and OnWalkable
+#: come from the transient state; PathClipped from the live Missile state.
+_STATIC_OI = ~(OI.CONTACT | OI.ON_WALKABLE | OI.PATH_CLIPPED)
 
 
 class Mover:
@@ -66,6 +67,7 @@ class Mover:
         "elasticity",
         "friction",
         "shadow_cells",
+        "colliding_with_environment",
         "__weakref__",
     )
 
@@ -108,6 +110,7 @@ class Mover:
         self.elasticity = DEFAULT_ELASTICITY
         self.friction = DEFAULT_FRICTION
         self.shadow_cells: list[Any] = []
+        self.colliding_with_environment = False
 
     # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------
     def set_velocity(self, velocity: Vec3) -> None:
@@ -225,6 +228,10 @@ class Mover:
         """Bounce off what we hit and track the stationary-fall flags."""
         ci = t.collision_info
         apply_bounce = not (prev_on_walkable and self.transient & TS.ON_WALKABLE)
+        if self.colliding_with_environment:
+            self.colliding_with_environment = ci.collided_with_environment
+        elif ci.collided_with_environment or (not prev_on_walkable and self.transient & TS.ON_WALKABLE):
+            self.report_environment_collision()
         fsf = ci.frames_stationary_fall
         if fsf <= 1:
             if apply_bounce and ci.collision_normal_valid:
@@ -245,6 +252,13 @@ class Mover:
             self.transient |= TS.STATIONARY_STOP
         else:
             self.transient |= TS.STATIONARY_STUCK
+
+    def report_environment_collision(self) -> None:
+        """A missile's first hit on the world ends its flight (report_environment_collision)."""
+        if self.colliding_with_environment:
+            return
+        self.colliding_with_environment = True
+        self.missile = False
 
     # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
     def integrate(self, motion: Vec3, dt: float) -> Frame:

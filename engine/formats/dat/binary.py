@@ -96,8 +96,7 @@ class RecordReader:
 
     def tag(self, what: str = "tag") -> str:
         """A four-character tag stored as a little-endian uint (so `BPnN` is the bytes `NnPB`)."""
-        raw = bytes(self._view[self._need(4, what) : self.pos])
-        return raw[::-1].decode("latin-1")
+        return self.raw(4, what)[::-1].decode("latin-1")
 
     def raw(self, size: int, what: str = "bytes") -> bytes:
         start = self._need(size, what)
@@ -131,7 +130,7 @@ class RecordReader:
         """Advance to the next multiple of 4 from the record start (the dat pads some structures)."""
         # Padding missing at the very end of a record is tolerated: nothing follows it,
         # and a missing pad in the middle makes the next field's read fail anyway.
-        self.pos = min(self.pos + (-self.pos) % 4, max(len(self._view), self.pos))
+        self.pos = min(self.pos + (-self.pos) % 4, len(self._view))
 
     def count(self, value: int, min_item_size: int, what: str) -> int:
         """Check a stored item count against the bytes left, so corrupt counts fail fast."""
