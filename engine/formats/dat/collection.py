@@ -6,8 +6,9 @@ scene builder needs no dat-specific path: a landblock dict from the cell dat,
 the portal objects it references (recursively: a Setup's parts), the
 Region's height table, or a whole scene.
 
-Nothing is cached across calls: records are parsed on demand and each call
-returns fresh dicts the caller may keep or change. Callers that load many
+Apart from the Region (read once), nothing is cached across calls: records
+are parsed on demand and each call returns fresh dicts the caller may keep
+or change. Callers that load many
 landblocks pass the ids they already hold as `known` to `portal_objects`.
 """
 
