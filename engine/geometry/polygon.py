@@ -2,8 +2,9 @@
 
 A `Polygon` is a convex, planar vertex loop (counter-clockwise seen from the
 front) with the plane the client derives from it (`Plane.from_points`, the
-client's `CPolygon::make_plane`). Terrain triangles, indoor cell walls and the
-faces of objects' physics BSPs are all Polygons.
+client's `CPolygon::make_plane`): the faces of cell structures' and objects'
+physics BSPs, and terrain triangles built as `Polygon([v0, v1, v2])` (the
+default sides_type 0 is the terrain's single-sided CullMode).
 
 Every test here follows the reference implementation branch for branch and
 in the same order, including its epsilons; only the spelling is Python's.
