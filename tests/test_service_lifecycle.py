@@ -1,0 +1,124 @@
+"""Clean shutdown on SIGINT/SIGTERM, and push-back when the queue is full."""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from typing import Any
+
+import msgpack
+import pytest
+import zenoh
+
+from clients import Client
+from clients.demo_world import global_to_cell
+from engine.geometry import Position, Vec3
+from service_support import ServiceProcess, human, raw_session, wait_until
+
+
+def _register(c: Client, gx: float = 40.0, gy: float = 40.0) -> int:
+    cell, x, y = global_to_cell(gx, gy)
+    return c.register(human(), Position.at(cell, Vec3(x, y, 60.0))).id
+
+
+class Collector:
+    """Replies to many concurrent queries, counted per query."""
+
+    def __init__(self) -> None:
+        self.replies: dict[int, list[tuple[bool, Any]]] = {}
+        self.finished: set[int] = set()
+        self.lock = threading.Lock()
+
+    def send(self, session: zenoh.Session, n: int, key: str, payload: bytes, timeout: float = 30.0) -> None:
+        self.replies[n] = []
+
+        def on_reply(r: zenoh.Reply) -> None:
+            if r.ok is not None:
+                item = (True, msgpack.unpackb(r.ok.payload.to_bytes(), raw=False))
+            else:
+                raw = r.err.payload.to_bytes()
+                try:
+                    item = (False, msgpack.unpackb(raw, raw=False))
+                except Exception:
+                    item = (False, {"error": {"kind": "transport", "message": raw.decode("utf-8", "replace")}})
+            with self.lock:
+                self.replies[n].append(item)
+
+        def on_done() -> None:
+            with self.lock:
+                self.finished.add(n)
+
+        session.get(key, zenoh.handlers.Callback(on_reply, on_done), payload=payload, timeout=timeout)
+
+
+def _batch(mover_id: int, n: int) -> bytes:
+    return msgpack.packb({"v": 1, "moves": [{"id": mover_id, "offset": [0.001, 0, 0]} for _ in range(n)]})
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_stops_cleanly_with_status_zero(sig: int) -> None:
+    svc = ServiceProcess().start()
+    try:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            mover = _register(c)
+            assert c.move(mover, offset=(0.5, 0.0, 0.0)).ok
+        assert svc.stop(sig, timeout=20.0) == 0
+    finally:
+        svc.kill()
+
+
+def test_shutdown_answers_every_queued_request() -> None:
+    svc = ServiceProcess().start()
+    session = raw_session(svc.endpoint)
+    try:
+        with Client(session=session) as c:
+            c.wait_ready()
+            mover = _register(c)
+        col = Collector()
+        for n in range(6):
+            col.send(session, n, "acphys/lb/A9B4/move", _batch(mover, 1500))
+        time.sleep(0.3)  # all six are queued; the engine is busy with the first
+        svc.proc.send_signal(signal.SIGTERM)  # type: ignore[union-attr]
+        assert wait_until(lambda: len(col.finished) == 6, timeout=60.0)
+        assert svc.proc.wait(30) == 0  # type: ignore[union-attr]
+        for n, replies in col.replies.items():
+            assert len(replies) == 1, (n, replies)
+            ok, msg = replies[0]
+            # queued before the signal: answered in full, not dropped
+            assert ok, (n, msg)
+            assert len(msg["results"]) == 1500
+        seqs = [msg["results"][-1]["seq"] for _, [(_, msg)] in sorted(col.replies.items())]
+        assert seqs == [1500 * (k + 1) for k in range(6)]  # in the order sent
+    finally:
+        session.close()
+        svc.kill()
+
+
+def test_full_queue_pushes_back_and_answers_everyone() -> None:
+    with ServiceProcess(extra=["--queue", "2"]) as svc:
+        session = raw_session(svc.endpoint)
+        try:
+            with Client(session=session) as c:
+                c.wait_ready()
+                mover = _register(c)
+                col = Collector()
+                for n in range(20):
+                    col.send(session, n, "acphys/lb/A9B4/move", _batch(mover, 300))
+                assert wait_until(lambda: len(col.finished) == 20, timeout=60.0)
+                kinds = []
+                for replies in col.replies.values():
+                    assert len(replies) == 1  # every request answered exactly once
+                    ok, msg = replies[0]
+                    kinds.append("ok" if ok else msg["error"]["kind"])
+                assert "busy" in kinds and "ok" in kinds
+                assert set(kinds) <= {"ok", "busy"}
+                # the accepted batches all ran, nothing else did
+                state, _ = c.get(mover)
+                assert state.seq == 300 * kinds.count("ok")
+                (stats,) = c.stats()
+                assert stats["errors"]["busy"] == kinds.count("busy")
+                assert c.health()[0]["status"] == "ok"
+        finally:
+            session.close()
