@@ -87,6 +87,9 @@ class Client:
             session = zenoh.open(make_config(config_file=config_file, connect=list(connect or [])))
         self.session = session
         self._where: dict[int, int] = {}
+        # fire-and-forget keeps one route per mover: the old owner forwards after a hand-over,
+        # in order, where switching keys mid-stream could overtake moves still in flight
+        self._push_route: dict[int, int] = {}
         self._lock = threading.Lock()
 
     # -- lifecycle ------------------------------------------------------------------
@@ -225,6 +228,7 @@ class Client:
     def remove(self, mover_id: int, timeout: float | None = None) -> None:
         self._lb_request(self.landblock_of(mover_id), "remove", {"id": mover_id}, mover_id, timeout)
         self._where.pop(mover_id, None)
+        self._push_route.pop(mover_id, None)
 
     def get(self, mover_id: int, timeout: float | None = None) -> tuple[MoverState, dict[str, Any]]:
         """A mover's current state and its spec (as the wire map)."""
@@ -304,7 +308,10 @@ class Client:
         """Fire-and-forget: states arrive on the state keys, errors on the error keys."""
         groups: dict[int, list[dict[str, Any]]] = {}
         for m in moves:
-            groups.setdefault(self.landblock_of(m.id), []).append(m.to_wire())
+            lb = self._push_route.get(m.id)
+            if lb is None:
+                lb = self._push_route[m.id] = self.landblock_of(m.id)
+            groups.setdefault(lb, []).append(m.to_wire())
         for lb, items in groups.items():
             body = {"move": items[0]} if len(items) == 1 else {"moves": items}
             self.session.put(self.keys.push(lb), _pack(body))
