@@ -3,12 +3,14 @@
     from clients import Client, Move
 """
 
+from .aio import AsyncClient
 from .client import Client, Subscription
 from .errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState
 
 __all__ = [
     "AcphysError",
+    "AsyncClient",
     "BusyError",
     "Client",
     "InstanceInfo",

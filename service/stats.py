@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import Counter, deque
@@ -29,7 +30,7 @@ class LatencyWindow:
 
         def pct(p: float) -> float:
             # nearest-rank percentile: a value that was actually observed
-            k = max(0, min(len(data) - 1, int(round(p / 100.0 * len(data) + 0.5)) - 1))
+            k = max(0, min(len(data) - 1, math.ceil(p / 100.0 * len(data)) - 1))
             return data[k] * 1000.0
 
         return out | {

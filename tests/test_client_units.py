@@ -1,0 +1,83 @@
+"""Client-side pieces that need no service: wire building, errors, demo world, PNG, progress."""
+
+from __future__ import annotations
+
+import io
+import json
+import zlib
+
+import numpy as np
+import pytest
+
+from clients import Move, ServiceError
+from clients.demo_world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height
+from clients.errors import BusyError
+from clients.png import encode_png
+from clients.progress import Progress
+from engine import load_scene
+from engine.constants import FLOOR_Z
+from engine.geometry import Position, Quat, Vec3
+
+
+def test_move_to_wire() -> None:
+    assert Move(5, offset=(1, 2, 3), tag="t").to_wire() == {"id": 5, "offset": [1.0, 2.0, 3.0], "tag": "t"}
+    assert Move(5, motion=Vec3(0.0, 1.0, 0.0), dt=0.1).to_wire() == {"id": 5, "motion": [0.0, 1.0, 0.0], "dt": 0.1}
+    to = Position.at(0xA9B40001, Vec3(1.0, 2.0, 3.0), Quat())
+    assert Move(5, to=to, velocity=(0, 0, 0)).to_wire() == {
+        "id": 5, "to": {"cell": 0xA9B40001, "origin": [1.0, 2.0, 3.0], "orientation": [1.0, 0.0, 0.0, 0.0]},
+        "velocity": [0.0, 0.0, 0.0]}
+    assert "cell" not in Move(5, to=to, keep_cell=False).to_wire()["to"]
+
+
+def test_service_error_from_wire() -> None:
+    e = ServiceError.from_wire({"kind": "moved", "message": "gone", "landblock": 0xAAB4})
+    assert e.kind == "moved" and e.details["landblock"] == 0xAAB4 and str(e) == "moved: gone"
+    assert isinstance(ServiceError.from_wire({"kind": "busy", "message": "full"}), BusyError)
+    assert ServiceError.from_wire("nonsense").kind == "malformed"
+
+
+def test_shipped_demo_scene_is_the_generated_one() -> None:
+    with open(demo_scene_path(), encoding="utf-8") as f:
+        assert json.load(f) == build_demo_scene()
+
+
+def test_demo_world_has_hills_an_unclimbable_face_and_a_ledge() -> None:
+    world = load_scene(str(demo_scene_path()))
+
+    def normal_z(gx: float, gy: float) -> float:
+        cell, x, y = global_to_cell(gx, gy)
+        lb = world.landblocks[cell >> 16]
+        return lb.terrain.normal_at(x, y).z
+
+    heights = [vertex_height(gx, gy) for gx in range(0, 9) for gy in range(0, 9)]
+    assert max(heights) - min(heights) >= 8  # hills
+    assert normal_z(228.0, 262.0) < FLOOR_Z  # the mesa's west face
+    assert normal_z(288.0, 150.0) > FLOOR_Z  # the ramp
+    assert normal_z(288.0, 348.0) < FLOOR_Z  # the north ledge
+
+
+def test_global_to_cell() -> None:
+    assert global_to_cell(20.0, 20.0) == (0xA9B40001, 20.0, 20.0)
+    assert global_to_cell(200.0, 262.0)[0] == 0xAAB50003
+
+
+def test_png_encoding_round_trip() -> None:
+    img = np.zeros((3, 4, 3), dtype=np.uint8)
+    img[1, 2] = (255, 10, 20)
+    data = encode_png(img)
+    idat = data[data.index(b"IDAT") + 4:data.index(b"IEND") - 8]
+    raw = np.frombuffer(zlib.decompress(idat), dtype=np.uint8).reshape(3, 1 + 4 * 3)
+    assert (raw[:, 0] == 0).all()
+    assert (raw[:, 1:].reshape(3, 4, 3) == img).all()
+    with pytest.raises(ValueError):
+        encode_png(np.zeros((3, 4), dtype=np.uint8))
+
+
+def test_progress_without_a_terminal_prints_quarters() -> None:
+    out = io.StringIO()
+    p = Progress(100, "walking", stream=out)
+    for k in range(1, 101):
+        p.update(k)
+    p.done()
+    assert out.getvalue().splitlines() == ["walking: 1/100", "walking: 25/100", "walking: 50/100",
+                                           "walking: 75/100", "walking: 100/100"]

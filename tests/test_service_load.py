@@ -1,0 +1,33 @@
+"""A bounded load test: several client processes, thousands of requests.
+
+Every request must be answered exactly once and every state must reach the
+subscriber; latency figures are the benchmarks' business, not asserted here.
+"""
+
+from __future__ import annotations
+
+from service_support import ServiceProcess, run_load_workers
+
+PROCESSES = 4
+REQUESTS = 1000  # per process: 4000 moves in all, some in batches of three
+
+
+def test_every_request_answered_once_and_no_state_lost() -> None:
+    with ServiceProcess() as svc:
+        reports = run_load_workers(svc.endpoint, PROCESSES, REQUESTS, batch_every=5, timeout=240.0)
+        from clients import Client
+
+        with Client([svc.endpoint]) as c:
+            (stats,) = c.stats()
+    assert len(reports) == PROCESSES
+    for rep in reports:
+        i = rep["index"]
+        assert rep["errors"] == []
+        expected = {f"{i}-{k}" for k in range(REQUESTS)}
+        assert set(rep["replies"]) == expected
+        assert all(n == 1 for n in rep["replies"].values())
+        assert rep["final_seq"] == REQUESTS
+        # every published state of the mover, in order, none missing
+        assert rep["states"] == list(range(1, REQUESTS + 1))
+    assert stats["moves"] >= PROCESSES * REQUESTS
+    assert stats["errors"].get("busy", 0) == 0
