@@ -112,3 +112,21 @@ def test_serve_defaults_to_the_demo_world_and_stops_on_sigterm() -> None:
 def test_serve_with_a_missing_scene_fails() -> None:
     r = acphys("serve", "--scene", "/nonexistent/scene.json", "--listen", endpoint(free_port()))
     assert r.returncode == 2 and "cannot open the world" in r.stderr
+
+
+def test_move_an_existing_mover_by_id(service: ServiceProcess) -> None:
+    from clients import Client
+    from clients.demo_world import global_to_cell
+    from engine.geometry import Position, Vec3
+    from service_support import human
+
+    with Client([service.endpoint]) as c:
+        cell, x, y = global_to_cell(100.0, 100.0)
+        st = c.register(human(), Position.at(cell, Vec3(x, y, 60.0)))
+        # no --landblock: the command finds the mover by asking every instance
+        r = acphys("move", "--connect", service.endpoint, "--id", f"{st.id:X}", "--to", f"{x + 1}", f"{y}", "60",
+                   "--json")
+        assert r.returncode == 0, r.stderr
+        state = json.loads(r.stdout)
+        assert state["id"] == st.id and state["seq"] == 1 and state["position"]["cell"] == cell
+        c.remove(st.id)

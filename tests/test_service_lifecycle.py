@@ -122,3 +122,19 @@ def test_full_queue_pushes_back_and_answers_everyone() -> None:
                 assert c.health()[0]["status"] == "ok"
         finally:
             session.close()
+
+
+def test_zenoh_config_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from service_support import endpoint, free_port
+
+    ep = endpoint(free_port())
+    cfg = tmp_path / "zenoh.json5"
+    cfg.write_text('{ mode: "peer", listen: { endpoints: ["%s"] }, scouting: { multicast: { enabled: false } } }' % ep)
+    svc = ServiceProcess(extra=["--zenoh-config", str(cfg)])
+    svc.args.remove("--listen")
+    svc.args.remove(svc.endpoint)
+    svc.endpoint = ep
+    with svc:
+        with Client([ep]) as c:
+            c.wait_ready()
+            assert c.move(_register(c), offset=(0.1, 0.0, 0.0)).ok
