@@ -185,14 +185,14 @@ def _cmd_stats(args: argparse.Namespace) -> int:
         print(f"instance {s.instance}")
         print(f"  uptime        {d.get('uptime_s', 0):.1f} s   movers {d.get('movers', 0)}   "
               f"queue {d.get('queue_depth', 0)}/{d.get('queue_capacity', 0)}")
-        print(f"  requests      " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("requests", {}).items())))
+        print("  requests      " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("requests", {}).items())))
         print(f"  moves         {d.get('moves', 0)}")
         errs = d.get("errors", {})
-        print(f"  errors        " + (", ".join(f"{k} {v}" for k, v in sorted(errs.items())) or "none"))
+        print("  errors        " + (", ".join(f"{k} {v}" for k, v in sorted(errs.items())) or "none"))
         print(f"  latency (ms)  p50 {lat.get('p50', 0):.3f}  p90 {lat.get('p90', 0):.3f}  "
               f"p99 {lat.get('p99', 0):.3f}  max {lat.get('max', 0):.3f}  over {lat.get('window', 0)} moves")
-        print(f"  landblocks    " + " ".join(f"{lb:04X}" for lb in d.get("loaded_landblocks", [])))
-        print(f"  cache         " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("cache", {}).items())))
+        print("  landblocks    " + " ".join(f"{lb:04X}" for lb in d.get("loaded_landblocks", [])))
+        print("  cache         " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("cache", {}).items())))
         h = d.get("handovers", {})
         print(f"  hand-overs    out {h.get('out', 0)}, in {h.get('in', 0)}, failed {h.get('failed', 0)}")
     return 0

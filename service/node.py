@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import msgpack
@@ -41,21 +42,17 @@ def pack(content: dict[str, Any]) -> bytes:
     return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
 
 
+@dataclass(slots=True)
 class NodeOptions:
-    def __init__(
-        self,
-        *,
-        prefix: str = "acphys",
-        ownership: Ownership | None = None,
-        queue_capacity: int = 1024,
-        handover_timeout: float = 2.0,
-        publish_states: bool = True,
-    ) -> None:
-        self.keys = Keys(prefix)
-        self.ownership = ownership or Ownership()
-        self.queue_capacity = queue_capacity
-        self.handover_timeout = handover_timeout
-        self.publish_states = publish_states
+    prefix: str = "acphys"
+    ownership: Ownership = field(default_factory=Ownership)
+    queue_capacity: int = 1024  # requests waiting for the engine before `busy`
+    handover_timeout: float = 2.0  # seconds to wait for a hand-over's answer
+    publish_states: bool = True
+
+    @property
+    def keys(self) -> Keys:
+        return Keys(self.prefix)
 
 
 class ServiceNode:
