@@ -6,11 +6,20 @@
 `open_dat_world` opens `client_cell_1.dat` and `client_portal.dat` with
 `DatCollection` and gives the World a loader (`DatLandblockSource`) that
 turns one landblock's scene dict into a `Landblock` with the same builder
-the scene format uses. At most `cache_size` landblocks stay loaded: when a
-load goes over, the least recently used landblock no registered mover stands
-in is unloaded. `world.stats` gains `landblock_cache_hits`,
-`landblock_cache_misses`, `landblock_cache_size` and
-`landblock_cache_capacity` beside the World's own load/unload counts.
+the scene format uses. A landblock is loaded the first time the World looks
+it up: the landblock a move starts or ends in, and also a neighbour a move
+reaches into near a seam, so a move answers as it would with every landblock
+of the dats loaded (and as the client, which holds the landblocks around the
+player, does).
+
+At most `cache_size` landblocks stay loaded: after a load, and at the World's
+check before each move, the least recently used landblocks beyond that
+number are unloaded, never one a registered mover stands in (so the cache
+can run over while movers hold it full). `world.stats` gains
+`landblock_cache_hits` (the World's before-move checks that found the
+landblock loaded), `landblock_cache_misses` (landblocks read from the dats),
+`landblock_cache_size` and `landblock_cache_capacity`, beside the World's own
+`landblock_loads` and `landblock_unloads`.
 
 `world.scene` is an acphys-scene/1 dict that grows as landblocks load: the
 height table, the landblocks now loaded, and every portal object
@@ -27,6 +36,7 @@ from __future__ import annotations
 import importlib.util
 import itertools
 import os
+import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -100,6 +110,9 @@ class _PortalObjects(dict[str, Any]):
     def __contains__(self, key: object) -> bool:
         return dict.__contains__(self, key) or self._try_fetch(key)
 
+    def __reduce__(self) -> tuple[Any, ...]:  # copies and pickles are plain dicts
+        return (dict, (dict(self),))
+
 
 class _LruLandblocks(dict[int, Landblock]):
     """`World.landblocks` with use order: every lookup marks a landblock used.
@@ -150,6 +163,9 @@ class _LruLandblocks(dict[int, Landblock]):
             self._source.note_removed(lb_id)
         return lb
 
+    def __reduce__(self) -> tuple[Any, ...]:  # copies and pickles are plain dicts
+        return (dict, (dict(self),))
+
     def least_recent_first(self) -> list[int]:
         return sorted(dict.keys(self), key=lambda i: self.last_use.get(i, -1))
 
@@ -169,7 +185,8 @@ class DatLandblockSource:
         self.dats = dats
         self.cache_size = cache_size
         self.world: World | None = None
-        self._indoor = indoor_loader_available()
+        #: whether landblocks are built with their indoor content (see `build`)
+        self.indoor = indoor_loader_available()
         self.scene: dict[str, Any] = {
             "format": SCENE_FORMAT,
             "name": os.path.basename(os.path.normpath(dats.directory)),
@@ -261,8 +278,22 @@ class DatLandblockSource:
         return lb_dict
 
     def build(self, lb_dict: dict[str, Any]) -> Landblock:
-        """A Landblock from a landblock dict: terrain only until the indoor loader exists."""
-        data = lb_dict if self._indoor else {k: v for k, v in lb_dict.items() if k not in _INDOOR_KEYS}
+        """A Landblock from a landblock dict, with its EnvCells, buildings and
+        objects when the engine's indoor loader exists; until then (or while a
+        module it needs is still missing) terrain only, with a warning once."""
+        if self.indoor and any(k in lb_dict for k in _INDOOR_KEYS):
+            try:
+                return build_landblock(lb_dict, self.scene["height_table"], self.scene, name=self.dats.directory)
+            except ModuleNotFoundError as e:
+                if not (e.name or "").startswith("engine."):
+                    raise
+                self.indoor = False
+                warnings.warn(
+                    f"indoor geometry cannot be built yet ({e}); dat landblocks load their terrain only",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+        data = {k: v for k, v in lb_dict.items() if k not in _INDOOR_KEYS}
         return build_landblock(data, self.scene["height_table"], self.scene, name=self.dats.directory)
 
     def _merge(self, found: dict[str, dict[str, Any]]) -> None:

@@ -61,7 +61,7 @@ class ObjectInfo:
         self.step_down = step_down
         self.target_id = 0
         self.walkable_z = walkable_z
-        # A missile is an object that does not step down (PhysicsState.Missile).
+        # standing in for the live Missile state when there is no mover behind us
         self.missile = not step_down
         self.gravity = gravity
 

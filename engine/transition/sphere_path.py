@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
+from ..geometry.f32 import vec_f32
 from ..geometry.landdefs import get_block_offset
 from .state import InsertType
 
@@ -146,7 +147,7 @@ class SpherePath:
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
         self.cell_array_valid = False
-        self.check_pos = self.check_pos.moved(offset)
+        self.check_pos = self.check_pos.with_origin(vec_f32(self.check_pos.frame.origin + offset))
         self.cache_global_sphere(offset)
 
     def adjust_check_pos(self, cell_id: int) -> None:
@@ -189,8 +190,8 @@ class SpherePath:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
         if offset is not None:
             for s in self.global_sphere:
-                s.center = s.center + offset
-            self.global_low_point = self.global_low_point + offset
+                s.center = vec_f32(s.center + offset)
+            self.global_low_point = vec_f32(self.global_low_point + offset)
             return
         frame = self.check_pos.frame
         for i in range(self.num_sphere):

@@ -54,6 +54,7 @@ class Mover:
         "oi_flags",
         "gravity",
         "missile",
+        "step_down",
         "ethereal",
         "creature",
         "position",
@@ -82,6 +83,7 @@ class Mover:
         step_down_height: float = 0.4,
         gravity: bool = True,
         missile: bool = False,
+        step_down: bool = True,
         ethereal: bool = False,
         creature: bool = False,
         cyl_spheres: list[Any] | None = None,
@@ -97,6 +99,8 @@ class Mover:
         self.oi_flags = oi_flags & _STATIC_OI
         self.gravity = gravity
         self.missile = missile
+        #: whether transitions probe for ground below (never for a missile)
+        self.step_down = step_down
         self.ethereal = ethereal
         self.creature = creature
         self.position: Position = Position(0, Frame(ZERO))
@@ -164,7 +168,7 @@ class Mover:
                 step_up_height=self.step_up_height * self.scale,
                 step_down_height=self.step_down_height * self.scale,
                 ethereal=self.ethereal,
-                step_down=not self.missile,
+                step_down=self.step_down and not self.missile,
                 gravity=self.gravity,
             )
         )

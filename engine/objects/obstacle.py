@@ -1,0 +1,375 @@
+"""Obstacles: the objects a mover collides with (the obstacle side of the
+client's CPhysicsObj, ACE `PhysicsObj.FindObjCollisions`).
+
+An `Obstacle` is a static object (a rock, a pillar, a house's props) or a
+live one seen by other movers. A cell holds it in `cell.shadow_objects`;
+`ObjCell.find_obj_collisions` calls `obstacle.find_obj_collisions(t)` on each
+entry, newest first.
+
+Its collision shape, as the reference chooses it: the parts' physics BSPs
+if any part has one, else its cylspheres, else its spheres (scaled by
+`scale`). `MoverObstacle` shows a live `engine.world.mover.Mover` to the
+others through the same code.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Sequence
+
+from ..constants import EPSILON
+from ..geometry import Frame, Position, Sphere, Vec3
+from ..transition.state import OI, InsertType, TransitionState
+from .cylsphere_collision import CylSphere
+from .sphere_collision import intersects_sphere_at
+
+if TYPE_CHECKING:
+    from ..transition.object_info import ObjectInfo
+    from ..transition.transition import Transition
+
+__all__ = ["Obstacle", "MoverObstacle", "PhysicsPart", "find_obj_collisions", "missile_ignore"]
+
+_OK = TransitionState.OK
+_ONE = Vec3(1.0, 1.0, 1.0)
+
+
+class PhysicsPart:
+    """One part of an obstacle with physics geometry (the client's CPhysicsPart).
+
+    `gfx_obj` is anything with `physics_bsp` (a tree with
+    `find_collisions(transition, scale)`, `placement_insert(transition)` and
+    `get_sphere()`, or None for a drawing-only part) and optionally
+    `physics_sphere` (the BSP root's bounding sphere). `frame` is the part's
+    placement frame in the object's frame (None: the part takes the object's
+    own frame, as a single part without placement frames does). `gfx_scale`
+    is the part's scale (default scale times the object's scale); its z is
+    what the BSP is scaled by.
+    """
+
+    __slots__ = ("gfx_obj", "frame", "gfx_scale")
+
+    def __init__(self, gfx_obj: Any, frame: Frame | None = None, gfx_scale: Vec3 = _ONE) -> None:
+        self.gfx_obj = gfx_obj
+        self.frame = frame
+        self.gfx_scale = gfx_scale
+
+    def __repr__(self) -> str:
+        return f"PhysicsPart({self.gfx_obj!r}, {self.frame!r}, {self.gfx_scale!r})"
+
+    @property
+    def physics_bsp(self) -> Any:
+        return getattr(self.gfx_obj, "physics_bsp", None)
+
+    def position(self, owner: Position, scale: float) -> Position:
+        """The part's Position for an owner at `owner` (PartArray.UpdateParts:
+        owner frame combined with the placement frame, its origin scaled)."""
+        if self.frame is None:
+            return owner
+        return Position(owner.cell_id, owner.frame.combine(self.frame, Vec3(scale, scale, scale)))
+
+    def find_obj_collisions(self, transition: Transition, part_pos: Position) -> int:
+        """Collide the path with this part's physics BSP (PhysicsPart.FindObjCollisions
+        then GfxObj.FindObjCollisions).
+
+        The path's spheres are cached in the part's local space (divided by
+        the part's z scale); the BSP is consulted only if one of them reaches
+        the BSP's bounding sphere, and the first such sphere decides.
+        """
+        gfx = self.gfx_obj
+        bsp = getattr(gfx, "physics_bsp", None)
+        if bsp is None:
+            return _OK
+        scale_z = self.gfx_scale.z
+        path = transition.sphere_path
+        path.cache_local_space_sphere(part_pos, scale_z)
+        bound = getattr(gfx, "physics_sphere", None)
+        if bound is None:
+            bound = bsp.get_sphere()
+        if bound is None:
+            return _OK
+        bc = bound.center
+        for i in range(path.num_sphere):
+            ls = path.local_space_sphere[i]
+            d = bc - ls.center
+            radsum = bound.radius + ls.radius
+            if d.length_sq() - radsum * radsum < EPSILON:
+                if path.insert_type == InsertType.INITIAL_PLACEMENT:
+                    return bsp.placement_insert(transition)
+                return bsp.find_collisions(transition, scale_z)
+        return _OK
+
+
+class Obstacle:
+    """A static or dynamic object others collide with.
+
+    Shape: `spheres` and `cyl_spheres` in the object's frame (unscaled),
+    `parts` (PhysicsParts with physics BSPs), `scale`. Placement: `position`
+    (rebind it to move the object; BSP part positions follow).
+
+    Flags, as an obstacle: `static` (PhysicsState.Static: a landblock object);
+    `ethereal`, `ignore_collisions` (ethereal and ignore-collisions together:
+    nothing collides); `missile` (its live Missile state);
+    `projectile_target_id` (the id a missile obstacle is aimed at, 0 none).
+    Weenie properties, only read when `dat_object` is False (a dat object has
+    no weenie: static landblock objects): `is_player`, `is_creature`,
+    `is_pk`, `is_pk_lite`, `is_impenetrable`.
+
+    `owner` is the physics object the collision records name (what goes into
+    CollisionInfo.collide_object); None means the obstacle itself.
+    """
+
+    __slots__ = (
+        "id",
+        "position",
+        "scale",
+        "spheres",
+        "cyl_spheres",
+        "parts",
+        "static",
+        "ethereal",
+        "ignore_collisions",
+        "missile",
+        "projectile_target_id",
+        "dat_object",
+        "is_player",
+        "is_creature",
+        "is_pk",
+        "is_pk_lite",
+        "is_impenetrable",
+        "owner",
+        "_has_physics_bsp",
+        "_part_cache_key",
+        "_part_positions",
+    )
+
+    def __init__(
+        self,
+        obj_id: int,
+        position: Position,
+        *,
+        spheres: Sequence[Sphere] = (),
+        cyl_spheres: Sequence[CylSphere] = (),
+        parts: Sequence[PhysicsPart] = (),
+        scale: float = 1.0,
+        static: bool = True,
+        ethereal: bool = False,
+        ignore_collisions: bool = False,
+        missile: bool = False,
+        projectile_target_id: int = 0,
+        dat_object: bool | None = None,
+        is_player: bool = False,
+        is_creature: bool = False,
+        is_pk: bool = False,
+        is_pk_lite: bool = False,
+        is_impenetrable: bool = False,
+        owner: Any = None,
+    ) -> None:
+        self.id = obj_id
+        self.position = position
+        self.scale = scale
+        self.spheres = list(spheres)
+        self.cyl_spheres = list(cyl_spheres)
+        self.parts = list(parts)
+        self.static = static
+        self.ethereal = ethereal
+        self.ignore_collisions = ignore_collisions
+        self.missile = missile
+        self.projectile_target_id = projectile_target_id
+        self.dat_object = static if dat_object is None else dat_object
+        self.is_player = is_player
+        self.is_creature = is_creature
+        self.is_pk = is_pk
+        self.is_pk_lite = is_pk_lite
+        self.is_impenetrable = is_impenetrable
+        self.owner = owner
+        self._has_physics_bsp = any(p.physics_bsp is not None for p in self.parts)
+        self._part_cache_key: Any = None
+        self._part_positions: list[Position] = []
+
+    def __repr__(self) -> str:
+        return f"Obstacle({self.id:#x}, {self.position!r})"
+
+    @property
+    def has_physics_bsp(self) -> bool:
+        """PhysicsState.HasPhysicsBSP: some part has a physics BSP."""
+        return self._has_physics_bsp
+
+    def part_positions(self) -> list[Position]:
+        """Each part's Position at the obstacle's current position."""
+        key = (self.position, self.scale)
+        if self._part_cache_key != key:
+            self._part_positions = [p.position(self.position, self.scale) for p in self.parts]
+            self._part_cache_key = key
+        return self._part_positions
+
+    def find_obj_collisions(self, transition: Transition) -> int:
+        """PhysicsObj.FindObjCollisions: see `find_obj_collisions`."""
+        return find_obj_collisions(self, transition)
+
+
+class MoverObstacle(Obstacle):
+    """A live Mover as the others see it: its id, position, scale and flags
+    are read from the mover at every test.
+
+    Shape (formats README): its cylspheres if it has any, else its spheres,
+    both scaled by its scale; never BSP parts. Weenie flags: IsPlayer, IsPK,
+    IsPKLite, IsImpenetrable from its ObjectInfo flags, creature from
+    `mover.creature`. It never collides with its own mover.
+    """
+
+    __slots__ = ("mover",)
+
+    def __init__(self, mover: Any) -> None:
+        cyl = [c if isinstance(c, CylSphere) else CylSphere.from_spec(c) for c in (mover.cyl_spheres or ())]
+        super().__init__(
+            mover.id,
+            mover.position,
+            spheres=list(mover.spheres),
+            cyl_spheres=cyl,
+            scale=mover.scale,
+            static=False,
+            dat_object=False,
+            owner=mover,
+        )
+        self.mover = mover
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Copy the mover's live position and flags (done before every test)."""
+        m = self.mover
+        self.id = m.id
+        self.position = m.position
+        self.scale = m.scale
+        self.ethereal = bool(m.ethereal)
+        self.missile = bool(m.missile)
+        flags = m.oi_flags
+        self.is_player = bool(flags & OI.IS_PLAYER)
+        self.is_pk = bool(flags & OI.IS_PK)
+        self.is_pk_lite = bool(flags & OI.IS_PK_LITE)
+        self.is_impenetrable = bool(flags & OI.IS_IMPENETRABLE)
+        self.is_creature = bool(m.creature)
+
+    def find_obj_collisions(self, transition: Transition) -> int:
+        if transition.object_info.obj is self.mover:
+            return _OK
+        self.refresh()
+        return find_obj_collisions(self, transition)
+
+
+def missile_ignore(oi: ObjectInfo, obstacle: Any) -> bool:
+    """Does the mover pass through this obstacle because one of them is a
+    missile? (ObjectInfo.MissileIgnore, the reference's two-way form)
+
+    A missile obstacle is ignored by every non-player, and by a player unless
+    the missile has no target or targets that player. A missile mover
+    ignores an obstacle with a weenie that is not its target when the
+    obstacle is ethereal, or is a creature while the missile has a target.
+    """
+    if obstacle.missile:
+        if not oi.state & OI.IS_PLAYER:
+            return True
+        target = obstacle.projectile_target_id
+        mover = oi.obj
+        if target == 0 or (mover is not None and target == getattr(mover, "id", None)):
+            return False
+        return True
+    if oi.is_missile():
+        if not obstacle.dat_object and obstacle.id != oi.target_id:
+            if obstacle.ethereal or (oi.target_id != 0 and obstacle.is_creature):
+                return True
+    return False
+
+
+def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
+    """Collide the path with one obstacle (PhysicsObj.FindObjCollisions).
+
+    - ethereal + ignore-collisions obstacles, and creatures seen by a viewer
+      (camera), are never touched;
+    - an ethereal obstacle, or any non-static one when the mover is ethereal,
+      is an overlap test only (ethereal obstruction) and is skipped while
+      stepping down;
+    - players walk through players unless either is impenetrable or both are
+      PK or both PK-lite ("exemption"); missiles pass what MissileIgnore
+      says;
+    - the shape tested is the BSP parts, else the cylspheres, else the
+      spheres; the first one answering anything but OK decides.
+    """
+    path = transition.sphere_path
+    oi = transition.object_info
+    if obstacle.ethereal and obstacle.ignore_collisions:
+        return _OK
+    state = oi.state
+    dat_object = obstacle.dat_object
+    if not dat_object and state & OI.IS_VIEWER and obstacle.is_creature:
+        return _OK
+
+    ethereal = False
+    if obstacle.ethereal or (not obstacle.static and oi.ethereal):
+        if path.step_down:
+            return _OK
+        ethereal = True
+    path.obstruction_ethereal = ethereal
+
+    exemption = not (
+        dat_object
+        or not obstacle.is_player
+        or not state & OI.IS_PLAYER
+        or state & OI.IS_IMPENETRABLE
+        or obstacle.is_impenetrable
+        or (state & OI.IS_PK and obstacle.is_pk)
+        or (state & OI.IS_PK_LITE and obstacle.is_pk_lite)
+    )
+    ignore = missile_ignore(oi, obstacle)
+    is_creature = bool(obstacle.missile or (not dat_object and obstacle.is_creature))
+
+    if not (ignore or exemption):
+        if obstacle.has_physics_bsp:
+            positions = obstacle.part_positions()
+            for i, part in enumerate(obstacle.parts):
+                result = part.find_obj_collisions(transition, positions[i])
+                if result != _OK:
+                    return _respond(obstacle, transition, result, ethereal, is_creature)
+        elif obstacle.cyl_spheres:
+            pos = obstacle.position
+            scale = obstacle.scale
+            for cyl in obstacle.cyl_spheres:
+                result = cyl.intersects_sphere_at(pos, scale, transition)
+                if result != _OK:
+                    return _respond(obstacle, transition, result, ethereal, is_creature)
+        elif obstacle.spheres:
+            pos = obstacle.position
+            scale = obstacle.scale
+            for sphere in obstacle.spheres:
+                result = intersects_sphere_at(sphere, pos, scale, transition, is_creature)
+                if result != _OK:
+                    return _respond(obstacle, transition, result, ethereal, is_creature)
+
+    path.obstruction_ethereal = False
+    return _OK
+
+
+def _respond(obstacle: Any, transition: Transition, result: int, ethereal: bool, is_creature: bool) -> int:
+    """Record the collision (PhysicsObj.FindObjCollisions_Inner).
+
+    Outside step-down: a static obstacle only marks an environment collision
+    for a mover not in contact; an ethereal obstacle, or a creature when the
+    mover ignores creatures, is recorded as touched and the result becomes
+    OK with the collision normal invalidated; anything else is recorded with
+    the result.
+    """
+    path = transition.sphere_path
+    if not path.step_down:
+        ci = transition.collision_info
+        oi = transition.object_info
+        if obstacle.static:
+            if not oi.state & OI.CONTACT:
+                ci.collided_with_environment = True
+        else:
+            owner = obstacle.owner if obstacle.owner is not None else obstacle
+            if ethereal or (is_creature and oi.state & OI.IGNORE_CREATURES):
+                result = _OK
+                ci.collision_normal_valid = False
+                ci.add_object(owner, _OK)
+            else:
+                ci.add_object(owner, result)
+    path.obstruction_ethereal = False
+    return result
