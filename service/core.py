@@ -148,6 +148,7 @@ class ServiceCore:
         rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
                         sliding_normal=req.sliding_normal, water_contact=req.water_contact)
         state = self._state(rec)
+        self._refresh()  # a dat world loads the start landblock on demand
         self.bus.publish_state(rec.id, state)
         return {"state": state}
 

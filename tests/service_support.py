@@ -31,6 +31,7 @@ from service.zconfig import make_config
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "tests"
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
+SHARED = Path(os.environ.get("ACPHYS_SHARED", ROOT.parent / "shared"))
 START_TIMEOUT = 30.0
 
 
