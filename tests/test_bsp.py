@@ -437,8 +437,8 @@ def test_step_down_lands_on_floor_and_sets_contact_plane() -> None:
     before = path.check_pos.frame.origin
     assert tree.find_collisions(t, 1.0) == TransitionState.ADJUSTED
     after = path.check_pos.frame.origin
-    assert close(after - before, 0, 0, 0.05, 1e-9)
-    assert close(path.global_sphere[0].center, *to_global(Vec3(0.5, 0.5, 0.5)).as_tuple(), 1e-9)
+    assert close(after - before, 0, 0, 0.05, 1e-5)  # positions are kept in single precision
+    assert close(path.global_sphere[0].center, *to_global(Vec3(0.5, 0.5, 0.5)).as_tuple(), 1e-5)
     ci = t.collision_info
     assert ci.contact_plane_valid and not ci.contact_plane_is_water
     assert close(ci.contact_plane.normal, 0, 0, 1, 1e-9) and ci.contact_plane.d == pytest.approx(-20.0)
@@ -465,7 +465,7 @@ def test_collide_mode_lands_on_floor() -> None:
     path.walk_interp = 1.0
     before = path.check_pos.frame.origin
     assert tree.find_collisions(t, 1.0) == TransitionState.ADJUSTED
-    assert close(path.check_pos.frame.origin - before, 0, 0, 0.2, 1e-9)
+    assert close(path.check_pos.frame.origin - before, 0, 0, 0.2, 1e-5)  # positions are kept in single precision
     assert t.collision_info.contact_plane_valid
     assert t.collision_info.contact_plane.d == pytest.approx(-20.0)
     assert path.walkable is faces["bottom"]
@@ -603,7 +603,7 @@ def test_placement_insert_pushes_sphere_out_of_wall_by_overlap() -> None:
     t = FakeTransition(make_path(Vec3(1.3, 0, 1.0), Vec3(1.3, 0, 1.0), cell_pos=CRATE_POS))
     before = t.sphere_path.check_pos.frame.origin
     assert tree.placement_insert(t) == TransitionState.ADJUSTED
-    assert close(t.sphere_path.check_pos.frame.origin - before, 0.2, 0, 0, 1e-9)
+    assert close(t.sphere_path.check_pos.frame.origin - before, 0.2, 0, 0, 1e-5)  # positions are kept in single precision
 
 
 def test_placement_insert_pushes_both_spheres_together() -> None:
@@ -611,7 +611,7 @@ def test_placement_insert_pushes_both_spheres_together() -> None:
     t = FakeTransition(make_path(Vec3(1.3, 0, 0.7), Vec3(1.3, 0, 0.7), head=True, cell_pos=CRATE_POS))
     before = t.sphere_path.check_pos.frame.origin
     assert tree.placement_insert(t) == TransitionState.ADJUSTED
-    assert close(t.sphere_path.check_pos.frame.origin - before, 0.2, 0, 0, 1e-9)
+    assert close(t.sphere_path.check_pos.frame.origin - before, 0.2, 0, 0, 1e-5)  # positions are kept in single precision
 
 
 def test_placement_insert_clear_sphere_is_ok_and_unmoved() -> None:
