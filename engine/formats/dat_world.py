@@ -179,14 +179,14 @@ class DatLandblockSource:
     World with `attach` before the first load.
     """
 
-    def __init__(self, dats: DatCollection, cache_size: int = DEFAULT_CACHE_SIZE) -> None:
+    def __init__(self, dats: DatCollection, cache_size: int = DEFAULT_CACHE_SIZE, indoor: bool | None = None) -> None:
         if not isinstance(cache_size, int) or isinstance(cache_size, bool) or cache_size < 1:
             raise EngineError(f"cache_size must be a positive integer, got {cache_size!r}")
         self.dats = dats
         self.cache_size = cache_size
         self.world: World | None = None
         #: whether landblocks are built with their indoor content (see `build`)
-        self.indoor = indoor_loader_available()
+        self.indoor = indoor_loader_available() if indoor is None else bool(indoor)
         self.scene: dict[str, Any] = {
             "format": SCENE_FORMAT,
             "name": os.path.basename(os.path.normpath(dats.directory)),
@@ -393,15 +393,19 @@ def open_dat_world(
     path: str | os.PathLike[str] | None = None,
     settings: EngineSettings = RETAIL,
     cache_size: int = DEFAULT_CACHE_SIZE,
+    *,
+    indoor: bool | None = None,
 ) -> World:
     """A World on the dat directory `path` (None: `$ACPHYS_DAT_DIR`), loading
     landblocks when a move or query first needs them and keeping at most
-    `cache_size` of them (see the module docstring). The source is
-    `world.dat_source` (a `DatLandblockSource`)."""
+    `cache_size` of them (see the module docstring). `indoor` False builds
+    terrain only (EnvCells, buildings and objects left out); None, the
+    default, builds them whenever the engine's indoor loader exists. The
+    source is `world.dat_source` (a `DatLandblockSource`)."""
     directory = resolve_dat_dir(path)
     dats = DatCollection(directory)
     try:
-        source = DatLandblockSource(dats, cache_size)
+        source = DatLandblockSource(dats, cache_size, indoor)
     except BaseException:
         dats.close()
         raise
