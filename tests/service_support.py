@@ -184,8 +184,13 @@ def load_worker(endpoint_: str, index: int, requests: int, batch_every: int) -> 
             with lock:
                 states.append(s.seq)
 
+        class _Seq:
+            def __init__(self, seq: int) -> None:
+                self.seq = seq
+
         sub = c.subscribe(on_state, mover_id)
-        time.sleep(0.3)  # let the subscription reach the service
+        base = prime_states(c, mover_id, lambda: [_Seq(q) for q in list(states)])
+        out["base_seq"] = base
         sent = 0
         while sent < requests:
             if batch_every and sent % batch_every == 0 and sent + 3 <= requests:
@@ -212,7 +217,7 @@ def load_worker(endpoint_: str, index: int, requests: int, batch_every: int) -> 
             time.sleep(0.05)
         sub.close()
         with lock:
-            out["states"] = list(states)
+            out["states"] = [q for q in states if q > base]
         c.remove(mover_id)
     return out
 
@@ -244,6 +249,20 @@ def run_load_workers(endpoint_: str, processes: int, requests: int, batch_every:
         assert p.returncode == 0 and lines, f"load worker failed ({p.returncode}):\n{stderr[-3000:]}"
         reports.append(json.loads(lines[-1][len("RESULT "):]))
     return reports
+
+
+def prime_states(client: Any, mover_id: int, seen: Any, timeout: float = 10.0) -> int:
+    """Make sure a state subscription is live: zero moves until one is seen.
+
+    `seen()` returns the states received so far. Returns the mover's seq
+    after priming; every later state must then arrive.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        st = client.move(mover_id, offset=(0.0, 0.0, 0.0))
+        if wait_until(lambda: any(x.seq == st.seq for x in seen()), timeout=0.2):
+            return int(st.seq)
+    raise AssertionError("the state subscription never went live")
 
 
 def wait_until(predicate: Any, timeout: float = 10.0, interval: float = 0.02) -> bool:
