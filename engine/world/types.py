@@ -114,3 +114,5 @@ class MoveResult:
     frames_stationary_fall: int | None  # None when no transition ran
     transient_state: list[str]
     collide_objects: list[int] = field(default_factory=list)
+    #: for placements: "OK", "NoValidPosition" or "NoCell(lost)"; None for moves
+    placement_result: str | None = None

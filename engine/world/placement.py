@@ -1,0 +1,114 @@
+"""Placing a mover into the world: entering it, or teleporting within it.
+
+The client's PhysicsObj.SetPosition: find the cell the target lies in
+(AdjustPosition), run a placement transition there (CheckPositionInternal:
+push out of overlaps, search for a free spot when sliding is allowed, land
+with a LandingZ step-down), and apply the result (SetPositionInternal).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..geometry import Position
+from ..geometry.landdefs import adjust_to_outside
+from ..transition.object_info import ObjectInfo
+from ..transition.transition import Transition
+from .types import MoveResult
+
+if TYPE_CHECKING:
+    from .world import World
+
+__all__ = ["place_mover", "PLACEMENT_MODES"]
+
+PLACEMENT_MODES = ("enter_world", "teleport")
+
+
+def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[Any, Position]:
+    """The cell a placement target lies in, and the target re-homed there
+    (PhysicsObj.AdjustPosition, searching the stab list)."""
+    index = position.cell_id & 0xFFFF
+    if not ((1 <= index <= 0x40) or (0x100 <= index <= 0xFFFD) or index == 0xFFFF):
+        return None, position
+    if index < 0x100:
+        cell_id, origin = adjust_to_outside(position.cell_id, position.frame.origin)
+        position = Position(cell_id, position.frame.with_origin(origin))
+        return (world.get_landcell(cell_id) if cell_id else None), position
+    visible = world.get_landcell(position.cell_id)
+    if visible is None:
+        return None, position
+    point = position.frame.local_to_global(low_point)
+    if visible.point_in_cell(point):
+        return visible, position
+    for other in visible.visible_cells.values():
+        if other is not None and other.point_in_cell(point):
+            return other, position.with_cell(other.id)
+    if not visible.seen_outside:
+        return None, position
+    cell_id, origin = adjust_to_outside(position.cell_id, position.frame.origin)
+    position = Position(cell_id, position.frame.with_origin(origin))
+    return (world.get_landcell(cell_id) if cell_id else None), position
+
+
+def place_mover(world: World, mover_id: int, target: Position, mode: str = "teleport", slide: bool = False) -> MoveResult:
+    """Place a mover at `target` as the client places a new or teleported object.
+
+    `mode` is "enter_world" (the object is new to the world: a placement that
+    ends in another landblock is refused) or "teleport". With `slide` the
+    placement may search around the target for a free spot; without it only a
+    shift under 5 cm is accepted. The result's `placement_result` is "OK",
+    "NoValidPosition" or "NoCell(lost)".
+    """
+    from .world import _result
+
+    if mode not in PLACEMENT_MODES:
+        raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")
+    mover = world.mover(mover_id)
+    world._check_position(target)
+
+    t = Transition(world, world.settings)
+    # ObjectInfo Default: no EdgeSlide, no contact plane, no sliding normal.
+    t.init_object(
+        ObjectInfo(
+            0,
+            obj=mover,
+            scale=mover.scale,
+            step_up_height=mover.step_up_height * mover.scale,
+            step_down_height=mover.step_down_height * mover.scale,
+            ethereal=mover.ethereal,
+            step_down=mover.step_down and not mover.missile,
+            gravity=mover.gravity,
+        )
+    )
+    t.init_sphere(mover.spheres, mover.scale)
+
+    cell, position = _adjust_position(world, target, t.sphere_path.local_sphere[0].center)
+    if cell is None:
+        mover.position = position
+        mover.cell = None
+        result = _result(mover, False, "Invalid", t)
+        result.placement_result = "NoCell(lost)"  # type: ignore[attr-defined]
+        return result
+
+    t.init_path(cell, None, position)
+    if not slide:
+        t.sphere_path.placement_allows_sliding = False
+    ok = t.find_valid_position()
+    path = t.sphere_path
+    if ok and not slide:
+        assert path.curr_pos is not None
+        diff = path.curr_pos.frame.origin - position.frame.origin
+        # the client compares the signed differences, so only a shift toward +x/+y is bounded
+        ok = path.curr_pos.cell_id == cell.id and diff.x < 0.05 and diff.y < 0.05
+    if ok and path.curr_cell is None:
+        ok = False
+    if ok and mode == "enter_world" and path.curr_pos is not None and path.curr_pos.cell_id >> 16 != position.cell_id >> 16:
+        ok = False
+    if not ok:
+        result = _result(mover, False, "Invalid", t)
+        result.placement_result = "NoValidPosition"  # type: ignore[attr-defined]
+        return result
+    mover.set_position_internal(t)
+    result = _result(mover, True, "OK", t)
+    result.placement_result = "OK"  # type: ignore[attr-defined]
+    return result
