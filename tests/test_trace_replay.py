@@ -50,7 +50,7 @@ KNOWN_DIVERGENT = {
     "cliff-missile-000-missile": "a 5 cm missile grazing a cliff: 1.3 cm apart after float32 accumulation",
     "rolling-missile-033-missile": "a 5 cm missile grazing a slope: float32 knife edge",
     "house-placement-073-place": "the push-out leaves the sphere exactly touching the wall (gap 0): the landing re-check hinges on rounding",
-    "interior-placement-106-place": "as house-placement-073, against the rotated building's wall",
+    "interior-placement-106-place": "landing after a push-out in the rotated building; likely the same touching-wall edge as house-placement-073 (unverified)",
 }
 
 
