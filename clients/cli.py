@@ -75,6 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        func = getattr(args, "func", None)
+        if func is not None:  # subcommands added by other modules set their own handler
+            return int(func(args))
         if args.command == "serve":
             if args.scene is None and args.dat_dir is None:
                 from .demo_world import demo_scene_path
