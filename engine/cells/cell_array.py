@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from typing import Any, Iterator
 
-__all__ = ["CellArray"]
+__all__ = ["CellArray", "END"]
+
+#: What `live_entry` returns past the last entry (a cell may itself be None).
+END = object()
 
 
 class CellArray:
@@ -61,6 +64,18 @@ class CellArray:
 
     def __len__(self) -> int:
         return len(self._index)
+
+    def live_entry(self, i: int) -> Any:
+        """The cell of the i-th live entry in iteration order, or END."""
+        slots = self._slots
+        if not self._free:
+            return slots[i][1] if i < len(slots) else END  # type: ignore[index]
+        for e in slots:
+            if e is not None:
+                if i == 0:
+                    return e[1]
+                i -= 1
+        return END
 
     def cells(self) -> list[Any]:
         """The cells in iteration order (a snapshot: safe to mutate while looping)."""

@@ -6,6 +6,7 @@ from typing import Any
 
 from ..geometry import Position, Sphere
 from ..geometry.landdefs import get_block_offset
+from .cell_array import END as _END
 from .cell_array import CellArray
 from .land_cell import add_all_outside_cells
 
@@ -41,13 +42,13 @@ def find_cell_list(
 
     found = None
     if visible_cell is not None and num_sphere != 0:
-        # Cells appended while we walk are visited too (an index loop over a growing list).
+        # Cells appended while we walk are visited too: the client indexes the
+        # i-th live entry of a growing map on every turn.
         i = 0
         while True:
-            cells = cell_array.cells()
-            if i >= len(cells):
+            cell = cell_array.live_entry(i)
+            if cell is _END:
                 break
-            cell = cells[i]
             if cell is not None:
                 cell.find_transit_cells(position, num_sphere, spheres, cell_array, path)
             i += 1

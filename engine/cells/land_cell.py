@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from ..constants import CELL_LENGTH, LAND_LENGTH
+from ..constants import BLOCK_LENGTH, CELL_LENGTH, EPSILON, LAND_LENGTH
 from ..geometry import Position, Sphere, Vec3
-from ..geometry.landdefs import adjust_to_outside, get_block_offset
+from ..geometry.landdefs import adjust_to_outside, cell_in_range, get_block_offset
 from ..terrain.triangle import TerrainTriangle
 from ..terrain.water import WaterType
 from ..transition.state import OI, TransitionState
@@ -106,24 +106,49 @@ def add_all_outside_cells(
     world: Any, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray
 ) -> None:
     """Add the outdoor cells under each sphere and those its radius reaches into
-    (LandCell.add_all_outside_cells with check_add_cell_boundary)."""
+    (LandCell.add_all_outside_cells with check_add_cell_boundary).
+
+    The sphere centres are in the frame of `position`'s landblock; a centre
+    past the landblock's edge lands in the neighbouring landblock's cells.
+    """
     if cell_array.added_outside:
         return
+    cell_id = position.cell_id
     if num_sphere == 0:
-        cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
+        cell_id, _ = adjust_to_outside(cell_id, position.frame.origin)
         if cell_id:
             x, y = _lcoord(cell_id)
             _add_outside_cell(world, cell_array, x, y)
         return
+    if not cell_in_range(cell_id & 0xFFFF):
+        return
+    block_x = ((cell_id >> 24) & 0xFF) << 3
+    block_y = ((cell_id >> 16) & 0xFF) << 3
+    floor = math.floor
     for sphere in spheres[:num_sphere]:
-        cell_id, center = adjust_to_outside(position.cell_id, sphere.center)
-        if not cell_id:
+        c = sphere.center
+        cx = c.x
+        cy = c.y
+        if -EPSILON < cx < EPSILON:
+            cx = 0.0
+        if -EPSILON < cy < EPSILON:
+            cy = 0.0
+        fx = floor(cx / CELL_LENGTH)
+        fy = floor(cy / CELL_LENGTH)
+        x = block_x + fx
+        y = block_y + fy
+        if x < 0 or y < 0 or x >= LAND_LENGTH or y >= LAND_LENGTH:
             break
-        px = center.x - math.floor(center.x / CELL_LENGTH) * CELL_LENGTH
-        py = center.y - math.floor(center.y / CELL_LENGTH) * CELL_LENGTH
+        if 0.0 <= cx < BLOCK_LENGTH and 0.0 <= cy < BLOCK_LENGTH:
+            px = cx - fx * CELL_LENGTH
+            py = cy - fy * CELL_LENGTH
+        else:  # re-homed into the neighbouring landblock first, as the client does
+            cx -= floor(cx / BLOCK_LENGTH) * BLOCK_LENGTH
+            cy -= floor(cy / BLOCK_LENGTH) * BLOCK_LENGTH
+            px = cx - floor(cx / CELL_LENGTH) * CELL_LENGTH
+            py = cy - floor(cy / CELL_LENGTH) * CELL_LENGTH
         min_rad = sphere.radius
         max_rad = CELL_LENGTH - min_rad
-        x, y = _lcoord(cell_id)
         _add_outside_cell(world, cell_array, x, y)
         if px > max_rad:
             _add_outside_cell(world, cell_array, x + 1, y)
