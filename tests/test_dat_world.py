@@ -49,7 +49,7 @@ def _outcome(world: World, case: dict[str, Any]) -> Any:
     """What replaying `case` gives: its results, or the error it raised (by type and text)."""
     try:
         return engine.run_case(world, case)
-    except Exception as e:  # the same failure on both worlds counts as the same answer
+    except Exception as e:  # noqa: BLE001 - the same failure on both worlds is the same answer
         return f"{type(e).__name__}: {e}"
 
 
@@ -110,17 +110,37 @@ def test_rolling_replay_is_the_same_with_a_cache_of_one() -> None:
     assert len(dat_world.landblocks) == 1
 
 
-@pytest.mark.parametrize("name", ["house", "objects"])
+def _same(a: Any, b: Any, tol: float) -> bool:
+    """Equal, except that floats may differ by `tol`."""
+    if isinstance(a, float) or isinstance(b, float):
+        return isinstance(a, (int, float)) and isinstance(b, (int, float)) and abs(a - b) <= tol
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k], tol) for k in a)
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(_same(x, y, tol) for x, y in zip(a, b))
+    return a == b
+
+
+#: How far a dat World's numbers may stray from the JSON World's, per scene.
+#: objects: the JSON holds object frames as short decimals (0.984808), the dat
+#: the float32 values (0.98480803); until the scene loader rounds object frames
+#: to float32 the collision normals off the rotated objects differ by ~1e-9.
+REPLAY_TOLERANCE = {"house": 0.0, "objects": 1e-6}
+
+
+@pytest.mark.parametrize("name", sorted(REPLAY_TOLERANCE))
 def test_indoor_scene_replays_as_json_world_when_it_loads(name: str) -> None:
     """Once the engine builds EnvCells, buildings and objects, the dat World
     must replay the scene's trace as the JSON World does."""
     try:
         json_world = engine.load_scene(SCENES / f"{name}.json")
-    except Exception as e:  # the indoor loader is still being written
+    except Exception as e:  # noqa: BLE001 - the indoor loader is still being written
         pytest.skip(f"the {name} scene JSON cannot be built yet: {type(e).__name__}: {e}")
     dat_world = open_dat_world(DATS / name)
+    tol = REPLAY_TOLERANCE[name]
     for case in _trace(name)["cases"]:
-        assert _outcome(dat_world, case) == _outcome(json_world, case), case["id"]
+        got, expected = _outcome(dat_world, case), _outcome(json_world, case)
+        assert got == expected if tol == 0.0 else _same(got, expected, tol), case["id"]
 
 
 @pytest.mark.parametrize("name", ["rolling", "house", "objects"])
@@ -143,7 +163,7 @@ def test_dat_world_terrain_equals_scene_json(name: str) -> None:
 
 def test_terrain_only_when_the_indoor_loader_is_missing(monkeypatch: pytest.MonkeyPatch) -> None:
     """Until engine.world.indoor_loader exists, a landblock with indoor content still loads its terrain."""
-    import engine.formats.dat_world as dat_world
+    from engine.formats import dat_world
 
     monkeypatch.setattr(dat_world, "indoor_loader_available", lambda: False)
     world = open_dat_world(DATS / "house")
@@ -174,7 +194,7 @@ def test_scene_accumulates_landblocks_and_portal_objects() -> None:
 def test_scene_setups_are_read_on_first_lookup() -> None:
     """Trace replay looks a mover's Setup up in world.scene before any landblock loads."""
     scene = load_scene_json("objects")
-    setup_id = sorted(scene["setups"])[0]
+    setup_id = min(scene["setups"])
     world = open_dat_world(DATS / "objects")
     got = world.scene["setups"].get(setup_id)
     assert got is not None and {k: got[k] for k in scene["setups"][setup_id]} == scene["setups"][setup_id]
@@ -304,7 +324,7 @@ def test_not_a_dat_directory(tmp_path: Path) -> None:
 
 
 def test_missing_indoor_module_falls_back_to_terrain_with_a_warning(monkeypatch: pytest.MonkeyPatch) -> None:
-    import engine.formats.dat_world as dat_world
+    from engine.formats import dat_world
 
     real = dat_world.build_landblock
 
