@@ -26,34 +26,44 @@ if TYPE_CHECKING:
     from ..transition.object_info import ObjectInfo
     from ..transition.transition import Transition
 
-__all__ = ["Obstacle", "MoverObstacle", "PhysicsPart", "find_obj_collisions", "missile_ignore"]
+__all__ = ["Obstacle", "MoverObstacle", "ObstaclePart", "find_obj_collisions", "missile_ignore"]
 
 _OK = TransitionState.OK
 _ONE = Vec3(1.0, 1.0, 1.0)
 
 
-class PhysicsPart:
+class ObstaclePart:
     """One part of an obstacle with physics geometry (the client's CPhysicsPart).
 
     `gfx_obj` is anything with `physics_bsp` (a tree with
     `find_collisions(transition, scale)`, `placement_insert(transition)` and
     `get_sphere()`, or None for a drawing-only part) and optionally
-    `physics_sphere` (the BSP root's bounding sphere). `frame` is the part's
-    placement frame in the object's frame (None: the part takes the object's
-    own frame, as a single part without placement frames does). `gfx_scale`
-    is the part's scale (default scale times the object's scale); its z is
-    what the BSP is scaled by.
+    `physics_sphere` (the BSP root's bounding sphere). `frame` places the
+    part: a Frame is its placement frame in the object's frame (it follows
+    the object), a Position is a fixed place in the world, None means the
+    object's own position (a single part without placement frames).
+    `gfx_scale` is the part's scale (default scale times the object's
+    scale); its z is what the BSP is scaled by.
     """
 
     __slots__ = ("gfx_obj", "frame", "gfx_scale")
 
-    def __init__(self, gfx_obj: Any, frame: Frame | None = None, gfx_scale: Vec3 = _ONE) -> None:
+    def __init__(self, gfx_obj: Any, frame: Frame | Position | None = None, gfx_scale: Vec3 | float = _ONE) -> None:
         self.gfx_obj = gfx_obj
         self.frame = frame
-        self.gfx_scale = gfx_scale
+        self.gfx_scale = gfx_scale if isinstance(gfx_scale, Vec3) else Vec3(gfx_scale, gfx_scale, gfx_scale)
 
     def __repr__(self) -> str:
-        return f"PhysicsPart({self.gfx_obj!r}, {self.frame!r}, {self.gfx_scale!r})"
+        return f"ObstaclePart({self.gfx_obj!r}, {self.frame!r}, {self.gfx_scale!r})"
+
+    @classmethod
+    def coerce(cls, part: Any) -> Any:
+        """An ObstaclePart from `(gfx_obj, frame[, gfx_scale])`; an ObstaclePart,
+        or any other part object with `find_obj_collisions(transition)` (placed
+        on its own, like the client's PhysicsPart), is kept as it is."""
+        if isinstance(part, tuple):
+            return cls(*part)
+        return part
 
     @property
     def physics_bsp(self) -> Any:
@@ -62,11 +72,14 @@ class PhysicsPart:
     def position(self, owner: Position, scale: float) -> Position:
         """The part's Position for an owner at `owner` (PartArray.UpdateParts:
         owner frame combined with the placement frame, its origin scaled)."""
-        if self.frame is None:
+        frame = self.frame
+        if frame is None:
             return owner
-        return Position(owner.cell_id, owner.frame.combine(self.frame, Vec3(scale, scale, scale)))
+        if isinstance(frame, Position):
+            return frame
+        return Position(owner.cell_id, owner.frame.combine(frame, Vec3(scale, scale, scale)))
 
-    def find_obj_collisions(self, transition: Transition, part_pos: Position) -> int:
+    def find_obj_collisions_at(self, transition: Transition, part_pos: Position) -> int:
         """Collide the path with this part's physics BSP (PhysicsPart.FindObjCollisions
         then GfxObj.FindObjCollisions).
 
@@ -102,7 +115,8 @@ class Obstacle:
     """A static or dynamic object others collide with.
 
     Shape: `spheres` and `cyl_spheres` in the object's frame (unscaled),
-    `parts` (PhysicsParts with physics BSPs), `scale`. Placement: `position`
+    `parts` (ObstacleParts, `(gfx_obj, frame[, gfx_scale])` tuples, or part
+    objects with their own `find_obj_collisions(transition)`), `scale`. Placement: `position`
     (rebind it to move the object; BSP part positions follow).
 
     Flags, as an obstacle: `static` (PhysicsState.Static: a landblock object);
@@ -148,7 +162,7 @@ class Obstacle:
         *,
         spheres: Sequence[Sphere] = (),
         cyl_spheres: Sequence[CylSphere] = (),
-        parts: Sequence[PhysicsPart] = (),
+        parts: Sequence[Any] = (),
         scale: float = 1.0,
         static: bool = True,
         ethereal: bool = False,
@@ -168,7 +182,7 @@ class Obstacle:
         self.scale = scale
         self.spheres = list(spheres)
         self.cyl_spheres = list(cyl_spheres)
-        self.parts = list(parts)
+        self.parts = [ObstaclePart.coerce(p) for p in parts]
         self.static = static
         self.ethereal = ethereal
         self.ignore_collisions = ignore_collisions
@@ -181,12 +195,25 @@ class Obstacle:
         self.is_pk_lite = is_pk_lite
         self.is_impenetrable = is_impenetrable
         self.owner = owner
-        self._has_physics_bsp = any(p.physics_bsp is not None for p in self.parts)
+        self._has_physics_bsp = any(_part_has_bsp(p) for p in self.parts)
         self._part_cache_key: Any = None
         self._part_positions: list[Position] = []
 
     def __repr__(self) -> str:
         return f"Obstacle({self.id:#x}, {self.position!r})"
+
+    @classmethod
+    def static_from_setup(cls, model_id: int, setup: Any, position: Position) -> Obstacle:
+        """A static landblock object (a dat object: id 0, no weenie, unscaled)
+        shaped by a scene Setup dict's spheres and cylspheres. Parts are not
+        read: an object whose parts carry physics BSPs is built from them
+        instead (see `engine.objects.setup.ModelLibrary`)."""
+        spheres = []
+        for d in setup.get("spheres") or ():
+            o = d["origin"] if "origin" in d else d["center"]
+            spheres.append(Sphere(Vec3(float(o[0]), float(o[1]), float(o[2])), float(d["radius"])))
+        cyl = [CylSphere.from_dict(d) for d in setup.get("cyl_spheres") or ()]
+        return cls(0, position, spheres=spheres, cyl_spheres=cyl, static=True)
 
     @property
     def has_physics_bsp(self) -> bool:
@@ -197,7 +224,10 @@ class Obstacle:
         """Each part's Position at the obstacle's current position."""
         key = (self.position, self.scale)
         if self._part_cache_key != key:
-            self._part_positions = [p.position(self.position, self.scale) for p in self.parts]
+            self._part_positions = [
+                p.position(self.position, self.scale) if isinstance(p, ObstaclePart) else getattr(p, "pos", None)
+                for p in self.parts
+            ]
             self._part_cache_key = key
         return self._part_positions
 
@@ -253,6 +283,12 @@ class MoverObstacle(Obstacle):
             return _OK
         self.refresh()
         return find_obj_collisions(self, transition)
+
+
+def _part_has_bsp(part: Any) -> bool:
+    if getattr(part, "physics_bsp", None) is not None:
+        return True
+    return getattr(getattr(part, "gfx_obj", None), "physics_bsp", None) is not None
 
 
 def missile_ignore(oi: ObjectInfo, obstacle: Any) -> bool:
@@ -325,7 +361,10 @@ def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
         if obstacle.has_physics_bsp:
             positions = obstacle.part_positions()
             for i, part in enumerate(obstacle.parts):
-                result = part.find_obj_collisions(transition, positions[i])
+                if isinstance(part, ObstaclePart):
+                    result = part.find_obj_collisions_at(transition, positions[i])
+                else:
+                    result = part.find_obj_collisions(transition)
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)
         elif obstacle.cyl_spheres:
