@@ -16,6 +16,8 @@ from typing import Any
 from service.main import add_serve_arguments, serve
 from service.wire import DEFAULT_PREFIX
 
+from .landblock_cmd import add_landblock_commands
+
 __all__ = ["main", "build_parser"]
 
 
@@ -69,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     st = sub.add_parser("stats", help="print every instance's health and statistics")
     _conn_args(st)
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
+    add_landblock_commands(sub)
     return p
 
 

@@ -1,9 +1,9 @@
 """Every move of the shared reference traces, replayed and compared.
 
 The reference is ACE's own physics (float32) on generated scenes. The test
-covers the terrain scenes and the indoor scenes; traces whose features are
-still being ported (static sphere/cylsphere objects, several movers,
-placement) are listed in TODO below and are not run here yet.
+covers every shared trace: terrain, indoor cells and buildings, static
+objects, cameras, placement, missiles, edge slides, ethereal movers and
+cases with several live movers.
 
 A few cases disagree today; they are listed in KNOWN_DIVERGENT as strict
 expected failures, so a fix shows up at once.
@@ -33,13 +33,15 @@ TRACES = [
     "house", "interior", "cellar",
     "house-viewer", "interior-viewer", "cellar-viewer",
     "house-missile", "house-ethereal", "interior-ethereal",
+    "dungeon", "dungeon-viewer",
+    # static objects: rocks, platform, roof box, pillar, sphere cluster
+    "objects", "objects-missile", "objects-edgeslide", "objects-ethereal",
     # placement (entering the world, teleports)
     "rolling-placement", "steep-placement", "cliff-placement",
     "house-placement", "interior-placement", "cellar-placement",
-]
-TODO = [
-    "dungeon*", "objects*",  # static sphere and cylsphere objects
-    "*-movers",  # several live movers in one case
+    "dungeon-placement", "objects-placement",
+    # several live movers in lockstep
+    "house-movers", "interior-movers", "rolling-movers", "objects-movers",
 ]
 
 #: Cases that disagree with the reference today, with what we know of why.
@@ -50,6 +52,8 @@ KNOWN_DIVERGENT = {
     "cliff-missile-000-missile": "a 5 cm missile grazing a cliff: 1.3 cm apart after float32 accumulation",
     "rolling-missile-033-missile": "a 5 cm missile grazing a slope: float32 knife edge",
     "house-placement-073-place": "the push-out leaves the sphere exactly touching the wall (gap 0): the landing re-check hinges on rounding",
+    "objects-placement-130-place": "landing after a push-out beside an object: the same touching edge as house-placement-073 (unverified)",
+    "objects-movers-083-cyl-creature": "collision normal off a cylsphere 0.3% apart in one move (float32 accumulation)",
     "interior-placement-106-place": "landing after a push-out in the rotated building; likely the same touching-wall edge as house-placement-073 (unverified)",
 }
 
@@ -80,12 +84,23 @@ def _world(scene_name: str) -> engine.World:
 
 
 def test_the_traces_are_all_there() -> None:
-    total = sum(len(p.values[1]["moves"]) for p in CASES)
+    total = sum(
+        sum(len(m["moves"]) for m in p.values[1]["movers"]) if "movers" in p.values[1] else len(p.values[1]["moves"])
+        for p in CASES
+    )
     assert total > 60000
 
 
 @pytest.mark.parametrize(("scene", "case"), CASES)
 def test_case_agrees_with_reference(scene: str, case: dict) -> None:
     results = engine.run_case(_world(scene), case)
-    problem = first_mismatch(case, results)
-    assert problem is None, problem
+    if "movers" in case:
+        problems = [
+            f"mover {m['id']}: {p}"
+            for m in case["movers"]
+            if (p := first_mismatch(m, results[m["id"]])) is not None
+        ]
+        assert not problems, "; ".join(problems)
+    else:
+        problem = first_mismatch(case, results)
+        assert problem is None, problem

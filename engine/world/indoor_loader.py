@@ -14,6 +14,7 @@ from ..cells.cell_struct import CellStruct
 from ..cells.env_cell import CellPortal, EnvCell
 from ..errors import SceneFormatError
 from ..geometry import Frame, Position, Quat, Vec3
+from ..geometry.f32 import f32, vec_f32
 from ..geometry.landdefs import outdoor_cell_id
 from ..objects.gfx_obj import GfxObj, PhysicsPart
 
@@ -21,9 +22,13 @@ __all__ = ["PortalCache", "attach_indoor", "frame_from_dict"]
 
 
 def frame_from_dict(d: Mapping[str, Any]) -> Frame:
+    """A scene frame, at the single precision the dats (and the client) hold it."""
     o = d.get("origin", [0.0, 0.0, 0.0])
     q = d.get("orientation", [1.0, 0.0, 0.0, 0.0])
-    return Frame(Vec3(float(o[0]), float(o[1]), float(o[2])), Quat(float(q[0]), float(q[1]), float(q[2]), float(q[3])))
+    return Frame(
+        vec_f32(Vec3(float(o[0]), float(o[1]), float(o[2]))),
+        Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3]))),
+    )
 
 
 def _hex(text: Any, what: str) -> int:

@@ -68,6 +68,7 @@ class Mover:
         "elasticity",
         "friction",
         "shadow_cells",
+        "obstacle",
         "colliding_with_environment",
         "__weakref__",
     )
@@ -114,6 +115,8 @@ class Mover:
         self.elasticity = DEFAULT_ELASTICITY
         self.friction = DEFAULT_FRICTION
         self.shadow_cells: list[Any] = []
+        #: this mover as an obstacle for others (engine.objects.obstacle.MoverObstacle)
+        self.obstacle: Any = None
         self.colliding_with_environment = False
 
     # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------

@@ -14,6 +14,7 @@ from ..geometry import Position
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.object_info import ObjectInfo
 from ..transition.transition import Transition
+from . import shadows
 from .types import MoveResult
 
 if TYPE_CHECKING:
@@ -109,6 +110,7 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
         result.placement_result = "NoValidPosition"  # type: ignore[attr-defined]
         return result
     mover.set_position_internal(t)
+    shadows.reshadow(mover, t.cell_array)
     result = _result(mover, True, "OK", t)
     result.placement_result = "OK"  # type: ignore[attr-defined]
     return result

@@ -18,6 +18,7 @@ from ..transition.object_info import is_valid_walkable
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI, STATE_NAMES
 from .landblock import Landblock
+from . import shadows
 from .mover import Mover
 from .transient import TS, transient_names
 from .types import MoveResult, MoverSpec, ObjectState
@@ -106,6 +107,7 @@ class World:
         mover.calc_acceleration()
         self.movers[mover.id] = mover
         self._next_mover_id += 1
+        self._enter_cells(mover)
         return mover.id
 
     def mover(self, mover_id: int) -> Mover:
@@ -115,7 +117,8 @@ class World:
             raise UnknownMoverError(f"no mover with id {mover_id}") from None
 
     def remove_mover(self, mover_id: int) -> None:
-        self.mover(mover_id)
+        mover = self.mover(mover_id)
+        shadows.remove_shadows(mover)
         del self.movers[mover_id]
 
     def update_mover(self, mover_id: int, spec: MoverSpec) -> None:
@@ -124,7 +127,9 @@ class World:
         new = _mover_from_spec(mover_id, spec)
         for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration"):
             setattr(new, name, getattr(old, name))
+        shadows.remove_shadows(old)
         self.movers[mover_id] = new
+        self._enter_cells(new)
 
     def mover_state(self, mover_id: int) -> MoveResult:
         return _result(self.mover(mover_id), True, "NoTransition", None)
@@ -169,7 +174,14 @@ class World:
             mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
             return _result(mover, False, "Invalid", t)
         mover.set_position_internal(t)
+        shadows.reshadow(mover, t.cell_array)
         return _result(mover, True, "OK", t)
+
+    def _enter_cells(self, mover: Mover) -> None:
+        """Cast the mover's shadow into the cells its spheres touch, so other
+        movers collide with it (the client adds a new object to its cell and
+        its CellArray)."""
+        shadows.enter_world(self, mover)
 
     # -- checks -----------------------------------------------------------------------
     def _check_position(self, position: Position) -> None:
@@ -245,7 +257,8 @@ def _result(mover: Mover, ok: bool, state: str, t: Any) -> MoveResult:
         if ci.collision_normal_valid:
             collision_normal = ci.collision_normal
         fsf = ci.frames_stationary_fall
-        collide_objects = [o.id for o in ci.collide_object]
+        collide_objects = [getattr(o, "owner", None) or o for o in ci.collide_object]
+        collide_objects = [o.id for o in collide_objects]
     contact = bool(ts & TS.CONTACT)
     # the plane is reported whenever the object is in contact
     return MoveResult(

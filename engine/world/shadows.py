@@ -1,0 +1,72 @@
+"""Movers' shadows: how a live mover becomes an obstacle in the cells it touches.
+
+The client lists, in every cell, the objects whose shadows reach into it;
+cells test them newest first. A mover leaves its shadow in every cell of the
+CellArray its last successful transition built (SetPositionInternal: remove
+the old shadows, add the new ones), and on entering the world in every cell
+that a cell search for its spheres at its start position finds.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..cells.cell_array import CellArray
+from ..cells.find_cell_list import find_cell_list
+from ..geometry import Sphere
+
+if TYPE_CHECKING:
+    from .mover import Mover
+    from .world import World
+
+__all__ = ["enter_world", "reshadow", "remove_shadows", "obstacle_of"]
+
+
+def obstacle_of(mover: Mover) -> Any:
+    """The mover as others see it (created on first use)."""
+    obstacle = mover.obstacle
+    if obstacle is None:
+        from ..objects.obstacle import MoverObstacle
+
+        obstacle = mover.obstacle = MoverObstacle(mover)
+    return obstacle
+
+
+def remove_shadows(mover: Mover) -> None:
+    obstacle = mover.obstacle
+    if obstacle is None:
+        return
+    for cell in mover.shadow_cells:
+        try:
+            cell.shadow_objects.remove(obstacle)
+        except ValueError:
+            pass
+    mover.shadow_cells = []
+
+
+def _add_shadows(mover: Mover, cells: list[Any]) -> None:
+    obstacle = obstacle_of(mover)
+    added = []
+    for cell in cells:
+        if cell is None or cell in added:
+            continue
+        cell.shadow_objects.append(obstacle)
+        added.append(cell)
+    mover.shadow_cells = added
+
+
+def reshadow(mover: Mover, cell_array: CellArray) -> None:
+    """After a successful transition: shadows move to that transition's cells."""
+    remove_shadows(mover)
+    _add_shadows(mover, cell_array.cells())
+
+
+def enter_world(world: World, mover: Mover) -> None:
+    """Shadows for a mover entering the world at its current position."""
+    position = mover.position
+    frame = position.frame
+    spheres = [Sphere(frame.local_to_global(s.center * mover.scale), s.radius * mover.scale) for s in mover.spheres[:2]]
+    cells = CellArray(world)
+    find_cell_list(position, len(spheres), spheres, cells, False, None)
+    remove_shadows(mover)
+    _add_shadows(mover, cells.cells())
