@@ -190,3 +190,26 @@ def test_bad_input_is_refused_clearly() -> None:
     with pytest.raises(engine.UnknownMoverError):
         w.move(999, p)
     assert w.mover(mid).position.origin == p.origin  # nothing lost
+
+
+def test_an_entry_restriction_keeps_a_mover_out_of_a_cell() -> None:
+    from engine.transition.state import TransitionState
+
+    w = world_from_heights(lambda bx, by, x, y: 100)
+    refused = []
+
+    def barrier(cell, transition):  # a housing barrier: nobody gets in
+        refused.append(cell.id)
+        return TransitionState.COLLIDED
+
+    barred = w.get_landcell(cell_at(30.0, 10.0))
+    barred.restriction = barrier
+    mid = standing(w, 20.0, 10.0)
+    for _ in walk(w, mid, 0.4, 0.0, 20):
+        pass
+    x = w.mover(mid).position.origin.x
+    assert refused and x < 24.0  # stopped at the cell boundary (x = 24), never inside
+    barred.restriction = None
+    for _ in walk(w, mid, 0.4, 0.0, 20):
+        pass
+    assert w.mover(mid).position.origin.x > 24.0
