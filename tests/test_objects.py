@@ -219,8 +219,9 @@ def test_two_sphere_movers_collide_and_slide() -> None:
     a = place(w, BALL, 56.0, 60.3)
     b = place(w, BALL, 60.0, 60.0)
     ma, mb = w.mover(a), w.mover(b)
-    cell = w.get_landcell(cell_at(60.0, 60.0))
-    cell.shadow_objects += [MoverObstacle(mb), MoverObstacle(ma)]  # each one skips itself
+    # the World shadows each mover into its cells as a MoverObstacle
+    shadows = w.get_landcell(cell_at(60.0, 60.0)).shadow_objects
+    assert [type(o) for o in shadows] == [MoverObstacle, MoverObstacle]
 
     results = walk(w, a, Vec3(0.2, 0.0, 0.0), 40)
     touched = [r for r in results if r.collide_objects]
@@ -243,7 +244,7 @@ def test_two_sphere_movers_collide_and_slide() -> None:
 def test_a_mover_never_collides_with_its_own_shadow() -> None:
     w = flat_world()
     a = place(w, BALL, 60.0, 60.0)
-    add(w, MoverObstacle(w.mover(a)), 60.0, 60.0)
+    add(w, MoverObstacle(w.mover(a)), 60.0, 60.0)  # a second view of it, newest
     results = walk(w, a, Vec3(0.2, 0.0, 0.0), 5)
     assert [round(r.position.origin.x, 4) for r in results] == [60.2, 60.4, 60.6, 60.8, 61.0]
     assert all(not r.collide_objects for r in results)

@@ -17,10 +17,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, Sequence
 
 from ..constants import EPSILON
-from ..geometry import Frame, Position, Sphere, Vec3
+from ..geometry import ZERO, Frame, Position, Sphere, Vec3
+from ..geometry.landdefs import get_block_offset
 from ..transition.state import OI, InsertType, TransitionState
 from .cylsphere_collision import CylSphere
-from .sphere_collision import intersects_sphere_at
+from .sphere_collision import intersects_sphere
 
 if TYPE_CHECKING:
     from ..transition.object_info import ObjectInfo
@@ -153,6 +154,8 @@ class Obstacle:
         "_has_physics_bsp",
         "_part_cache_key",
         "_part_positions",
+        "_sphere_cache_key",
+        "_placed_spheres",
     )
 
     def __init__(
@@ -197,7 +200,9 @@ class Obstacle:
         self.owner = owner
         self._has_physics_bsp = any(_part_has_bsp(p) for p in self.parts)
         self._part_cache_key: Any = None
-        self._part_positions: list[Position] = []
+        self._part_positions: list[Any] = []
+        self._sphere_cache_key: Any = None
+        self._placed_spheres: list[Sphere] = []
 
     def __repr__(self) -> str:
         return f"Obstacle({self.id:#x}, {self.position!r})"
@@ -220,7 +225,7 @@ class Obstacle:
         """PhysicsState.HasPhysicsBSP: some part has a physics BSP."""
         return self._has_physics_bsp
 
-    def part_positions(self) -> list[Position]:
+    def part_positions(self) -> list[Any]:
         """Each part's Position at the obstacle's current position."""
         key = (self.position, self.scale)
         if self._part_cache_key != key:
@@ -230,6 +235,18 @@ class Obstacle:
             ]
             self._part_cache_key = key
         return self._part_positions
+
+    def placed_spheres(self) -> list[Sphere]:
+        """The spheres scaled and placed by `position`, in its landblock's
+        frame (the part of Sphere.IntersectsSphere(Position, scale) that does
+        not depend on the mover; kept until the obstacle moves)."""
+        key = (self.position, self.scale)
+        if self._sphere_cache_key != key:
+            frame = self.position.frame
+            scale = self.scale
+            self._placed_spheres = [Sphere(frame.local_to_global(s.center * scale), s.radius * scale) for s in self.spheres]
+            self._sphere_cache_key = key
+        return self._placed_spheres
 
     def find_obj_collisions(self, transition: Transition) -> int:
         """PhysicsObj.FindObjCollisions: see `find_obj_collisions`."""
@@ -375,10 +392,12 @@ def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)
         elif obstacle.spheres:
-            pos = obstacle.position
-            scale = obstacle.scale
-            for sphere in obstacle.spheres:
-                result = intersects_sphere_at(sphere, pos, scale, transition, is_creature)
+            # the obstacle's spheres placed in the check position's landblock
+            offset = get_block_offset(path.check_pos.cell_id, obstacle.position.cell_id)
+            for placed in obstacle.placed_spheres():
+                if offset is not ZERO:
+                    placed = Sphere(placed.center + offset, placed.radius)
+                result = intersects_sphere(placed, transition, is_creature)
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)
 
