@@ -467,3 +467,48 @@ def test_obstacle_flags_for_static_dat_objects_and_ignore_collisions() -> None:
     mid = place(w, WALKER, 57.0, 60.0)
     assert all(not r.collide_objects for r in walk(w, mid, Vec3(0.2, 0.0, 0.0), 30))
     assert OI.IS_PLAYER == 0x100
+
+
+def test_scene_objects_become_obstacles_in_their_cells() -> None:
+    w = engine.load_scene(OBJECTS_SCENE)
+    # the cylsphere pillar (Setup 02000001) stands at (84, 84) of A9B4, unscaled
+    pillar_cell = w.get_landcell(0xA9B40000 | (3 * 8 + 3 + 1))
+    pillars = [o for o in pillar_cell.shadow_objects if isinstance(o, Obstacle) and o.cyl_spheres]
+    assert len(pillars) == 1
+    p = pillars[0]
+    assert p.static and p.dat_object and p.id == 0 and p.scale == 1.0
+    assert p.position.frame.origin == Vec3(84.0, 84.0, 112.5)
+    assert [(c.radius, c.height) for c in p.cyl_spheres] == [(0.59375, 4.0)]
+
+
+def test_missile_ignore_rules() -> None:
+    from engine.objects.obstacle import missile_ignore
+    from engine.transition.object_info import ObjectInfo
+
+    class Mover:  # the mover behind the transition
+        def __init__(self, missile: bool) -> None:
+            self.id = 0x50000001
+            self.missile = missile
+
+    here = Position.at(cell_at(1.0, 1.0), Vec3(1.0, 1.0, 0.0))
+    flying = Obstacle(0x80000001, here, static=False, missile=True)
+    walker = ObjectInfo(OI.CONTACT, obj=Mover(False))
+    player = ObjectInfo(OI.CONTACT | OI.IS_PLAYER, obj=Mover(False))
+    assert missile_ignore(walker, flying)  # non-players ignore missiles
+    assert not missile_ignore(player, flying)  # an untargeted missile hits a player
+    aimed_elsewhere = Obstacle(0x80000001, here, static=False, missile=True, projectile_target_id=0x50000009)
+    aimed_here = Obstacle(0x80000001, here, static=False, missile=True, projectile_target_id=0x50000001)
+    assert missile_ignore(player, aimed_elsewhere) and not missile_ignore(player, aimed_here)
+
+    arrow = ObjectInfo(OI.PATH_CLIPPED, obj=Mover(True))
+    creature = Obstacle(0x80000002, here, static=False, is_creature=True)
+    ghost = Obstacle(0x80000003, here, static=False, ethereal=True)
+    rock = Obstacle(0, here)  # a dat object: no weenie, never ignored
+    assert not missile_ignore(arrow, creature)  # no target: creatures are hit
+    assert missile_ignore(arrow, ghost)
+    assert not missile_ignore(arrow, Obstacle(0, here, ethereal=True))
+    arrow.target_id = 0x80000009
+    assert missile_ignore(arrow, creature)  # aimed at someone else: creatures are passed
+    arrow.target_id = 0x80000002
+    assert not missile_ignore(arrow, creature)  # ...but not the target
+    assert not missile_ignore(arrow, rock)
