@@ -4,7 +4,9 @@ Terrain is coloured by height and shaded from the north-west; slopes too
 steep to walk (normal z below FloorZ) are tinted red. The path is black
 where the mover stood on walkable ground, orange where it touched
 unwalkable ground and blue in the air; red crosses mark collisions, a white
-square the start and a black square the end.
+square the start and a black square the end. Buildings are drawn as brown
+roofs outlined in black with their doorways left light, objects as grey
+shapes outlined in black (`clients.demo_world.demo_footprints`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PathPoint", "height_grid", "render_map", "FLOOR_Z"]
+from .demo_world import Footprint, demo_footprints
+
+__all__ = ["FLOOR_Z", "PathPoint", "draw_footprints", "height_grid", "render_map"]
 
 FLOOR_Z = 0.66417414618662751  # the client's walkable limit (engine.constants.FLOOR_Z)
 
@@ -22,6 +26,10 @@ WALK = (15, 15, 15)
 TOUCH = (255, 140, 0)
 AIR = (30, 90, 255)
 HIT = (220, 0, 0)
+ROOF = (150, 75, 45)
+DOORWAY = (235, 215, 170)
+OBJECT = (125, 125, 125)
+OUTLINE = (0, 0, 0)
 
 
 @dataclass(slots=True)
@@ -79,8 +87,55 @@ def _cross(img: np.ndarray, px: float, py: float, colour: tuple[int, int, int], 
                 img[yi, xi] = colour
 
 
-def render_map(heights: np.ndarray, step_m: float, path: Sequence[PathPoint], scale: int = 2) -> np.ndarray:
-    """An RGB image (north up) of `heights` (row 0 south) with `path` drawn on it."""
+def _fill(img: np.ndarray, x0: float, y0: float, x1: float, y1: float, colour: tuple[int, int, int],
+          outline: bool) -> None:
+    """Fill the pixel box [x0, x1] x [y0, y1] (at least 3 px wide), with a one-pixel outline."""
+    h, w, _ = img.shape
+    cx, cy = (x0 + x1) / 2.0, (y0 + y1) / 2.0
+    hx, hy = max(abs(x1 - x0) / 2.0, 1.5), max(abs(y1 - y0) / 2.0, 1.5)
+    i0, i1 = max(0, round(cx - hx)), min(w - 1, round(cx + hx))
+    j0, j1 = max(0, round(cy - hy)), min(h - 1, round(cy + hy))
+    if i0 > i1 or j0 > j1:
+        return
+    img[j0:j1 + 1, i0:i1 + 1] = OUTLINE if outline else colour
+    if outline and i1 - i0 >= 2 and j1 - j0 >= 2:
+        img[j0 + 1:j1, i0 + 1:i1] = colour
+
+
+def _disc(img: np.ndarray, cx: float, cy: float, r: float, colour: tuple[int, int, int]) -> None:
+    """A filled disc of radius `r` px (at least 2)."""
+    h, w, _ = img.shape
+    r = max(r, 2.0)
+    j0, j1 = max(0, int(cy - r) - 1), min(h, int(cy + r) + 2)
+    i0, i1 = max(0, int(cx - r) - 1), min(w, int(cx + r) + 2)
+    j, i = np.ogrid[j0:j1, i0:i1]
+    inside = (i + 0.5 - cx) ** 2 + (j + 0.5 - cy) ** 2 <= r**2
+    img[j0:j1, i0:i1][inside] = colour
+
+
+def draw_footprints(img: np.ndarray, footprints: Sequence[Footprint],
+                    to_px: Callable[[float, float], tuple[float, float]], px_per_m: float) -> None:
+    """Buildings, their doorways and objects, seen from above."""
+    circles = [(to_px(f.a[0], f.a[1]), max(f.a[2] * px_per_m, 2.0)) for f in footprints if f.shape == "circle"]
+    for c, r in circles:  # outlines first, so that a cluster of spheres reads as one shape
+        _disc(img, *c, r + 1.0, OUTLINE)
+    for c, r in circles:
+        _disc(img, *c, r, OBJECT)
+    for f in footprints:
+        if f.shape == "rect":
+            (x0, y0), (x1, y1) = to_px(f.a[0], f.a[1]), to_px(f.a[2], f.a[3])
+            if f.kind == "door":
+                _fill(img, x0, y0, x1, y1, DOORWAY, outline=False)
+            else:
+                _fill(img, x0, y0, x1, y1, ROOF if f.kind == "building" else OBJECT, outline=True)
+
+
+def render_map(heights: np.ndarray, step_m: float, path: Sequence[PathPoint], scale: int = 2,
+               footprints: Sequence[Footprint] | None = None) -> np.ndarray:
+    """An RGB image (north up) of `heights` (row 0 south) with `path` drawn on it.
+
+    `footprints` (buildings and objects, drawn under the path) default to the
+    demo world's; pass an empty list for bare terrain."""
     rgb = _terrain_rgb(heights, step_m)
     img = np.repeat(np.repeat(rgb[::-1], scale, axis=0), scale, axis=1).astype(np.uint8)
     size_px = img.shape[0]
@@ -88,6 +143,8 @@ def render_map(heights: np.ndarray, step_m: float, path: Sequence[PathPoint], sc
 
     def to_px(x: float, y: float) -> tuple[float, float]:
         return x * px_per_m, size_px - 1 - y * px_per_m
+
+    draw_footprints(img, demo_footprints() if footprints is None else footprints, to_px, px_per_m)
 
     for a, b in zip(path, path[1:]):
         colour = WALK if b.on_walkable else TOUCH if b.contact else AIR

@@ -2,9 +2,13 @@
 
 It is dropped onto the hills, walks east and north across them, walks into
 the mesa's west face (too steep: it stops there), backs off, climbs the ramp
-onto the mesa and walks off its north ledge. Each leg heads for a waypoint
-with `Client.step` (own motion on the ground, gravity in the air) and ends
-when the waypoint is reached or the mover stops making progress.
+onto the mesa and walks off its north ledge. Then it crosses the hills to
+the flat pad in the north-west, walks in through the house's doorway (into
+the room's EnvCell) and back out, runs into the pillar and the boulder
+(stopped short of them) and steps up onto the low platform and off again.
+Each leg heads for a waypoint with `Client.step` (own motion on the ground,
+gravity in the air) and ends when the waypoint is reached or the mover stops
+making progress.
 """
 
 from __future__ import annotations
@@ -17,11 +21,20 @@ from engine.geometry import Position, Vec3
 from engine.world.types import MoverSpec, SphereSpec
 
 from .client import Client
-from .demo_map import PathPoint
-from .demo_world import ORIGIN_LANDBLOCK, global_to_cell
+from .demo_map import FLOOR_Z, PathPoint
+from .demo_world import (
+    BOULDER,
+    DOOR,
+    HOUSE,
+    ORIGIN_LANDBLOCK,
+    PILLAR,
+    PLATFORM,
+    global_to_cell,
+    is_indoor,
+)
 from .types import MoverState
 
-__all__ = ["LEGS", "LegReport", "WalkResult", "demo_mover", "walk_demo", "global_xy"]
+__all__ = ["ARRIVE_WITHIN", "LEGS", "LegReport", "WalkResult", "demo_mover", "global_xy", "walk_demo"]
 
 #: (what the leg is about, waypoint in global metres)
 LEGS: tuple[tuple[str, tuple[float, float]], ...] = (
@@ -32,7 +45,25 @@ LEGS: tuple[tuple[str, tuple[float, float]], ...] = (
     ("to the foot of the ramp", (288.0, 90.0)),
     ("up the ramp onto the mesa", (288.0, 320.0)),
     ("off the north ledge", (288.0, 378.0)),
+    ("west along the north hills", (150.0, 372.0)),
+    ("south past the house", (130.0, 290.0)),
+    ("to the house's door", (DOOR[0], DOOR[1] - 7.0)),
+    ("in through the door", HOUSE),
+    ("back out of the house", (DOOR[0], DOOR[1] - 9.0)),
+    ("into the pillar", PILLAR),
+    ("west into the boulder", BOULDER),
+    ("north over the platform", (PLATFORM[0], PLATFORM[1] + 10.0)),
 )
+
+#: legs that must end closer to their waypoint than ARRIVE_M: lined up with the
+#: doorway, well inside the room, and heading for an object's centre (so the
+#: mover runs into it rather than "arriving" next to it)
+ARRIVE_WITHIN: dict[str, float] = {
+    "to the house's door": 0.25,
+    "in through the door": 0.5,
+    "into the pillar": 0.5,
+    "west into the boulder": 0.5,
+}
 
 START = (20.0, 20.0)
 SPEED = 4.0  # metres per second of own motion
@@ -71,6 +102,7 @@ class LegReport:
     unwalkable_steps: int = 0
     lowest_z: float = math.inf
     highest_z: float = -math.inf
+    end_cell: int = 0
 
 
 @dataclass(slots=True)
@@ -118,11 +150,14 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
     budget = int(2.5 * dist0 / (SPEED * DT)) + 40
     recent: list[float] = []
     was_walkable, was_contact = st.on_walkable, st.contact
+    was_cell = st.position.cell_id
+    hit = False
+    arrive_m = ARRIVE_WITHIN.get(name, ARRIVE_M)
     leg.outcome = f"gave up after {budget} steps"
     for _ in range(budget):
         dx, dy = wp[0] - x, wp[1] - y
         d = math.hypot(dx, dy)
-        if d < ARRIVE_M:
+        if d < arrive_m:
             leg.outcome = "arrived"
             break
         recent.append(d)
@@ -153,7 +188,19 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
                               + ("" if st.on_walkable else " on unwalkable ground"))
         elif was_walkable and st.contact and not st.on_walkable:
             res.events.append(f"{name}: on unwalkable slope at ({x:.1f}, {y:.1f}), z {z:.2f}")
-        was_walkable, was_contact = st.on_walkable, st.contact
+        n = st.collision_normal
+        if n is not None and abs(n.z) < FLOOR_Z and not hit:  # a wall, an object or a steep face
+            res.events.append(f"{name}: collided at ({x:.1f}, {y:.1f}), z {z:.2f}, "
+                              f"normal ({n.x:.2f}, {n.y:.2f}, {n.z:.2f})")
+            hit = True
+        cell = st.position.cell_id
+        if is_indoor(cell) != is_indoor(was_cell):
+            where = "went into the house" if is_indoor(cell) else "came out of the house"
+            res.events.append(f"{name}: {where} at ({x:.1f}, {y:.1f}): cell {was_cell:08X} -> {cell:08X}")
+        was_walkable, was_contact, was_cell = st.on_walkable, st.contact, cell
     leg.end = (x, y, st.position.origin.z)
+    leg.end_cell = st.position.cell_id
+    if is_indoor(leg.end_cell):
+        leg.outcome += f", indoors (cell {leg.end_cell:08X})"
     res.legs.append(leg)
     return st
