@@ -1,0 +1,278 @@
+"""Service benchmark over loopback, bounded in count and time.
+
+- round trip of one move, and of batches of 10 and 100 moves (client library
+  `Client.move` / `Client.move_many` against `python -m service`);
+- the floor: a bare Zenoh echo queryable in its own process, queried with a
+  payload of the same size the same way (peer mode, loopback TCP), measured
+  in the same run, interleaved block by block with the service round trips;
+- throughput with 1, 2 and 4 client processes (single moves and batches of
+  100), and the service process's CPU time per move (from /proc).
+
+Everything listens on 127.0.0.1 on free ports; every process is stopped at
+the end, every loop ends after a fixed count or a fixed time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from . import common
+from .common import log, summary
+
+ECHO_KEY = "acphys-bench/echo"
+START_TIMEOUT = 30.0
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def child_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(common.ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+class Child:
+    """A subprocess that prints `marker` when ready; stopped by SIGINT, then killed."""
+
+    def __init__(self, args: list[str], marker: str) -> None:
+        self.proc = subprocess.Popen(args, cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True)
+        self.output: list[str] = []
+        ready = threading.Event()
+
+        def pump() -> None:
+            assert self.proc.stdout is not None
+            for line in self.proc.stdout:
+                self.output.append(line)
+                if marker in line:
+                    ready.set()
+
+        threading.Thread(target=pump, daemon=True).start()
+        deadline = time.monotonic() + START_TIMEOUT
+        while not ready.wait(0.05):
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                self.stop()
+                raise RuntimeError(f"{args[:4]} did not start:\n" + "".join(self.output[-30:]))
+
+    def cpu_seconds(self) -> float:
+        """user + system CPU time of the process so far."""
+        with open(f"/proc/{self.proc.pid}/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(10)
+
+
+# -- the bare echo ------------------------------------------------------------------------------
+def echo_main(port: int) -> None:
+    """Run a queryable that answers every query with its own payload, until SIGINT/SIGTERM."""
+    import zenoh
+
+    from service.zconfig import make_config
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
+
+    def handler(query: Any) -> None:
+        payload = query.payload
+        query.reply(query.key_expr, payload.to_bytes() if payload is not None else b"")
+
+    q = session.declare_queryable(ECHO_KEY, handler)
+    print("echo ready", flush=True)
+    stop.wait()
+    q.undeclare()
+    session.close()
+
+
+# -- the scene the service serves ----------------------------------------------------------------
+def scene_file() -> Path:
+    from .scenes import around, flat_heights, terrain_scene
+
+    common.OUT.mkdir(parents=True, exist_ok=True)
+    path = common.OUT / "bench-service-flat.json"
+    path.write_text(json.dumps(terrain_scene("bench-service-flat", flat_heights, around())))
+    return path
+
+
+def start_position(index: int) -> Any:
+    from engine.geometry import Position, Vec3
+
+    from .scenes import LB, cell_at
+
+    x, y = 20.0 + 15.0 * (index % 10), 20.0 + 15.0 * (index // 10)
+    return Position.at(cell_at(LB, x, y), Vec3(x, y, 50.0))
+
+
+def _walker() -> Any:
+    from .scenes import PLAYER
+
+    return PLAYER
+
+
+# -- throughput workers (own processes) -------------------------------------------------------------
+def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float) -> None:
+    """Register a mover, wait for `start_at` (time.time()), then move it back and
+    forth for `seconds` in requests of `batch` moves; print a JSON report."""
+    from clients import Client, Move
+
+    with Client([endpoint], timeout=30.0) as c:
+        mid = c.register(_walker(), start_position(index + 10)).id
+        c.move(mid, offset=(0.0, 0.0, 0.0))
+        time.sleep(max(0.0, start_at - time.time()))
+        end = time.monotonic() + seconds
+        moves = requests = errors = 0
+        sign = 1.0
+        while time.monotonic() < end:
+            if batch == 1:
+                c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
+            else:
+                res = c.move_many([Move(mid, offset=(0.2 * (sign if k % 2 else -sign), 0.0, 0.0)) for k in range(batch)])
+                errors += sum(1 for r in res if not hasattr(r, "seq"))
+            sign = -sign
+            moves += batch
+            requests += 1
+        elapsed = seconds + (time.monotonic() - end)
+        c.remove(mid)
+    print("RESULT " + json.dumps({"index": index, "moves": moves, "requests": requests, "errors": errors,
+                                   "seconds": elapsed}), flush=True)
+
+
+def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float) -> dict[str, Any]:
+    start_at = time.time() + 2.5  # every worker has registered by then
+    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_service", "worker", endpoint, str(i), str(batch),
+                               repr(start_at), repr(seconds)],
+                              cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for i in range(processes)]
+    time.sleep(max(0.0, start_at - time.time()))
+    cpu0 = service.cpu_seconds()
+    reports = []
+    for p in procs:
+        try:
+            out, err = p.communicate(timeout=seconds + 60.0)
+        except subprocess.TimeoutExpired:
+            for q in procs:
+                q.kill()
+            raise
+        lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
+        if p.returncode != 0 or not lines:
+            raise RuntimeError(f"throughput worker failed ({p.returncode}):\n{err[-2000:]}")
+        reports.append(json.loads(lines[-1][7:]))
+    cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
+    moves = sum(r["moves"] for r in reports)
+    wall = max(r["seconds"] for r in reports)
+    row = {"processes": processes, "batch": batch, "moves": moves, "seconds": wall,
+           "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
+           "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None}
+    log(f"service: {processes} proc x batch {batch:3d}: {row['moves_per_s']:9.0f} moves/s, "
+        f"service CPU {row['service_cpu_us_per_move']:.0f} µs/move")
+    return row
+
+
+# -- latency --------------------------------------------------------------------------------------
+def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[str, Any]:
+    import msgpack
+    import zenoh
+
+    from clients import Client, Move
+    from service.zconfig import make_config
+
+    samples: dict[str, list[float]] = {"echo": [], "move": [], "batch10": [], "batch100": []}
+    clock = time.perf_counter
+    with Client([endpoint], timeout=30.0) as c:
+        mid = c.register(_walker(), start_position(0)).id
+        c.move(mid, offset=(0.0, 0.0, 0.0))
+        # what one move request looks like on the wire: the echo carries as many bytes
+        probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+        echo = zenoh.open(make_config(connect=[echo_endpoint]))
+        try:
+            for _ in range(50):  # warm both routes
+                list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
+                c.move(mid, offset=(0.0, 0.0, 0.0))
+            sign = 1.0
+            for r in range(rounds):
+                for _ in range(block):
+                    t0 = clock()
+                    replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
+                    samples["echo"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
+                for _ in range(block):
+                    t0 = clock()
+                    c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
+                    samples["move"].append(clock() - t0)
+                    sign = -sign
+                for size, key, n in ((10, "batch10", max(1, block // 4)), (100, "batch100", max(1, block // 20))):
+                    for _ in range(n):
+                        ms = [Move(mid, offset=(0.2 * (1 if k % 2 else -1), 0.0, 0.0)) for k in range(size)]
+                        t0 = clock()
+                        c.move_many(ms)
+                        samples[key].append(clock() - t0)
+        finally:
+            echo.close()
+        (stats,) = c.stats()
+        c.remove(mid)
+    out = {k: summary(v, 1e6) for k, v in samples.items()}
+    out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
+    out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
+    out["service_engine_ms"] = stats.get("engine_ms")
+    out["service_latency_ms"] = stats.get("latency_ms")
+    out["probe_bytes"] = len(probe)
+    for k in ("echo", "move", "batch10", "batch100"):
+        log(f"service: round trip {k:9s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
+    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f}")
+    return out
+
+
+def run(quick: bool) -> dict[str, Any]:
+    import zenoh  # noqa: F401 - fail early, with a clear message, when zenoh is missing
+
+    scene = scene_file()
+    port, echo_port = free_port(), free_port()
+    endpoint, echo_endpoint = f"tcp/127.0.0.1:{port}", f"tcp/127.0.0.1:{echo_port}"
+    service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint,
+                     "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
+    echo = None
+    try:
+        echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
+        lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100)
+        seconds = 2.0 if quick else 8.0
+        rows = []
+        for batch in (1, 100):
+            for procs in (1, 2, 4):
+                rows.append(throughput(endpoint, service, procs, batch, seconds))
+    finally:
+        service.stop()
+        if echo is not None:
+            echo.stop()
+    return {"latency": lat, "throughput": rows, "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off"}
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "echo":
+        echo_main(int(sys.argv[2]))
+    elif sys.argv[1] == "worker":
+        worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]))
+    else:
+        raise SystemExit(f"unknown role {sys.argv[1]!r}")

@@ -1,0 +1,118 @@
+"""Shared helpers of the benchmarks: paths, percentiles, timing, results."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "benchmarks" / "out"
+DOC = ROOT / "docs" / "performance.md"
+SHARED = Path(os.environ.get("ACPHYS_SHARED", ROOT.parent / "shared"))
+ORACLE = SHARED / "oracle"
+
+# the repo itself, not whatever copy an editable install points at
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+def pct(data: Iterable[float], p: float) -> float:
+    """Nearest-rank percentile (a value that was actually observed); nan when empty."""
+    s = sorted(data)
+    if not s:
+        return math.nan
+    k = max(0, min(len(s) - 1, math.ceil(p / 100.0 * len(s)) - 1))
+    return s[k]
+
+
+def summary(samples: list[float], scale: float = 1.0) -> dict[str, float]:
+    """median, p99, max, mean (times `scale`) and count of a sample list."""
+    if not samples:
+        return {"n": 0, "median": math.nan, "p99": math.nan, "max": math.nan, "mean": math.nan}
+    return {
+        "n": len(samples),
+        "median": statistics.median(samples) * scale,
+        "p99": pct(samples, 99) * scale,
+        "max": max(samples) * scale,
+        "mean": sum(samples) / len(samples) * scale,
+    }
+
+
+def load_trace(name: str) -> dict[str, Any]:
+    with gzip.open(ORACLE / "traces" / f"{name}.trace.json.gz", "rt", encoding="utf-8") as f:
+        return json.load(f)
+
+
+def machine() -> dict[str, Any]:
+    info: dict[str, Any] = {
+        "python": platform.python_version(),
+        "implementation": platform.python_implementation(),
+        "platform": platform.platform(),
+        "cpus": os.cpu_count(),
+    }
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    info["cpu"] = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    info["compiled_engine_modules"] = compiled_modules()
+    try:
+        info["loadavg_at_start"] = os.getloadavg()
+    except OSError:
+        pass
+    return info
+
+
+def compiled_modules() -> list[str]:
+    """Engine modules imported from compiled extensions (.so) rather than Python source."""
+    import importlib
+    import pkgutil
+
+    import engine
+
+    out = []
+    for m in pkgutil.walk_packages(engine.__path__, "engine."):
+        try:
+            mod = importlib.import_module(m.name)
+        except Exception:  # noqa: BLE001, S112 - a module that does not import is not compiled either
+            continue
+        if str(getattr(mod, "__file__", "")).endswith((".so", ".pyd")):
+            out.append(m.name)
+    return out
+
+
+class Deadline:
+    """A time budget: `left()` seconds remain, `over()` once spent."""
+
+    def __init__(self, seconds: float) -> None:
+        self.end = time.monotonic() + seconds
+
+    def left(self) -> float:
+        return self.end - time.monotonic()
+
+    def over(self) -> bool:
+        return time.monotonic() >= self.end
+
+
+def fmt(x: float, digits: int = 1) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "n/a"
+    if isinstance(x, float) and x != 0 and (abs(x) < 10 ** -(digits + 1) or abs(x) >= 1e7):
+        return f"{x:.2e}"
+    return f"{x:,.{digits}f}"
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)

@@ -1,0 +1,424 @@
+"""docs/performance.md and its plots, from benchmarks/out/results.json."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from . import common
+from .common import fmt
+
+PLOTS = common.ROOT / "benchmarks" / "plots"
+REL = "../benchmarks/plots"  # from docs/
+
+
+def _nan(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
+def _f(x: Any, d: int = 1) -> str:
+    return fmt(_nan(x), d)
+
+
+def _e(x: Any) -> str:
+    """An error in metres."""
+    x = _nan(x)
+    if math.isnan(x):
+        return "n/a"
+    if x == 0.0:
+        return "0"
+    return f"{x:.2g}"
+
+
+def _pct(x: Any) -> str:
+    x = _nan(x)
+    return "n/a" if math.isnan(x) else f"{100.0 * x:.2f} %"
+
+
+def _verdict(value: float, limit: float) -> str:
+    """'met' when value <= limit, else by how many times it misses."""
+    return "met" if value <= limit else f"missed by {value / limit:.1f}x"
+
+
+def _ratio(x: Any) -> str:
+    return "" if not x else f"{x:.1f}x"
+
+
+# -- plots ------------------------------------------------------------------------------------
+def _plt() -> Any:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        return plt
+    except ImportError:
+        return None
+
+
+def plot_engine(eng: dict[str, Any]) -> str | None:
+    plt = _plt()
+    if plt is None:
+        return None
+    rows = [r for r in eng["workloads"] if "us" in r]
+    trows = eng["traces"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    names = [r["name"] for r in rows]
+    med = [r["us"]["median"] for r in rows]
+    p99 = [r["us"]["p99"] for r in rows]
+    xs = range(len(rows))
+    a1.bar([x - 0.2 for x in xs], med, 0.4, label="median")
+    a1.bar([x + 0.2 for x in xs], p99, 0.4, label="p99", alpha=0.6)
+    for x, r in zip(xs, rows):
+        if r.get("target_us"):
+            a1.hlines(r["target_us"], x - 0.45, x + 0.45, colors="red", linestyles="dashed")
+    a1.set_yscale("log")
+    a1.set_xticks(list(xs), names, rotation=30, ha="right")
+    a1.set_ylabel("µs per move")
+    a1.set_title("synthetic workloads (RETAIL); red: issue 6 target")
+    a1.legend()
+    tn = [r["name"] for r in trows]
+    tm = [r["us"]["median"] for r in trows]
+    xs2 = range(len(trows))
+    a2.bar(list(xs2), tm, 0.5, label="acphys median")
+    anchors = [(x, r["anchor_us"]) for x, r in zip(xs2, trows) if r.get("anchor_us")]
+    if anchors:
+        a2.scatter([x for x, _ in anchors], [a for _, a in anchors], color="black", marker="_", s=400, label="ACE (Mono)")
+    a2.set_yscale("log")
+    a2.set_xticks(list(xs2), tn, rotation=30, ha="right")
+    a2.set_ylabel("µs per move (median)")
+    a2.set_title("reference traces replayed (ACE_COMPAT)")
+    a2.legend()
+    fig.tight_layout()
+    PLOTS.mkdir(parents=True, exist_ok=True)
+    fig.savefig(PLOTS / "engine.png", dpi=90)
+    plt.close(fig)
+    return f"{REL}/engine.png"
+
+
+def plot_error(err: dict[str, Any]) -> str | None:
+    plt = _plt()
+    if plt is None:
+        return None
+    rows = [r for r in err["settings"] if r["moves"]]
+    front = set(err.get("pareto", []))
+    floor = 1e-7
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for r in rows:
+        x, y = _nan(r["us_mean"]), max(floor, _nan(r["err_ref"]["p99"]))
+        on = r["name"] in front
+        ax.scatter([x], [y], s=70 if on else 40, color="tab:red" if on else "tab:blue", zorder=3)
+        ax.annotate(r["name"], (x, y), textcoords="offset points", xytext=(6, 4), fontsize=8)
+    pts = sorted((_nan(r["us_mean"]), max(floor, _nan(r["err_ref"]["p99"]))) for r in rows if r["name"] in front)
+    if len(pts) > 1:
+        ax.step([p[0] for p in pts], [p[1] for p in pts], where="post", color="tab:red", alpha=0.5, label="Pareto front")
+    ax.axhline(1e-4, color="green", linestyle="dashed", label="target: most exact p99 ≤ 1e-4 m")
+    ax.axhline(1e-3, color="orange", linestyle="dashed", label="target: fastest on front ≤ 1e-3 m")
+    ax.set_yscale("log")
+    ax.set_xlabel("run time, µs per move (mean over the reference traces)")
+    ax.set_ylabel("p99 final-position error against the reference (m)")
+    ax.set_title("run time against error, one point per engine setting")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    PLOTS.mkdir(parents=True, exist_ok=True)
+    fig.savefig(PLOTS / "error_pareto.png", dpi=90)
+    plt.close(fig)
+    return f"{REL}/error_pareto.png"
+
+
+def plot_service(svc: dict[str, Any]) -> str | None:
+    plt = _plt()
+    if plt is None or "latency" not in svc:
+        return None
+    lat = svc["latency"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    keys = ["echo", "move", "batch10", "batch100"]
+    labels = ["bare zenoh echo", "1 move", "batch of 10", "batch of 100"]
+    xs = range(len(keys))
+    a1.bar([x - 0.2 for x in xs], [lat[k]["median"] for k in keys], 0.4, label="median")
+    a1.bar([x + 0.2 for x in xs], [lat[k]["p99"] for k in keys], 0.4, label="p99", alpha=0.6)
+    a1.set_yscale("log")
+    a1.set_xticks(list(xs), labels)
+    a1.set_ylabel("round trip, µs")
+    a1.set_title("round trip over loopback")
+    a1.legend()
+    thr = svc["throughput"]
+    for batch, off in ((1, -0.2), (100, 0.2)):
+        rs = [r for r in thr if r["batch"] == batch]
+        a2.bar([i + off for i in range(len(rs))], [r["moves_per_s"] for r in rs], 0.4, label=f"{batch} move(s) per request")
+    procs = [r["processes"] for r in thr if r["batch"] == 1]
+    a2.set_xticks(list(range(len(procs))), [f"{p} client process(es)" for p in procs])
+    a2.axhline(50000, color="red", linestyle="dashed", label="target: 50,000 moves/s batched")
+    a2.set_yscale("log")
+    a2.set_ylabel("moves per second")
+    a2.set_title("throughput")
+    a2.legend(fontsize=8)
+    fig.tight_layout()
+    PLOTS.mkdir(parents=True, exist_ok=True)
+    fig.savefig(PLOTS / "service.png", dpi=90)
+    plt.close(fig)
+    return f"{REL}/service.png"
+
+
+# -- the document ---------------------------------------------------------------------------
+def _meta(sec: dict[str, Any]) -> str:
+    m = sec.get("meta", {})
+    mach = m.get("machine", {})
+    return (f"Measured by `{m.get('command', '?')}` at {m.get('started', '?')} on commit {m.get('commit', '?')} "
+            f"({mach.get('cpus', '?')} CPUs, {mach.get('cpu', '?')}, Python {mach.get('python', '?')}; "
+            f"load average at start {', '.join(f'{x:.2f}' for x in mach.get('loadavg_at_start', []))}); "
+            f"took {m.get('seconds', 0):.0f} s{' (quick run)' if m.get('quick') else ''}. "
+            f"Engine modules loaded compiled: {', '.join(mach.get('compiled_engine_modules') or []) or 'none (pure Python)'}.")
+
+
+def _summary(results: dict[str, Any]) -> list[str]:
+    out = ["## Targets of issue 6: where each stands", "",
+           "| target | measured | verdict |", "|---|---|---|"]
+    eng = results.get("engine")
+    if eng:
+        for r in eng["traces"]:
+            if r.get("anchor_us"):
+                med = r["us"]["median"]
+                lim = min(15.0, 2 * r["anchor_us"])
+                out.append(f"| terrain trace `{r['name']}`: ≤ {lim:g} µs/move (15 µs and 2x ACE's {r['anchor_us']} µs) "
+                           f"| {med:.1f} µs median ({med / r['anchor_us']:.1f}x ACE) "
+                           f"| {_verdict(med, lim)} |")
+        for r in eng["workloads"]:
+            if "us" in r and r.get("target_us"):
+                med = r["us"]["median"]
+                out.append(f"| workload `{r['name']}`: ≤ {r['target_us']:g} µs/move | {med:.1f} µs median "
+                           f"| {_verdict(med, r['target_us'])} |")
+            elif "unavailable" in r:
+                out.append(f"| workload `{r['name']}` | not measured: {r['unavailable']} | gap |")
+    err = results.get("error")
+    if err and err["settings"]:
+        ref = err["settings"][0]
+        p99 = _nan(ref["err_ref"]["p99"])
+        out.append(f"| most exact setting (`{ref['name']}`): p99 error ≤ 1e-4 m | {_e(p99)} m "
+                   f"| {'met' if p99 <= 1e-4 else f'missed ({p99 / 1e-4:.1f}x)'} |")
+        front = [r for r in err["settings"] if r["name"] in err.get("pareto", [])]
+        if front:
+            fastest = min(front, key=lambda r: _nan(r["us_mean"]))
+            fp = _nan(fastest["err_ref"]["p99"])
+            out.append(f"| fastest setting on the Pareto front (`{fastest['name']}`): p99 ≤ 1e-3 m | {_e(fp)} m "
+                       f"| {'met' if fp <= 1e-3 else 'missed'} |")
+    svc = results.get("service")
+    if svc and "latency" in svc:
+        lat = svc["latency"]
+        ratio = lat["ratio_move_to_echo"]
+        out.append(f"| service round trip of one move ≤ 1.2x bare Zenoh echo | {lat['move']['median']:.0f} µs vs "
+                   f"{lat['echo']['median']:.0f} µs echo: {ratio:.2f}x | {'met' if ratio <= 1.2 else 'missed'} |")
+        best = max((r for r in svc["throughput"] if r["batch"] > 1), key=lambda r: r["moves_per_s"], default=None)
+        if best:
+            out.append(f"| batched throughput ≥ 50,000 moves/s | {best['moves_per_s']:,.0f} moves/s "
+                       f"({best['processes']} process(es), batches of {best['batch']}) "
+                       f"| {_verdict(50000.0, best['moves_per_s'])} |")
+    elif svc:
+        out.append(f"| service | not measured: {svc.get('failed')} | gap |")
+    st = results.get("stress")
+    if st:
+        t = st["totals"]
+        bad = sum(t[k] for k in ("nonfinite", "fall_through", "penetration", "exceptions"))
+        out.append(f"| stress: ≥ 1,000,000 moves, zero NaN/inf, fall-throughs, penetrations, exceptions "
+                   f"| {t['moves']:,} moves; {t['nonfinite']} / {t['fall_through']} / {t['penetration']} / {t['exceptions']} "
+                   f"| {'clean' if not bad else 'FAILURES'}{'' if t['moves'] >= 1_000_000 else ', fewer moves than asked'} |")
+    return out + [""]
+
+
+def _engine(eng: dict[str, Any], plot: str | None) -> list[str]:
+    out = ["## 1. Engine, in process", "", _meta(eng), "",
+           ("Only the engine call is timed (`World.move` / `World.step`: one transition plus SetPositionInternal, "
+           "as ACE's anchor figures); targets are built and movers reset outside the timer. Scenes are built by "
+           "`benchmarks/scenes.py` (synthetic terrain and sphere objects) or are the shared reference scenes. "
+           f"{eng['moves_per_workload']} timed moves per workload after a warm-up, RETAIL settings."), "",
+           "| workload | what it does | median µs | p99 µs | moves/s | target µs | median / target | pure Python median µs | compiled speed-up |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    pure = eng.get("pure") or {}
+    pure_w = {r["name"]: r for r in pure.get("workloads", []) if "us" in r}
+    pure_t = {r["name"]: r for r in pure.get("traces", []) if "us" in r}
+    for r in eng["workloads"]:
+        if "us" not in r:
+            out.append(f"| {r['name']} | {r['description']} | not measured: {r['unavailable']} | | | | | | |")
+            continue
+        u = r["us"]
+        pu = pure_w.get(r["name"], {}).get("us", {}).get("median")
+        out.append(f"| {r['name']} | {r['description']} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
+                   f"| {_f(r.get('target_us'), 0)} | {u['median'] / r['target_us']:.1f}x | {_f(pu)} "
+                   f"| {_ratio(pu / u['median'] if pu else None)} |")
+    out += ["", ("The reference traces replayed move by move (ACE_COMPAT, placements skipped) against ACE's own time "
+            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class):"), "",
+            "| trace scene | moves | median µs | p99 µs | moves/s | ACE µs | acphys / ACE | pure Python median µs | pure / ACE |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in eng["traces"]:
+        u = r["us"]
+        pu = pure_t.get(r["name"], {}).get("us", {}).get("median")
+        out.append(f"| {r['name']} | {u['n']:,} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
+                   f"| {_f(r.get('anchor_us'))} | {_ratio(r.get('ratio_to_ace'))} | {_f(pu)} "
+                   f"| {_ratio(pu / r['anchor_us'] if pu and r.get('anchor_us') else None)} |")
+    if pure.get("failed"):
+        out += ["", f"The pure-Python run failed: {pure['failed']}"]
+    elif pure:
+        out += ["", ("The pure-Python columns: the same workloads in a child process that imports a copy of the "
+                "engine's .py sources only (`benchmarks/pure.py`), in the same run, with fewer moves "
+                "(2,000 per workload, at most 3,000 per trace).")]
+    else:
+        out += ["", ("No compiled engine modules were present, so there is no pure-Python comparison: every figure is "
+                "the interpreted engine.")]
+    if plot:
+        out += ["", f"![engine µs per move]({plot})"]
+    for prof in eng.get("profiles", []):
+        out += ["", (f"Where the time goes, `{prof['workload']}` ({prof['moves']} moves under cProfile, which slows "
+                f"everything down but keeps the proportions): {prof['python_calls_per_move']:,.0f} Python function "
+                "calls per move. Own time of the top functions:"), "",
+                "| function | calls per move | own time | with callees |", "|---|---:|---:|---:|"]
+        for r in prof["top"]:
+            out.append(f"| `{r['function']}` | {r['calls_per_move']:.1f} | {100 * r['own_share']:.1f} % "
+                       f"| {100 * r['cumulative_share']:.1f} % |")
+    return out + [""]
+
+
+def _error(err: dict[str, Any], plot: str | None) -> list[str]:
+    lim = err.get("cases_per_trace")
+    out = ["## 2. Run time against error", "", _meta(err), "",
+           (f"Workload: every reference trace of `../shared/oracle/traces/` "
+           f"({'all cases' if not lim else f'the first {lim} case(s) of each'}), each case replayed under every setting "
+           "in turn. Error against the reference: distance of the final position from the reference's, per move "
+           "(global metres); contact differs: `contact` or `on_walkable` disagree. Error against the most exact "
+           f"setting: the same against `{err['reference_setting']}`'s own results. Run time: the engine call per move "
+           "(transitions and placements), mean and median."), "",
+           ("Settings: `SETTINGS` in `benchmarks/bench_error.py` (one line each); presets in "
+           "`engine/transition/settings.py` and EngineSettings fields added later are picked up on their own."), "",
+           "| setting | what it is | moves | µs/move mean | µs median | error median m | p99 m | max m | contact differs | vs most exact: p99 m | max m | contact differs | Pareto |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    front = set(err.get("pareto", []))
+    for r in err["settings"]:
+        e, b = r["err_ref"], r["err_base"]
+        out.append(f"| `{r['name']}` | {r['description']} | {r['moves']:,} | {_f(r['us_mean'])} | {_f(r['us_median'])} "
+                   f"| {_e(e['median'])} | {_e(e['p99'])} | {_e(e['max'])} | {_pct(r['contact_ref_frac'])} "
+                   f"| {_e(b['p99'])} | {_e(b['max'])} | {_pct(r['contact_base_frac'])} | {'yes' if r['name'] in front else ''} |")
+    rep = [r for r in err["settings"] if r["name"].endswith("(repeat)")]
+    if rep and err["settings"]:
+        a, b = _nan(err["settings"][0]["us_mean"]), _nan(rep[0]["us_mean"])
+        out += ["", (f"Noise: `{rep[0]['name']}` runs the first row's settings again; its mean run time differs from the "
+                f"first row's by {100.0 * abs(b - a) / a:.1f} %. Run-time differences between rows smaller than that "
+                "are machine noise, and so is the order of the Pareto front along the time axis (the settings "
+                "only change what happens on the rare moves that hit the step cap or an outdoor camera).")]
+    base = err["settings"][0]["name"] if err["settings"] else None
+    worst = sorted(((t, d["max_err_ref"].get(base, 0.0)) for t, d in err["per_trace"].items() if d["group"] == "main"),
+                   key=lambda x: -(x[1] or 0.0))[:6]
+    if worst:
+        out += ["", f"Largest per-trace errors of `{base}`: " + ", ".join(f"{t} {_e(v)} m" for t, v in worst) +
+                " (the known divergences of tests/test_trace_replay.py account for the centimetre ones)."]
+    pend = [r for r in err.get("pending", []) if r["moves"]]
+    if pend:
+        out += ["", ("Traces still being ported when this harness was written (dungeon, objects, several movers), "
+                "reported apart:"), "",
+                "| setting | moves | µs/move mean | error median m | p99 m | max m | contact differs |",
+                "|---|---:|---:|---:|---:|---:|---:|"]
+        for r in pend:
+            e = r["err_ref"]
+            out.append(f"| `{r['name']}` | {r['moves']:,} | {_f(r['us_mean'])} | {_e(e['median'])} | {_e(e['p99'])} "
+                       f"| {_e(e['max'])} | {_pct(r['contact_ref_frac'])} |")
+    if err.get("skipped"):
+        out += ["", "Not run (exceptions while loading or replaying):", ""]
+        out += [f"- {k}: {v}" for k, v in list(err["skipped"].items())[:20]]
+    out += ["", ("What is not a setting yet: the issue's float32 against float64 arithmetic, compiled kernels against "
+            "pure Python, step subdivision size, and the per-cell skips. The engine offers none of them as a switch "
+            "today (see `engine/transition/settings.py`); each becomes one line of `SETTINGS` when it does, and the "
+            "skips must show error 0 against the most exact setting in this table.")]
+    if plot:
+        out += ["", f"![run time against error]({plot})"]
+    return out + [""]
+
+
+def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
+    out = ["## 3. Service over loopback", "", _meta(svc), ""]
+    if "latency" not in svc:
+        return out + [f"Not measured: {svc.get('failed')}", ""]
+    lat = svc["latency"]
+    out += [("`python -m service` on a flat 3x3-landblock scene, `clients.Client` in this process; the floor is a bare "
+            "Zenoh queryable in its own process answering with the request's bytes "
+            f"({lat['probe_bytes']} bytes, the size of a one-move request), queried the same way in the same run, "
+            "interleaved block by block with the service round trips. Peer mode, TCP on 127.0.0.1, multicast scouting off."), "",
+            "| round trip | n | median µs | p99 µs | median µs per move |", "|---|---:|---:|---:|---:|"]
+    for k, label, per in (("echo", "bare Zenoh echo", 1), ("move", "one move", 1), ("batch10", "batch of 10 moves", 10),
+                          ("batch100", "batch of 100 moves", 100)):
+        s = lat[k]
+        out.append(f"| {label} | {s['n']} | {s['median']:.0f} | {s['p99']:.0f} | {s['median'] / per:.0f} |")
+    eng_ms = lat.get("service_engine_ms") or {}
+    out += ["", (f"One move / echo: **{lat['ratio_move_to_echo']:.2f}x** at the median "
+            f"({lat['ratio_move_to_echo_p99']:.2f}x at p99). Inside the service the engine took "
+            f"{_f(_nan(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
+            ("Throughput: each client process registers its own mover and sends requests back to back for a fixed time; "
+            "service CPU time per move is the service process's user+system time (from /proc) over the moves served."), "",
+            "| client processes | moves per request | moves/s | service CPU µs per move | errors |",
+            "|---:|---:|---:|---:|---:|"]
+    for r in svc["throughput"]:
+        out.append(f"| {r['processes']} | {r['batch']} | {r['moves_per_s']:,.0f} | {_f(r['service_cpu_us_per_move'], 0)} | {r['errors']} |")
+    if plot:
+        out += ["", f"![service]({plot})"]
+    return out + [""]
+
+
+def _stress(st: dict[str, Any]) -> list[str]:
+    t = st["totals"]
+    out = ["## 4. Numerical-stability stress", "", _meta(st), "",
+           (f"{t['moves']:,} moves by {t['movers']:,} movers (asked for {st['requested_moves']:,} within "
+           f"{st['seconds_budget']:.0f} s, {st['jobs']} worker processes, seed {st['seed']}); scenarios and checks "
+           "are described in `benchmarks/stress.py`: random walks mixing ordinary steps, zero-length, sub-millimetre, "
+           "5-60 m and 100-400 m moves, axis-aligned and grazing moves along cell edges and walls, vertical drops and "
+           "jumps, physics steps; the player, tiny (1 mm-5 cm) and huge (3-15 m) spheres; starts exactly on the "
+           "ground, on cell corners and landblock edges, at reference starts, exactly touching sphere objects; "
+           "scenes with the far corner of the world (0xFE..0xFF), degenerate polygons (zero-area, repeated vertex)."), "",
+           "| scenario | moves | NaN/inf | fall-throughs (> 1 cm) | wall/object penetrations (> 1 cm) | exceptions | input errors |",
+           "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in st["scenarios"]:
+        out.append(f"| {r['scenario']} | {r['moves']:,} | {r['nonfinite']} | {r['fall_through']} | {r['penetration']} "
+                   f"| {r['exceptions']} | {r['rejected']} |")
+    out.append(f"| **all** | **{t['moves']:,}** | **{t['nonfinite']}** | **{t['fall_through']}** | **{t['penetration']}** "
+               f"| **{t['exceptions']}** | {t['rejected']} |")
+    fails = [(r["scenario"], f) for r in st["scenarios"] for f in r["failures"]]
+    if fails:
+        out += ["", "First failures (full reproducers in `benchmarks/out/stress_failures.json`):", ""]
+        for sc, f in fails[:10]:
+            detail = f.get("error") or f.get("below_m") or f.get("depth_m")
+            out.append(f"- {sc}: {f['kind']} ({f.get('mover', '')}) {detail}")
+    out += ["", ("\"Input errors\" are the engine's documented refusals (EngineError subclasses, e.g. a target in a "
+            "landblock that is not loaded); they are not failures.")]
+    return out + [""]
+
+
+HEADER = """# Performance
+
+Generated by `python3 -m benchmarks` (benchmarks/run.py); do not edit by hand, re-run it. Each section
+says the exact command, the commit and the machine it was measured on. The machine is a shared 2-core
+VM: all figures are medians and 99th percentiles of one run, and the ratios are between figures
+measured in the same run. Nothing here is asserted by the test suite.
+
+Re-run:
+
+    pip install matplotlib          # for the plots (optional)
+    python3 -m benchmarks           # everything (about half an hour), or:
+    python3 -m benchmarks --quick   # a few minutes, small counts
+    python3 -m benchmarks --only engine,error --error-cases 5
+    python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 1800
+
+Raw results: `benchmarks/out/results.json` (not committed); plots: `benchmarks/plots/`.
+"""
+
+
+def write(results: dict[str, Any]) -> None:
+    lines = [HEADER, *_summary(results)]
+    if "engine" in results:
+        lines += _engine(results["engine"], plot_engine(results["engine"]))
+    if "error" in results:
+        lines += _error(results["error"], plot_error(results["error"]))
+    if "service" in results:
+        lines += _service(results["service"], plot_service(results["service"]))
+    if "stress" in results:
+        lines += _stress(results["stress"])
+    extra = results.get("notes")
+    if extra:
+        lines += ["## Notes", "", extra, ""]
+    common.DOC.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")

@@ -1,0 +1,142 @@
+"""The one entry point: `python3 -m benchmarks [--quick] [--only ...]`.
+
+Runs the chosen benchmarks, stores their raw results in
+benchmarks/out/results.json (a section keeps its last results when another
+section is re-run alone), draws the plots into benchmarks/plots/ and rewrites
+docs/performance.md from all stored sections.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import subprocess
+import sys
+import time
+from typing import Any
+
+from . import common
+from .common import log
+
+SECTIONS = ("engine", "error", "service", "stress")
+
+
+def _git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, cwd=common.ROOT, capture_output=True, text=True, timeout=10)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "engine", "service", "clients"], check=False, cwd=common.ROOT,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return out.stdout.strip() + ("+uncommitted engine/service changes" if dirty else "")
+    except Exception:  # noqa: BLE001
+        return "unknown"
+
+
+def _clean(x: Any) -> Any:
+    """JSON without NaN/inf (null instead)."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    return x
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python3 -m benchmarks", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true", help="small counts everywhere (a few minutes)")
+    p.add_argument("--only", default=",".join(SECTIONS),
+                   help="comma-separated subset of " + ",".join(SECTIONS) + " (default: all)")
+    p.add_argument("--stress-moves", type=int, default=None,
+                   help="moves in the stress run (default 1,000,000; 20,000 with --quick)")
+    p.add_argument("--stress-seconds", type=float, default=None,
+                   help="time budget of the stress run in seconds (default 1500; 120 with --quick)")
+    p.add_argument("--stress-jobs", type=int, default=2, help="worker processes of the stress run (default 2)")
+    p.add_argument("--error-cases", type=int, default=None,
+                   help="cases per reference trace in the error benchmark (default: all; 3 with --quick)")
+    p.add_argument("--no-pure", action="store_true",
+                   help="skip the pure-Python engine runs (made when compiled engine modules are present)")
+    p.add_argument("--no-doc", action="store_true", help="do not rewrite docs/performance.md and the plots")
+    args = p.parse_args(argv)
+    only = [s.strip() for s in args.only.split(",") if s.strip()]
+    bad = [s for s in only if s not in SECTIONS]
+    if bad:
+        p.error(f"unknown section(s) {', '.join(bad)}; choose from {', '.join(SECTIONS)}")
+
+    common.OUT.mkdir(parents=True, exist_ok=True)
+    results_path = common.OUT / "results.json"
+    try:
+        results = json.loads(results_path.read_text())
+    except (OSError, ValueError):
+        results = {}
+    command = "python3 -m benchmarks " + " ".join(shlex.quote(a) for a in (argv if argv is not None else sys.argv[1:]))
+    meta = {"command": command.strip(), "commit": _git_commit(), "started": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+            "machine": common.machine(), "quick": args.quick}
+
+    for section in only:
+        t0 = time.monotonic()
+        log(f"== {section} ==")
+        if section == "engine":
+            from . import bench_engine
+
+            data = bench_engine.run(args.quick)
+            if common.compiled_modules() and not args.no_pure:
+                from . import pure
+
+                try:
+                    data["pure"] = pure.run_child("engine", ["--quick"] if args.quick else [])
+                except Exception as e:  # noqa: BLE001 - the doc says why instead
+                    data["pure"] = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "error":
+            from . import bench_error
+
+            data = bench_error.run(args.quick, args.error_cases)
+            records = data.pop("base_records")
+            if common.compiled_modules() and not args.no_pure:
+                from . import pure
+
+                path = common.OUT / "base_records.json"
+                path.write_text(json.dumps(records))
+                child_args = ["--base-records", str(path)] + (["--quick"] if args.quick else [])
+                if args.error_cases is not None:
+                    child_args += ["--error-cases", str(args.error_cases)]
+                try:
+                    child = pure.run_child("error", child_args)
+                    row = child["settings"][0]
+                    row["name"] = f"{row['name']}, pure Python"
+                    row["description"] = "the same settings, the engine's sources interpreted (no compiled modules), in a child process"
+                    data["settings"].append(row)
+                except Exception as e:  # noqa: BLE001
+                    data["pure_failed"] = f"{type(e).__name__}: {e}"
+            data["pareto"] = bench_error.pareto(data["settings"])
+        elif section == "service":
+            from . import bench_service
+
+            try:
+                data = bench_service.run(args.quick)
+            except Exception as e:  # noqa: BLE001 - the doc says why instead
+                log(f"service benchmark failed: {type(e).__name__}: {e}")
+                data = {"failed": f"{type(e).__name__}: {e}"}
+        else:
+            from . import stress
+
+            moves = args.stress_moves if args.stress_moves is not None else (20000 if args.quick else 1_000_000)
+            seconds = args.stress_seconds if args.stress_seconds is not None else (120.0 if args.quick else 1500.0)
+            data = stress.run(moves, seconds, jobs=args.stress_jobs)
+            (common.OUT / "stress_failures.json").write_text(json.dumps(_clean(
+                [dict(f, scenario=s["scenario"]) for s in data["scenarios"] for f in s["failures"]]), indent=1))
+        data["meta"] = dict(meta, seconds=time.monotonic() - t0)
+        results[section] = _clean(data)
+        results_path.write_text(json.dumps(results, indent=1))
+        log(f"== {section} done in {time.monotonic() - t0:.0f} s ==")
+
+    if not args.no_doc:
+        from . import report
+
+        report.write(results)
+        log(f"wrote {common.DOC.relative_to(common.ROOT)} and plots in benchmarks/plots/")
+    stress_bad = results.get("stress", {}).get("totals", {})
+    return 1 if "stress" in only and any(stress_bad.get(k) for k in ("nonfinite", "fall_through", "penetration", "exceptions")) else 0
