@@ -41,6 +41,7 @@ from engine.transition.collision_info import CollisionInfo
 from engine.transition.object_info import ObjectInfo
 from engine.transition.sphere_path import SpherePath
 from engine.transition.state import OI, InsertType, TransitionState
+from engine.transition.transition import Transition
 
 SCENES = Path("/work/shared/oracle/scenes")
 CELL = 0xA9B40100
@@ -125,10 +126,12 @@ def to_global(local: Vec3) -> Vec3:
     return Vec3(100.0 - local.y, 50.0 + local.x, 20.0 + local.z)
 
 
-class FakeTransition:
-    """The transition as the BSP sees it: path, collision info, object info, step_up."""
+class FakeTransition(Transition):
+    """A real transition with no world behind it and a scripted step_up:
+    the BSP's answers can be checked without a cell around it."""
 
     def __init__(self, path: SpherePath, state: int = 0, step_up_result: bool = True) -> None:
+        super().__init__(None)
         self.sphere_path = path
         self.collision_info = CollisionInfo()
         self.object_info = ObjectInfo(state)
@@ -136,7 +139,9 @@ class FakeTransition:
         self.step_up_calls: list[Vec3] = []
 
     def step_up(self, collision_normal: Vec3) -> bool:
+        # what the real step-up leaves behind for a slide, then the scripted answer
         self.step_up_calls.append(collision_normal)
+        self.sphere_path.step_up_normal = collision_normal
         return self.step_up_result
 
 
@@ -489,13 +494,15 @@ def test_contact_wall_hit_steps_up_with_global_normal() -> None:
     assert close(t.step_up_calls[0], 0, -1, 0, 1e-9)
 
 
-def test_contact_failed_step_up_slides(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_contact_failed_step_up_slides() -> None:
     tree, _ = room_tree()
-    calls: list[Any] = []
-    monkeypatch.setattr(SpherePath, "step_up_slide", lambda self, tr: calls.append(tr) or TransitionState.SLID)
     t = FakeTransition(make_path(Vec3(1.4, 0, 1.5), Vec3(1.7, 0, 1.5)), OI.CONTACT, step_up_result=False)
+    before = t.sphere_path.check_pos.frame.origin
     assert tree.find_collisions(t, 1.0) == TransitionState.SLID
-    assert calls == [t]
+    ci = t.collision_info
+    # the slide off the east wall (global -y): normal recorded, pushed back out along it
+    assert ci.collision_normal_valid and close(ci.collision_normal, 0, -1, 0, 1e-9)
+    assert t.sphere_path.check_pos.frame.origin.y < before.y
 
 
 def lintel_tree() -> BSPTree:
@@ -508,15 +515,14 @@ def kerb_tree() -> BSPTree:
     return single_poly_tree(quad((2, -2, 0), (2, 2, 0), (2, 2, 0.8), (2, -2, 0.8), Vec3(-1, 0, 0)))
 
 
-def test_contact_head_hit_slides(monkeypatch: pytest.MonkeyPatch) -> None:
-    calls: list[tuple] = []
-    monkeypatch.setattr(slide_module, "slide_sphere", lambda tr, n, c: calls.append((tr, n, c)) or TransitionState.SLID)
+def test_contact_head_hit_slides() -> None:
     t = FakeTransition(make_path(Vec3(1.4, 0, 0.5), Vec3(1.7, 0, 0.5), head=True), OI.CONTACT)
+    before = t.sphere_path.check_pos.frame.origin
     assert lintel_tree().find_collisions(t, 1.0) == TransitionState.SLID
-    assert t.step_up_calls == []
-    (tr, normal, curr), = calls
-    assert tr is t and close(normal, 0, -1, 0, 1e-9)
-    assert curr is t.sphere_path.global_curr_center[0].center
+    assert t.step_up_calls == []  # the head slides; only a foot hit steps up
+    ci = t.collision_info
+    assert ci.collision_normal_valid and close(ci.collision_normal, 0, -1, 0, 1e-9)
+    assert t.sphere_path.check_pos.frame.origin.y < before.y
 
 
 def test_contact_head_overlap_moving_away_defers_slide() -> None:

@@ -140,7 +140,7 @@ def test_frames_stationary_fall_builds_a_synthetic_floor_after_three_stuck_frame
     ci = t.collision_info
     # a horizontal floor through the sphere's lowest point: z = 60 (centre 60.48 - r)
     assert ci.contact_plane_valid and ci.contact_plane.normal == Vec3(0, 0, 1)
-    assert math.isclose(-ci.contact_plane.d, 60.0, abs_tol=1e-9)
+    assert math.isclose(-ci.contact_plane.d, 60.0, abs_tol=1e-5)  # sphere centres are kept in single precision
     assert ci.collision_normal_valid and ci.collided_with_environment  # it was not in contact
 
 

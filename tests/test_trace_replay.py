@@ -53,7 +53,6 @@ KNOWN_DIVERGENT = {
     "rolling-missile-033-missile": "a 5 cm missile grazing a slope: float32 knife edge",
     "house-placement-073-place": "the push-out leaves the sphere exactly touching the wall (gap 0): the landing re-check hinges on rounding",
     "objects-placement-130-place": "landing after a push-out beside an object: the same touching edge as house-placement-073 (unverified)",
-    "objects-movers-083-cyl-creature": "collision normal off a cylsphere 0.3% apart in one move (float32 accumulation)",
     "interior-placement-106-place": "landing after a push-out in the rotated building; likely the same touching-wall edge as house-placement-073 (unverified)",
 }
 

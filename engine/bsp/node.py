@@ -28,7 +28,7 @@ passes down (`sphere_intersects_poly`, `sphere_intersects_solid_poly`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Sequence
+from typing import Iterator, TYPE_CHECKING, Sequence, Final
 
 from ..constants import CELL_BSP_EPSILON, EPSILON
 from ..geometry.plane import Plane
@@ -46,9 +46,9 @@ __all__ = ["BoundingType", "BSPNode", "BSPLeaf", "BSPPortal", "PortalPoly"]
 class BoundingType:
     """How a sphere lies against a cell BSP (the client's BoundingType)."""
 
-    OUTSIDE = 0
-    PARTIALLY_INSIDE = 1
-    ENTIRELY_INSIDE = 2
+    OUTSIDE: Final = 0
+    PARTIALLY_INSIDE: Final = 1
+    ENTIRELY_INSIDE: Final = 2
 
 
 _ZERO_PLANE = Plane(ZERO, 0.0)
@@ -130,7 +130,7 @@ class BSPNode:
     def is_leaf(self) -> bool:
         return False
 
-    def iter_nodes(self):  # type: ignore[no-untyped-def]
+    def iter_nodes(self) -> Iterator[BSPNode]:
         """This node and every node below it, positive side first."""
         stack: list[BSPNode] = [self]
         while stack:

@@ -202,7 +202,9 @@ class BSPTree:
 
         if path.num_sphere > 1:
             if root.sphere_intersects_poly(local_sphere_1, movement, hit) or hit.poly is not None:  # type: ignore[arg-type]
-                normal = path.local_space_pos.local_to_global_vec(hit.poly.plane.normal)  # type: ignore[union-attr]
+                poly = hit.found()  # set by the query above
+                assert poly is not None
+                normal = path.local_space_pos.local_to_global_vec(poly.plane.normal)  # type: ignore[union-attr]
                 transition.collision_info.set_collision_normal(normal)
                 return _COLLIDED
 

@@ -187,6 +187,6 @@ def replay_move(world: World, mover_id: int, move: dict[str, Any], physics: bool
     if physics and (use_offsets or "to" not in move) and "offset" in move:
         return world.step(mover_id, _vec(move["offset"]), dt)
     mover.velocity = _vec(velocity) if velocity is not None else Vec3(0.0, 0.0, 0.0)
-    target, _ = _target(world, mover_id, move, physics)
-    assert target is not None
-    return world.move(mover_id, target)
+    target_pos, _ = _target(world, mover_id, move, physics)
+    assert target_pos is not None
+    return world.move(mover_id, target_pos)

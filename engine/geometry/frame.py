@@ -27,17 +27,13 @@ class Frame:
     def __init__(self, origin: Vec3, orientation: Quat = IDENTITY) -> None:
         self.origin = origin
         self.orientation = orientation
-        self._m = None if orientation.is_identity() else orientation.rotation_matrix()
+        self._m = orientation.cached_matrix()
 
     def __repr__(self) -> str:
         return f"Frame({self.origin!r}, {self.orientation!r})"
 
     def with_origin(self, origin: Vec3) -> Frame:
-        f = Frame.__new__(Frame)
-        f.origin = origin
-        f.orientation = self.orientation
-        f._m = self._m
-        return f
+        return Frame(origin, self.orientation)
 
     def with_orientation(self, orientation: Quat) -> Frame:
         return Frame(self.origin, orientation)

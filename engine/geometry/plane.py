@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Final
+
 from ..constants import EPSILON
 from .vec3 import Vec3
 
@@ -11,10 +13,10 @@ __all__ = ["Plane", "Side"]
 class Side:
     """Which side of a plane a point lies on (the client's `Sidedness`)."""
 
-    FRONT = 0
-    BEHIND = 1
-    CLOSE = 2  # within EPSILON: on the plane
-    CROSSING = 3
+    FRONT: Final = 0
+    BEHIND: Final = 1
+    CLOSE: Final = 2  # within EPSILON: on the plane
+    CROSSING: Final = 3
 
 
 class Plane:

@@ -25,7 +25,7 @@ up)`, `adjust_sphere_to_plane(path, valid_pos, movement)`.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Sequence, Final
 
 from ..constants import EPSILON
 from .plane import Plane
@@ -45,10 +45,10 @@ class CullMode:
     `polygon_hits_ray`, where a ray leaving through the back is ignored.
     """
 
-    LANDBLOCK = 0
-    NONE = 1
-    CLOCKWISE = 2
-    COUNTER_CLOCKWISE = 3
+    LANDBLOCK: Final = 0
+    NONE: Final = 1
+    CLOCKWISE: Final = 2
+    COUNTER_CLOCKWISE: Final = 3
 
 
 class PolyHit:
@@ -73,6 +73,11 @@ class PolyHit:
     poly: Polygon | None
     contact_point: Vec3
     center_solid: bool
+
+
+    def found(self) -> Polygon | None:
+        """The polygon a query recorded (a plain read that no caller narrows)."""
+        return self.poly
 
     def __init__(self) -> None:
         self.poly = None
@@ -164,6 +169,13 @@ class Polygon:
     neg_surface: int
     poly_id: int
     plane: Plane
+    _nx: float
+    _ny: float
+    _nz: float
+    _d: float
+    #: per edge: last vertex (x, y, z), edge vector (x, y, z), inward edge normal
+    #: k = n x e (x, y, z), |k|^2, |e|^2
+    _edges: tuple[tuple[float, float, float, float, float, float, float, float, float, float, float], ...]
 
     def __init__(
         self,

@@ -9,22 +9,35 @@ from .vec3 import Vec3
 
 __all__ = ["Quat", "IDENTITY"]
 
+_Matrix = tuple[float, float, float, float, float, float, float, float, float]
+
 
 class Quat:
     """An orientation quaternion (w + xi + yj + zk)."""
 
-    __slots__ = ("w", "x", "y", "z")
+    __slots__ = ("w", "x", "y", "z", "_m", "_m_known")
 
     w: float
     x: float
     y: float
     z: float
+    _m: _Matrix | None
+    _m_known: bool
 
     def __init__(self, w: float = 1.0, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> None:
         self.w = w
         self.x = x
         self.y = y
         self.z = z
+        self._m = None
+        self._m_known = False
+
+    def cached_matrix(self) -> _Matrix | None:
+        """The rotation matrix, computed once; None for the identity (no work to do)."""
+        if not self._m_known:
+            self._m = None if self.is_identity() else self.rotation_matrix()
+            self._m_known = True
+        return self._m
 
     def __eq__(self, o: object) -> bool:
         return (
@@ -78,7 +91,7 @@ class Quat:
             self.w * o.z + self.x * o.y - self.y * o.x + self.z * o.w,
         )
 
-    def rotation_matrix(self) -> tuple[float, float, float, float, float, float, float, float, float]:
+    def rotation_matrix(self) -> _Matrix:
         """Row-major 3x3 matrix R with R @ v equal to rotating v by self."""
         w, x, y, z = self.w, self.x, self.y, self.z
         xx, yy, zz = x * x, y * y, z * z

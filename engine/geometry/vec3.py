@@ -39,7 +39,8 @@ class Vec3:
     def __mul__(self, s: float) -> Vec3:
         return Vec3(self.x * s, self.y * s, self.z * s)
 
-    __rmul__ = __mul__
+    def __rmul__(self, s: float) -> Vec3:
+        return Vec3(self.x * s, self.y * s, self.z * s)
 
     def __neg__(self) -> Vec3:
         return Vec3(-self.x, -self.y, -self.z)

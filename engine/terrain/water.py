@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from typing import Final
+
 import math
 
 __all__ = ["WaterType", "is_water_terrain", "ENTIRELY_WATER_DEPTH", "PARTIAL_WATER_DEPTH", "SHORE_DEPTH"]
 
 
 class WaterType:
-    NOT_WATER = 0
-    PARTIALLY_WATER = 1
-    ENTIRELY_WATER = 2
+    NOT_WATER: Final = 0
+    PARTIALLY_WATER: Final = 1
+    ENTIRELY_WATER: Final = 2
 
 
 # Float32 values the client uses (0.9, 0.45, 0.1 rounded to single precision).

@@ -184,7 +184,7 @@ class SpherePath:
         assert pos is not None
         frame = pos.frame
         for i in range(self.num_sphere):
-            self.global_curr_center[i].center = frame.local_to_global(self.local_sphere[i].center)
+            self.global_curr_center[i].center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
@@ -197,8 +197,8 @@ class SpherePath:
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             g.radius = self.local_sphere[i].radius
-            g.center = frame.local_to_global(self.local_sphere[i].center)
-        self.global_low_point = frame.local_to_global(self.local_low_point)
+            g.center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
+        self.global_low_point = vec_f32(frame.local_to_global(self.local_low_point))
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),
@@ -234,6 +234,10 @@ class SpherePath:
         self.walkable_up = z_axis
         self.walkable_pos = local_pos
         self.walkable_scale = scale
+
+    def current_walkable(self) -> Polygon | None:
+        """The walkable polygon now (a plain read that no caller narrows)."""
+        return self.walkable
 
     def set_walkable_check_pos(self, sphere: Sphere) -> None:
         self.walkable_check_pos = sphere.copy()

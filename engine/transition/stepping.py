@@ -16,6 +16,7 @@ from ..geometry.landdefs import get_block_offset
 from .state import OI, InsertType, TransitionState
 
 if TYPE_CHECKING:
+    from ..geometry.polygon import Polygon
     from .transition import Transition
 
 __all__ = ["step_up", "step_down", "check_walkable", "edge_slide", "cliff_slide", "set_edge_slide"]
@@ -187,7 +188,8 @@ def edge_slide(t: Transition, state: int, step_down_height: float, z_val: float)
     ci.contact_plane_is_water = False
     path.restore_check_pos()
 
-    if path.walkable is not None:
+    # read through a call: the step-down above may have found a walkable
+    if path.current_walkable() is not None:
         assert path.walkable_pos is not None
         path.cache_local_space_sphere(path.walkable_pos, path.walkable_scale)
         path.set_walkable_check_pos(path.local_space_sphere[0])

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
@@ -42,6 +43,7 @@ _SLID = TransitionState.SLID
 _INVALID = TransitionState.INVALID
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Transition:
     """One transition: ObjectInfo + SpherePath + CollisionInfo + CellArray.
 

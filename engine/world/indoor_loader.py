@@ -143,7 +143,7 @@ def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str
         frame = frame_from_dict(b.get("frame", {}))
         cell_id = outdoor_cell_id(landblock.id, frame.origin.x, frame.origin.y)
         parts = cache.parts_of(model_id, frame, cell_id)
-        portals = [
+        doors = [
             BldPortal(
                 int(p.get("flags", 0)),
                 _hex(p["other_cell_id"], "building portal other_cell_id"),
@@ -152,7 +152,7 @@ def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str
             )
             for p in b.get("portals", [])
         ]
-        building = BuildingObj(model_id, parts, portals, int(b.get("num_leaves", 0)))
+        building = BuildingObj(model_id, parts, doors, int(b.get("num_leaves", 0)))
         land_cell = landblock.get_cell(cell_id)
         building.cell = land_cell
         land_cell.building = building

@@ -2,20 +2,22 @@
 
 from __future__ import annotations
 
+from typing import Final
+
 __all__ = ["TS", "transient_names"]
 
 
 class TS:
-    CONTACT = 0x1
-    ON_WALKABLE = 0x2
-    SLIDING = 0x4
-    WATER_CONTACT = 0x8
-    STATIONARY_FALL = 0x10
-    STATIONARY_STOP = 0x20
-    STATIONARY_STUCK = 0x40
-    STATIONARY_COMPLETE = 0x70
-    ACTIVE = 0x80
-    CHECK_ETHEREAL = 0x100
+    CONTACT: Final = 0x1
+    ON_WALKABLE: Final = 0x2
+    SLIDING: Final = 0x4
+    WATER_CONTACT: Final = 0x8
+    STATIONARY_FALL: Final = 0x10
+    STATIONARY_STOP: Final = 0x20
+    STATIONARY_STUCK: Final = 0x40
+    STATIONARY_COMPLETE: Final = 0x70
+    ACTIVE: Final = 0x80
+    CHECK_ETHEREAL: Final = 0x100
 
 
 _NAMES = (

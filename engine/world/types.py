@@ -6,6 +6,8 @@ build, compare and serialise them without touching engine internals.
 
 from __future__ import annotations
 
+from typing import Final
+
 from dataclasses import dataclass, field
 
 from ..geometry import Plane, Position, Vec3
@@ -16,20 +18,20 @@ __all__ = ["SphereSpec", "CylSphereSpec", "MoverSpec", "MoveResult", "ObjectStat
 class ObjectState:
     """ObjectInfoState flag names accepted in `MoverSpec.state` (the client's values)."""
 
-    CONTACT = 0x1
-    ON_WALKABLE = 0x2
-    IS_VIEWER = 0x4
-    PATH_CLIPPED = 0x8
-    FREE_ROTATE = 0x10
-    PERFECT_CLIP = 0x40
-    IS_IMPENETRABLE = 0x80
-    IS_PLAYER = 0x100
-    EDGE_SLIDE = 0x200
-    IGNORE_CREATURES = 0x400
-    IS_PK = 0x800
-    IS_PK_LITE = 0x1000
+    CONTACT: Final = 0x1
+    ON_WALKABLE: Final = 0x2
+    IS_VIEWER: Final = 0x4
+    PATH_CLIPPED: Final = 0x8
+    FREE_ROTATE: Final = 0x10
+    PERFECT_CLIP: Final = 0x40
+    IS_IMPENETRABLE: Final = 0x80
+    IS_PLAYER: Final = 0x100
+    EDGE_SLIDE: Final = 0x200
+    IGNORE_CREATURES: Final = 0x400
+    IS_PK: Final = 0x800
+    IS_PK_LITE: Final = 0x1000
 
-    BY_NAME = {
+    BY_NAME: Final = {
         "Contact": CONTACT,
         "OnWalkable": ON_WALKABLE,
         "IsViewer": IS_VIEWER,

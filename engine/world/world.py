@@ -257,8 +257,7 @@ def _result(mover: Mover, ok: bool, state: str, t: Any) -> MoveResult:
         if ci.collision_normal_valid:
             collision_normal = ci.collision_normal
         fsf = ci.frames_stationary_fall
-        collide_objects = [getattr(o, "owner", None) or o for o in ci.collide_object]
-        collide_objects = [o.id for o in collide_objects]
+        collide_objects = [(getattr(o, "owner", None) or o).id for o in ci.collide_object]
     contact = bool(ts & TS.CONTACT)
     # the plane is reported whenever the object is in contact
     return MoveResult(
