@@ -1,0 +1,474 @@
+"""Indoor scenarios whose answers are obvious from the geometry.
+
+Every world is built by `indoor_builder` as an acphys-scene/1 dict (rooms as
+EnvCells, buildings and props as GfxObjs) on flat ground at z = 50, and loaded
+with `engine.world_from_scene_dict`. Cells sit at (108, 108, 50) with identity
+orientation, so cell-local x, y, z are the landblock's minus (108, 108, 50).
+The expected numbers come from radii, heights and step-up heights.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import engine
+from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
+from engine.constants import FLOOR_Z
+from engine.world.placement import place_mover
+from indoor_builder import (
+    GROUND,
+    Door,
+    SceneBuilder,
+    box_solid,
+    gfx_obj,
+    ramp_struct,
+    room_struct,
+    shell_boxes,
+    wedge_solid,
+)
+
+R = 0.48  # the walkers' sphere radius
+HEAD_Z = 1.35  # the head sphere's centre above the origin
+CX, CY = 108.0, 108.0  # where the cells and buildings stand
+UP = Vec3(0.0, 0.0, 1.0)
+
+
+def walker(step_up: float = 0.4, **kw: object) -> MoverSpec:
+    """A two-sphere creature (feet and head), 1.83 m tall."""
+    return MoverSpec(
+        spheres=[SphereSpec((0.0, 0.0, R), R), SphereSpec((0.0, 0.0, HEAD_Z), R)],
+        step_up_height=step_up,
+        step_down_height=0.4,
+        state=kw.pop("state", ["Contact", "OnWalkable", "IsPlayer"]),  # type: ignore[arg-type]
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+#: a one-sphere creature: 0.96 m tall
+SHORT = MoverSpec(spheres=[SphereSpec((0.0, 0.0, R), R)], step_up_height=0.4, step_down_height=0.4, state=["Contact", "OnWalkable"])
+
+
+def local(x: float, y: float, z: float = 0.0) -> Vec3:
+    """Cell-local -> landblock coordinates."""
+    return Vec3(CX + x, CY + y, GROUND + z)
+
+
+def stand(world: engine.World, spec: MoverSpec, cell: int, at: Vec3, floor_z: float | None = None) -> int:
+    """A mover standing on a horizontal floor at `at` (landblock coordinates)."""
+    z = at.z if floor_z is None else floor_z
+    return world.add_mover(spec, Position.at(cell, Vec3(at.x, at.y, z)), Plane(UP, -z), cell)
+
+
+def walk(world: engine.World, mid: int, d: Vec3, n: int) -> list[engine.MoveResult]:
+    out = []
+    for _ in range(n):
+        p = world.mover(mid).position
+        out.append(world.move(mid, Position(p.cell_id, p.frame.with_origin(p.frame.origin + d))))
+    return out
+
+
+def held_or_moved(results: list[engine.MoveResult], start: Vec3) -> None:
+    """Every move either went through, or was refused outright (a walk straight
+    into something: the transition fails and the mover stays where it was)."""
+    prev = start
+    for r in results:
+        assert r.contact and r.on_walkable
+        if not r.ok:
+            assert r.transition_state == "Invalid" and r.position.origin == prev
+        prev = r.position.origin
+
+
+def closed_room(lo=(-4.0, -3.0, 0.0), hi=(4.0, 3.0, 3.0), solids=()) -> tuple[engine.World, int]:
+    """A world with one closed box room (an EnvCell with no portals)."""
+    b = SceneBuilder()
+    cell = b.add_env_cell(b.add_struct(room_struct(lo, hi, solids=solids)), (CX, CY, GROUND))
+    return b.world(), cell
+
+
+# -- steps -------------------------------------------------------------------------------------------
+
+STEP_X = 0.5  # the step's riser, cell-local
+STEP_H = 0.25
+
+
+def step_room() -> tuple[engine.World, int]:
+    # a raised floor block from x = 0.5 to the east wall, the room's full width
+    return closed_room(solids=[box_solid((STEP_X, -3.0, 0.0), (4.0, 3.0, STEP_H))])
+
+
+@pytest.mark.parametrize("step_up, climbs", [(0.3, True), (0.2, True), (0.15, False)])
+def test_a_quarter_metre_step_is_climbed_only_with_enough_step_up_height(step_up: float, climbs: bool) -> None:
+    """A step-up probes down from where the foot sphere met the step by the
+    step-up height, and the client's CPolygon::adjust_sphere_to_plane accepts
+    a landing up to half a probe *above* its start (walk interpolation down to
+    -0.5). The foot sphere has to rise by the step's height, so a step of h is
+    climbed when h <= 1.5 * step_up_height: 0.25 m needs 0.1667 m. A 0.3 and a
+    0.2 step-up climb it; 0.15 (reaching 0.225 m) does not."""
+    world, cell = step_room()
+    mid = stand(world, walker(step_up), cell, local(-2.0, 0.0))
+    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 25)  # 5 m east: past the riser at 2.5 m
+    held_or_moved(results, local(-2.0, 0.0))
+    final = results[-1].position
+    assert final.cell_id == cell
+    assert climbs == (STEP_H <= 1.5 * step_up)
+    if climbs:
+        assert final.origin.z == pytest.approx(GROUND + STEP_H, abs=1e-3)  # standing on the step
+        assert final.origin.x == pytest.approx(CX + 3.0, abs=1e-3)  # and walked on along it
+        assert results[-1].contact_plane.normal.z == pytest.approx(1.0, abs=1e-6)  # type: ignore[union-attr]
+        # it went up in one stride, where the foot sphere first overlapped the step
+        zs = [r.position.origin.z - GROUND for r in results]
+        assert all(z == pytest.approx(0.0, abs=1e-4) or z == pytest.approx(STEP_H, abs=1e-4) for z in zs)
+    else:
+        # the foot sphere (centre 0.48 up) meets the riser's top edge (0.25 up) when
+        # its centre is sqrt(0.48^2 - 0.23^2) = 0.421 m short of it: it stops there
+        edge_gap = math.sqrt(R * R - (R - STEP_H) ** 2)
+        assert max(r.position.origin.z for r in results) == pytest.approx(GROUND, abs=1e-4)
+        assert final.origin.x <= CX + STEP_X - edge_gap + 1e-3
+        assert final.origin.x >= CX + STEP_X - edge_gap - 0.2 - 1e-3  # within one stride of it
+
+
+def test_a_step_up_reaches_one_and_a_half_step_up_heights_and_no_further() -> None:
+    # either side of 0.25 / 1.5 = 0.1667
+    for step_up, climbs in ((0.17, True), (0.16, False)):
+        world, cell = step_room()
+        mid = stand(world, walker(step_up), cell, local(-2.0, 0.0))
+        final = walk(world, mid, Vec3(0.2, 0.0, 0.0), 25)[-1].position.origin
+        assert (final.z > GROUND + 0.1) == climbs, step_up
+
+
+# -- walls ---------------------------------------------------------------------------------------------
+
+
+WALL_X = 110.0  # its west face, landblock coordinates
+
+
+def wall_world() -> engine.World:
+    """A free-standing wall 5 m long (y 105.5..110.5), 0.5 m thick, 3 m high."""
+    b = SceneBuilder()
+    wall = b.add_gfx_obj(gfx_obj([box_solid((-0.25, -2.5, 0.0), (0.25, 2.5, 3.0))]))
+    b.add_object(wall, (WALL_X + 0.25, 108.0, GROUND))
+    return b.world()
+
+
+def test_a_five_metre_wall_stops_a_walker_and_slides_it_along() -> None:
+    world = wall_world()
+    cell = SceneBuilder().outdoor_cell(106.0, 104.0)
+    mid = stand(world, walker(), cell, Vec3(106.0, 104.0, GROUND))
+    d = Vec3(0.2, 0.1, 0.0)  # east-north-east, into the wall
+    results = walk(world, mid, d, 90)
+    assert all(r.ok and r.contact and r.on_walkable for r in results)
+    xs = [r.position.origin.x for r in results]
+    ys = [r.position.origin.y for r in results]
+    # never into the wall: beside its face the sphere stays a radius off it
+    assert max(x for x, y in zip(xs, ys) if y <= 110.5) <= WALL_X - R + 1e-3
+    # while beside the face it slides: a stride that would hit is projected onto
+    # the face from where the sphere stood (the client does not advance to the
+    # contact point), so it keeps one x, within one stride (0.2 m) of touching,
+    # and the whole northward part of each stride
+    sliding = [i for i, y in enumerate(ys) if 106.5 < y < 110.0]
+    assert len(sliding) >= 30
+    x_slide = xs[sliding[0]]
+    assert WALL_X - R - d.x - 1e-3 <= x_slide <= WALL_X - R + 1e-3
+    for i in sliding[1:]:
+        assert xs[i] == pytest.approx(x_slide, abs=1e-4)
+        assert ys[i] - ys[i - 1] == pytest.approx(d.y, abs=1e-4)
+    # past the wall's north end (y = 110.5 plus a radius) it walks on east
+    assert ys[-1] > 110.5 + R and xs[-1] > WALL_X + 0.5
+
+
+# -- ramps -------------------------------------------------------------------------------------------
+
+
+def cellar_world() -> tuple[engine.World, list[int]]:
+    """An upper room (floor z = 0), a 6 m ramp corridor down to z = -2.5, and a
+    cellar room (floor -2.5): three EnvCells joined by full-height doorways.
+    Cell-local: upper x -4..0, ramp x 0..6 (y -1..1), cellar x 6..12."""
+    b = SceneBuilder()
+    upper = b.add_struct(room_struct((-4.0, -2.0, 0.0), (0.0, 2.0, 3.0), [Door("+x", -1.0, 1.0)]))
+    ramp = b.add_struct(ramp_struct(0.0, 6.0, -1.0, 1.0, 0.0, -2.5, 3.0))
+    cellar = b.add_struct(room_struct((6.0, -3.0, -2.5), (12.0, 3.0, 0.5), [Door("-x", -1.0, 1.0)]))
+    c0, c1, c2 = b.cell_id(0x100), b.cell_id(0x101), b.cell_id(0x102)
+    b.add_env_cell(upper, (CX, CY, GROUND), [(c1, 0)])
+    b.add_env_cell(ramp, (CX, CY, GROUND), [(c0, 0), (c2, 0)])
+    b.add_env_cell(cellar, (CX, CY, GROUND), [(c1, 1)])
+    return b.world(), [c0, c1, c2]
+
+
+def ramp_floor(x: float) -> float:
+    """The floor height under cell-local x along the corridor's axis."""
+    return 0.0 if x <= 0.0 else -2.5 if x >= 6.0 else -2.5 * x / 6.0
+
+
+def test_walking_down_a_ramp_into_a_cellar_keeps_contact_all_the_way() -> None:
+    world, (upper, ramp, cellar) = cellar_world()
+    mid = stand(world, walker(), upper, local(-3.0, 0.0))
+    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 60)  # 12 m east: to x = 9 in the cellar
+    nz = 6.0 / math.hypot(6.0, 2.5)  # the ramp's normal z (22.6 degrees: walkable)
+    assert nz > FLOOR_Z
+    cells = []
+    for r in results:
+        o = r.position.origin
+        x = o.x - CX
+        assert r.ok and r.contact and r.on_walkable, f"lost contact at x = {x:.2f}"
+        z = o.z - GROUND
+        # the foot sphere rests on the floor: on the ramp its centre is R / nz above
+        # the slope, so the origin is R (1 / nz - 1) = 0.04 m above the floor line
+        assert ramp_floor(x) - 1e-3 <= z <= ramp_floor(x) + R * (1.0 / nz - 1.0) + 1e-3
+        if 1.0 < x < 5.0:
+            assert z == pytest.approx(ramp_floor(x) + R * (1.0 / nz - 1.0), abs=1e-3)
+        cells.append(r.position.cell_id)
+    assert ramp in cells and cells[-1] == cellar
+    assert results[-1].position.origin.z == pytest.approx(GROUND - 2.5, abs=1e-4)
+
+
+# -- roofs ---------------------------------------------------------------------------------------------
+
+
+def test_a_flat_roof_catches_a_falling_mover() -> None:
+    b = SceneBuilder()
+    roof_top = 3.0
+    box = b.add_gfx_obj(gfx_obj([box_solid((-2.0, -2.0, 0.0), (2.0, 2.0, roof_top))]))
+    b.add_object(box, (CX, CY, GROUND))
+    world = b.world()
+    cell = b.outdoor_cell(CX, CY)
+    spec = walker(state=["IsPlayer"])
+    mid = world.add_mover(spec, Position.at(cell, Vec3(CX + 0.5, CY - 0.5, GROUND + 8.0)))  # airborne, 5 m above the roof
+    results = [world.step(mid, Vec3(0.0, 0.0, 0.0), 0.05) for _ in range(60)]  # 3 s
+    final = results[-1]
+    o = final.position.origin
+    assert final.ok and final.contact and final.on_walkable
+    assert o.z == pytest.approx(GROUND + roof_top, abs=1e-3)  # resting on the roof, not the ground 3 m below
+    assert (o.x, o.y) == (pytest.approx(CX + 0.5, abs=1e-6), pytest.approx(CY - 0.5, abs=1e-6))
+    assert final.contact_plane is not None and final.contact_plane.normal.z == pytest.approx(1.0, abs=1e-6)
+    assert min(r.position.origin.z for r in results) >= GROUND + roof_top - 1e-3  # never sank into it
+
+
+# -- slopes ----------------------------------------------------------------------------------------------
+
+
+def test_an_unwalkable_slope_in_a_room_is_slid_along_not_climbed() -> None:
+    # a 60 degree slope (normal z = 0.5 < FloorZ) rising east from x = 1, across the room
+    rise = 1.5 * math.tan(math.radians(60.0))
+    world, cell = closed_room(lo=(-4.0, -4.0, 0.0), hi=(4.0, 4.0, 4.0), solids=[wedge_solid(1.0, 2.5, -4.0, 4.0, 0.0, rise)])
+    assert math.cos(math.radians(60.0)) < FLOOR_Z
+    mid = stand(world, walker(), cell, local(-1.0, -3.0))
+    d = Vec3(0.2, 0.1, 0.0)
+    results = walk(world, mid, d, 50)
+    # the foot sphere touches the slope (normal (-sin 60, 0, cos 60) through x = 1)
+    # when sin60 (1 - x) + cos60 * R = R: x = 1 - R (1 - cos60) / sin60
+    stop_x = 1.0 - R * (1.0 - 0.5) / math.sin(math.radians(60.0))
+    xs = [r.position.origin.x - CX for r in results]
+    ys = [r.position.origin.y - CY for r in results]
+    for r in results:
+        assert r.ok and r.contact and r.on_walkable
+        assert r.position.origin.z == pytest.approx(GROUND, abs=1e-3)  # never climbs
+        assert r.position.origin.x - CX <= stop_x + 1e-3
+    # once held at the foot (within one stride of touching) it slides north
+    # with the whole northward part of each stride
+    sliding = [i for i, y in enumerate(ys) if -1.5 < y < 4.0 - R - 0.2]
+    assert len(sliding) >= 20
+    x_slide = xs[sliding[0]]
+    assert stop_x - d.x - 1e-3 <= x_slide <= stop_x + 1e-3
+    for i in sliding[1:]:
+        assert xs[i] == pytest.approx(x_slide, abs=1e-4)
+        assert ys[i] - ys[i - 1] == pytest.approx(d.y, abs=1e-4)
+
+
+# -- doorways ----------------------------------------------------------------------------------------------
+
+HOUSE_LO, HOUSE_HI = (-3.0, -2.5, 0.0), (3.0, 2.5, 3.0)
+HOUSE_DOOR = Door("-y", -0.75, 0.75, 2.25)  # 1.5 m wide, 2.25 m high, in the south wall
+
+
+def house_world() -> tuple[engine.World, int, SceneBuilder]:
+    """One room with a doorway to the outside in a building shell (0.25 m walls, flat roof)."""
+    b = SceneBuilder()
+    room = b.add_struct(room_struct(HOUSE_LO, HOUSE_HI, [HOUSE_DOOR]))
+    shell = b.add_gfx_obj(gfx_obj(shell_boxes(HOUSE_LO, HOUSE_HI, 0.25, HOUSE_DOOR)))
+    cell = b.add_env_cell(room, (CX, CY, GROUND), [(0xFFFF, 0)])
+    b.add_building(shell, (CX, CY, GROUND), [(cell, 0)])
+    return b.world(), cell, b
+
+
+def test_walking_through_a_doorway_moves_the_mover_into_the_env_cell_and_back_out() -> None:
+    world, room, b = house_world()
+    outside = b.outdoor_cell(CX, CY - 5.5)
+    assert outside == b.outdoor_cell(CX, CY)  # the building's LandCell
+    mid = stand(world, walker(), outside, local(0.0, -5.5))
+    inward = walk(world, mid, Vec3(0.0, 0.2, 0.0), 30)  # to y = +0.5, inside
+    outward = walk(world, mid, Vec3(0.0, -0.2, 0.0), 30)  # back to y = -5.5
+    for r in inward + outward:
+        assert r.ok and r.contact and r.on_walkable
+        assert r.position.origin.z == pytest.approx(GROUND, abs=1e-4)
+        assert r.position.origin.x == pytest.approx(CX, abs=1e-4)  # straight through the middle of the door
+        y = r.position.origin.y - CY
+        # the cell holding the origin: the room's box is y > -2.5
+        if y > -2.5 + 0.05:
+            assert r.position.cell_id == room, f"at y = {y:.2f}"
+        elif y < -2.5 - 0.05:
+            assert r.position.cell_id == outside, f"at y = {y:.2f}"
+    assert inward[-1].position.origin.y == pytest.approx(CY + 0.5, abs=1e-3)
+    assert outward[-1].position.cell_id == outside
+    assert outward[-1].position.origin.y == pytest.approx(CY - 5.5, abs=1e-3)
+
+
+def test_the_shell_beside_the_doorway_stops_a_walker_outside() -> None:
+    world, room, b = house_world()
+    outside = b.outdoor_cell(CX, CY)
+    mid = stand(world, walker(), outside, local(-2.0, -5.5))  # in line with the wall, not the door
+    results = walk(world, mid, Vec3(0.0, 0.2, 0.0), 30)
+    final = results[-1].position
+    assert final.cell_id == outside
+    # the shell's outer face is at y = -2.75
+    assert final.origin.y - CY <= -2.75 - R + 1e-3
+    assert final.origin.y - CY >= -2.75 - R - 0.2 - 1e-3
+
+
+# -- ceilings ------------------------------------------------------------------------------------------------
+
+SOFFIT_X, SOFFIT_Z = 1.0, 1.5  # a low ceiling from x = 1 east, its underside 1.5 m up
+
+
+def low_ceiling_room() -> tuple[engine.World, int]:
+    return closed_room(solids=[box_solid((SOFFIT_X, -3.0, SOFFIT_Z), (4.0, 3.0, 3.0))])
+
+
+def test_a_low_ceiling_blocks_a_tall_mover() -> None:
+    world, cell = low_ceiling_room()
+    mid = stand(world, walker(), cell, local(-2.0, 0.0))
+    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 25)
+    # the head sphere (centre 1.35 up, top 1.83) meets the soffit's edge (1.5 up) when
+    # its centre is sqrt(0.48^2 - 0.15^2) = 0.456 m short of x = 1
+    gap = math.sqrt(R * R - (SOFFIT_Z - HEAD_Z) ** 2)
+    final = results[-1].position.origin
+    held_or_moved(results, local(-2.0, 0.0))
+    assert max(r.position.origin.x for r in results) <= CX + SOFFIT_X - gap + 1e-3
+    assert final.x >= CX + SOFFIT_X - gap - 0.2 - 1e-3
+    assert final.z == pytest.approx(GROUND, abs=1e-4)
+
+
+def test_a_short_mover_passes_under_the_low_ceiling() -> None:
+    world, cell = low_ceiling_room()
+    mid = stand(world, SHORT, cell, local(-2.0, 0.0))
+    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 25)  # 0.96 m tall: clears 1.5 m
+    assert all(r.ok and r.contact for r in results)
+    assert results[-1].position.origin.x == pytest.approx(CX + 3.0, abs=1e-3)
+
+
+# -- missiles -------------------------------------------------------------------------------------------------
+
+MISSILE_R = 0.25
+
+
+def missile_spec() -> MoverSpec:
+    return MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), MISSILE_R)], state=["PathClipped"], step_down=False, gravity=False)
+
+
+def test_a_missile_stops_at_the_first_wall() -> None:
+    # fired north inside the house: the room's wall (y = 2.5) comes before the shell behind it (2.75)
+    world, room, b = house_world()
+    z = GROUND + 1.0
+    mid = world.add_mover(missile_spec(), Position.at(room, Vec3(CX + 1.0, CY - 1.0, z)))
+    r = world.move(mid, Position.at(room, Vec3(CX + 1.0, CY + 4.0, z)))  # 5 m through both: 20 steps of 0.25 m
+    o = r.position.origin
+    assert r.ok and r.position.cell_id == room
+    assert o.y <= CY + 2.5 - MISSILE_R + 1e-4  # short of the first wall
+    assert o.y >= CY + 2.5 - MISSILE_R - MISSILE_R - 1e-3  # within one sub-step of it
+    assert o.x == pytest.approx(CX + 1.0, abs=1e-6) and o.z == pytest.approx(z, abs=1e-6)
+    assert r.collision_normal is not None
+    assert (r.collision_normal.x, r.collision_normal.y, r.collision_normal.z) == (
+        pytest.approx(0.0, abs=1e-6),
+        pytest.approx(-1.0, abs=1e-6),
+        pytest.approx(0.0, abs=1e-6),
+    )
+
+
+def test_a_missile_fired_through_the_doorway_stops_at_the_back_wall() -> None:
+    world, room, b = house_world()
+    outside = b.outdoor_cell(CX, CY)
+    z = GROUND + 1.0
+    mid = world.add_mover(missile_spec(), Position.at(outside, Vec3(CX, CY - 5.0, z)))
+    r = world.move(mid, Position.at(outside, Vec3(CX, CY + 2.5, z)))  # 7.5 m: through the door, into the north wall
+    o = r.position.origin
+    assert r.ok and r.position.cell_id == room
+    assert CY + 2.5 - 2 * MISSILE_R - 1e-3 <= o.y <= CY + 2.5 - MISSILE_R + 1e-4
+
+
+# -- placement ------------------------------------------------------------------------------------------------
+
+
+def test_placement_overlapping_a_room_wall_moves_the_mover_to_the_nearest_free_spot() -> None:
+    """A placement whose foot sphere reaches 0.28 m into the east wall (x = 4)
+    with its centre still in the room: the room's BSP leaves report the wall
+    polygon but no solid centre, so there is nothing to push against, and the
+    placement searches the first ring around the target (FindPlacementPos):
+    radius 4 m / ceil(4 / 0.48) = 0.444 m, 6 headings from north, clockwise.
+    North, ENE, ESE and south still overlap the wall; WSW (240 degrees) is the
+    first free spot: 0.444 sin 60 = 0.385 m west and 0.444 cos 60 = 0.222 m south."""
+    world, cell = closed_room()
+    mid = stand(world, walker(), cell, local(0.0, 0.0))
+    target = local(3.8, 1.0, 0.0)
+    r = place_mover(world, mid, Position.at(cell, target), "enter_world", slide=True)
+    o = r.position.origin
+    assert r.ok and r.placement_result == "OK"
+    assert r.position.cell_id == cell
+    ring = 4.0 / math.ceil(4.0 / R)
+    assert o.x == pytest.approx(target.x - ring * math.sin(math.radians(60.0)), abs=1e-3)
+    assert o.y == pytest.approx(target.y - ring * math.cos(math.radians(60.0)), abs=1e-3)
+    assert o.z == pytest.approx(GROUND, abs=1e-3)
+    assert o.x <= CX + 4.0 - R  # clear of the wall
+    assert r.contact and r.on_walkable  # landed on the floor
+
+
+@pytest.mark.parametrize("x", [110.1, 110.2, 110.3, 110.45])
+def test_placement_pushes_a_mover_out_of_a_wall_object(x: float) -> None:
+    # the foot sphere's centre inside the wall (x 110..110.5, y 105.5..110.5, 3 m high)
+    world = wall_world()
+    cell = SceneBuilder().outdoor_cell(WALL_X, 108.0)
+    mid = stand(world, walker(), cell, Vec3(105.0, 108.0, GROUND))
+    r = place_mover(world, mid, Position.at(cell, Vec3(x, 108.0, GROUND)), "enter_world", slide=True)
+    o = r.position.origin
+    assert r.ok and r.placement_result == "OK"
+    assert r.contact and o.z == pytest.approx(GROUND, abs=1e-3)  # on the ground, not on the wall
+    # out of the wall: both spheres at least a radius from the box
+    for h in (R, HEAD_Z):
+        dx = max(WALL_X - o.x, 0.0, o.x - (WALL_X + 0.5))
+        dy = max(105.5 - o.y, 0.0, o.y - 110.5)
+        dz = max(0.0, GROUND + h - (GROUND + 3.0))
+        assert math.sqrt(dx * dx + dy * dy + dz * dz) >= R - 1e-3
+    # and not far: within 1.5 m of the target (the wall is 0.5 m thick)
+    assert math.hypot(o.x - x, o.y - 108.0) <= 1.5
+
+
+# -- property: no tunnelling out of a closed room ----------------------------------------------------------
+
+ROOM_LO, ROOM_HI = (-4.0, -3.0, 0.0), (4.0, 3.0, 3.0)
+#: RETAIL's 30 sub-steps of one radius: the longest move that is not refused
+MAX_MOVE = 30 * R - 0.01
+
+moves_strategy = st.lists(
+    st.tuples(st.floats(min_value=0.0, max_value=2 * math.pi), st.floats(min_value=0.0, max_value=MAX_MOVE)),
+    min_size=200,
+    max_size=300,
+)
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(moves=moves_strategy)
+def test_random_walks_never_leave_a_closed_room(moves: list[tuple[float, float]]) -> None:
+    world, cell = closed_room(ROOM_LO, ROOM_HI)
+    mid = stand(world, walker(), cell, local(0.0, 0.0))
+    for heading, length in moves:
+        p = world.mover(mid).position
+        target = p.with_origin(p.origin + Vec3(math.cos(heading) * length, math.sin(heading) * length, 0.0))
+        r = world.move(mid, target)
+        o = r.position.origin
+        assert r.position.cell_id == cell
+        assert CX + ROOM_LO[0] + R - 1e-3 <= o.x <= CX + ROOM_HI[0] - R + 1e-3, f"x {o.x - CX:.4f} outside the room"
+        assert CY + ROOM_LO[1] + R - 1e-3 <= o.y <= CY + ROOM_HI[1] - R + 1e-3, f"y {o.y - CY:.4f} outside the room"
+        assert o.z == pytest.approx(GROUND, abs=1e-3)
+        assert r.contact
