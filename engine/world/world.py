@@ -228,6 +228,12 @@ def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
     for s in spheres:
         if not s.center.is_finite() or not math.isfinite(s.radius) or s.radius <= 0.0:
             raise NonFiniteError(f"mover sphere {s!r} must have finite centre and positive radius")
+    if not math.isfinite(spec.scale) or spec.scale <= 0.0:
+        raise NonFiniteError(f"mover scale must be finite and positive, got {spec.scale!r}")
+    for name in ("step_up_height", "step_down_height"):
+        value = getattr(spec, name)
+        if not math.isfinite(value) or value < 0.0:
+            raise NonFiniteError(f"mover {name} must be finite and not negative, got {value!r}")
     creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
     return Mover(
         mover_id,
