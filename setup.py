@@ -1,0 +1,37 @@
+"""Build hook: compile the engine's hot modules with mypyc.
+
+The modules stay plain, typed Python; mypyc turns them into C extensions
+that give the same answers several times faster. Set ACPHYS_COMPILE=0 to
+install the pure-Python engine only (no compiler needed).
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+
+from setuptools import setup
+
+# The per-move path: geometry, terrain, cells, BSP, objects, the transition
+# and the mover. Loaders, formats and the World facade stay interpreted (they
+# are not hot, and they use dynamic features mypyc does not compile).
+HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
+NOT_COMPILED = {"engine/objects/setup.py"}
+
+
+def hot_modules() -> list[str]:
+    mods = ["engine/constants.py", "engine/world/mover.py", "engine/world/transient.py"]
+    for pkg in HOT_PACKAGES:
+        for path in sorted(glob.glob(f"engine/{pkg}/*.py")):
+            if not path.endswith("__init__.py") and path not in NOT_COMPILED:
+                mods.append(path)
+    return mods
+
+
+ext_modules = []
+if os.environ.get("ACPHYS_COMPILE", "1") != "0":
+    from mypyc.build import mypycify
+
+    ext_modules = mypycify(hot_modules(), opt_level="3")
+
+setup(ext_modules=ext_modules)
