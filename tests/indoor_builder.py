@@ -48,6 +48,8 @@ GROUND = GROUND_BYTE * 0.5  # 50 m
 ENV_ID = 0x0D000001
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 
+#: the order of a box cell's faces in the shared scenes: floor, east, ceiling, west, south, north
+FACE_ORDER = ("-z", "+x", "+z", "-x", "-y", "+y")
 AXES = {"-x": (0, -1.0), "+x": (0, 1.0), "-y": (1, -1.0), "+y": (1, 1.0), "-z": (2, -1.0), "+z": (2, 1.0)}
 
 
@@ -393,10 +395,13 @@ class Door:
 
 
 def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
-    """The 6 inner faces of the box lo..hi, walls split around their doors.
-    Order: floor, -x, ceiling, +x, +y, -y (the client's own room order)."""
+    """The 6 inner faces of the box lo..hi, walls split around their doors
+    (the strip above the door across the whole wall, then the parts left and
+    right of it). Faces come in the order of the shared scenes' rooms (floor,
+    east, ceiling, west, south, north), which is also the order of their
+    physics polygons (a face's walls, then its portal)."""
     faces = []
-    for name in ("-z", "-x", "+z", "+x", "+y", "-y"):
+    for name in FACE_ORDER:
         axis, sign = AXES[name]
         value = hi[axis] if sign > 0 else lo[axis]
         inward = [0.0, 0.0, 0.0]
@@ -419,9 +424,9 @@ def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
                 a[u], a[2], b[u], b[2] = ulo, zlo, uhi, zhi
                 walls.append(axis_rect(axis, value, a, b))
 
-        rect(lo[u], door.lo, lo[2], hi[2])
-        rect(door.hi, hi[u], lo[2], hi[2])
-        rect(door.lo, door.hi, top, hi[2])
+        rect(lo[u], hi[u], top, hi[2])
+        rect(lo[u], door.lo, lo[2], top)
+        rect(door.hi, hi[u], lo[2], top)
         a = [0.0, 0.0, 0.0]
         b = [0.0, 0.0, 0.0]
         a[u], a[2], b[u], b[2] = door.lo, lo[2], door.hi, top
@@ -437,27 +442,32 @@ def room_struct(lo: Point, hi: Point, doors: Sequence[Door] = (), solids: Sequen
     return convex_struct(room_faces(lo, hi, doors), [s.without_faces_on(bounds) for s in solids])
 
 
-def ramp_struct(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, height: float) -> Struct:
+def ramp_struct(
+    x0: float, x1: float, y0: float, y1: float, z0: float, z1: float, height: float, end_height: float | None = None
+) -> Struct:
     """A corridor cell whose floor slopes from z0 at x = x0 to z1 at x = x1 (y
-    from y0 to y1), its ceiling `height` above the floor, both ends open
-    (portal 0 at x0, portal 1 at x1)."""
+    from y0 to y1), its ceiling `height` above the floor at x0 and
+    `end_height` (default: the same) at x1, both ends open
+    (portal 0 at x1, portal 1 at x0: faces in the order floor, east end,
+    ceiling, west end, south, north, as the shared cellar's ramp)."""
     a0, a1 = (x0, y0, z0), (x1, y0, z1)
     b0, b1 = (x0, y1, z0), (x1, y1, z1)
-    up = (0.0, 0.0, height)
+    h1 = height if end_height is None else end_height
 
     def lift(p: Point) -> Point:
-        return (p[0] + up[0], p[1] + up[1], p[2] + up[2])
+        return (p[0], p[1], p[2] + (height if p[0] == x0 else h1))
 
     floor = [a0, a1, b1, b0]
     ceiling = [lift(p) for p in floor]
     floor_n = _unit((-(z1 - z0), 0.0, x1 - x0))
+    ceiling_n = _unit(((z1 + h1) - (z0 + height), 0.0, -(x1 - x0)))
     faces = [
         Face(plane_of(floor, floor_n), [floor]),
-        Face(plane_of(ceiling, [-c for c in floor_n]), [ceiling]),
+        Face(plane_of([a1, b1, lift(b1), lift(a1)], (-1.0, 0.0, 0.0)), [], [a1, b1, lift(b1), lift(a1)]),
+        Face(plane_of(ceiling, ceiling_n), [ceiling]),
+        Face(plane_of([a0, b0, lift(b0), lift(a0)], (1.0, 0.0, 0.0)), [], [a0, b0, lift(b0), lift(a0)]),
         Face(plane_of([a0, a1, lift(a1), lift(a0)], (0.0, 1.0, 0.0)), [[a0, a1, lift(a1), lift(a0)]]),
         Face(plane_of([b0, b1, lift(b1), lift(b0)], (0.0, -1.0, 0.0)), [[b0, b1, lift(b1), lift(b0)]]),
-        Face(plane_of([a0, b0, lift(b0), lift(a0)], (1.0, 0.0, 0.0)), [], [a0, b0, lift(b0), lift(a0)]),
-        Face(plane_of([a1, b1, lift(b1), lift(a1)], (-1.0, 0.0, 0.0)), [], [a1, b1, lift(b1), lift(a1)]),
     ]
     return convex_struct(faces)
 

@@ -9,7 +9,10 @@ The expected numbers come from radii, heights and step-up heights.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -30,6 +33,8 @@ from indoor_builder import (
     shell_boxes,
     wedge_solid,
 )
+
+SCENES = Path("/work/shared/oracle/scenes")
 
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # the head sphere's centre above the origin
@@ -87,6 +92,91 @@ def closed_room(lo=(-4.0, -3.0, 0.0), hi=(4.0, 3.0, 3.0), solids=()) -> tuple[en
     b = SceneBuilder()
     cell = b.add_env_cell(b.add_struct(room_struct(lo, hi, solids=solids)), (CX, CY, GROUND))
     return b.world(), cell
+
+
+# -- the builder ------------------------------------------------------------------------------------
+
+
+def _shape(node: dict[str, Any], vertices: dict[str, Any], polygons: dict[str, Any] | None) -> Any:
+    """A BSP's tags, planes, solid flags and, per leaf, its polygons as vertex sets."""
+    if node["type"] == "LEAF":
+        polys = None
+        if polygons is not None:
+            polys = sorted(
+                tuple(sorted(tuple(round(c, 5) + 0.0 for c in vertices[str(v)]) for v in polygons[str(p)]["vertex_ids"]))
+                for p in node.get("in_polys") or []
+            )
+        return ("LEAF", node.get("solid"), polys)
+    plane = node["splitting_plane"]
+    return (
+        node["type"],
+        tuple(round(c, 5) + 0.0 for c in plane["normal"]),
+        round(plane["d"], 5) + 0.0,
+        _shape(node["pos_node"], vertices, polygons) if "pos_node" in node else None,
+        _shape(node["neg_node"], vertices, polygons) if "neg_node" in node else None,
+    )
+
+
+@pytest.mark.parametrize(
+    "scene, index, build",
+    [
+        ("house.json", "0", lambda: room_struct((-3.75, -2.75, 0.0), (3.75, 2.75, 3.0), [Door("-y", -0.75, 0.75, 2.25)])),
+        ("cellar.json", "1", lambda: ramp_struct(0.0, 6.0, -1.0, 1.0, 0.125, -2.5, 2.75, 2.25)),
+        ("cellar.json", "2", lambda: room_struct((6.0, -3.0, -2.5), (12.0, 3.0, -0.25), [Door("-x", -1.0, 1.0)])),
+    ],
+    ids=["house-room", "cellar-ramp", "cellar-room"],
+)
+def test_the_builder_makes_cells_shaped_like_the_shared_scenes(scene: str, index: str, build: Any) -> None:
+    """Same cell BSP, same physics BSP (planes, leaves, solid flags, the polygons
+    each leaf lists) and same portals as the reference generator's cells."""
+    ref = json.loads((SCENES / scene).read_text())["environments"]["0D000001"]["cell_structs"][index]
+    mine = build().data
+    assert _shape(mine["cell_bsp"], mine["vertices"], None) == _shape(ref["cell_bsp"], ref["vertices"], None)
+    assert _shape(mine["physics_bsp"], mine["vertices"], mine["physics_polygons"]) == _shape(
+        ref["physics_bsp"], ref["vertices"], ref["physics_polygons"]
+    )
+
+    def portals(cs: dict[str, Any]) -> list[Any]:
+        return [sorted(tuple(cs["vertices"][str(v)]) for v in cs["polygons"][str(p)]["vertex_ids"]) for p in cs["portals"]]
+
+    assert portals(mine) == portals(ref)
+
+
+def _check_physics_bsp(node: dict[str, Any], vertices: dict[str, Any], polygons: dict[str, Any]) -> list[tuple[float, ...]]:
+    """Every node has a sphere holding the polygons listed below it; internal
+    nodes have both children. Returns the vertices below `node`."""
+    assert "sphere" in node
+    if node["type"] == "LEAF":
+        pts = [tuple(vertices[str(v)]) for p in node["in_polys"] for v in polygons[str(p)]["vertex_ids"]]
+    else:
+        assert node["type"] == "BPnN" and "pos_node" in node and "neg_node" in node
+        pts = _check_physics_bsp(node["pos_node"], vertices, polygons) + _check_physics_bsp(node["neg_node"], vertices, polygons)
+    c, r = node["sphere"]["origin"], node["sphere"]["radius"]
+    for q in pts:
+        assert math.dist(c, q) <= r
+    return pts
+
+
+def test_the_builders_physics_bsps_are_valid_and_load() -> None:
+    structs = [
+        room_struct((-4.0, -3.0, 0.0), (4.0, 3.0, 3.0), solids=[box_solid((0.5, -3.0, 0.0), (4.0, 3.0, 0.25))]),
+        room_struct((-4.0, -4.0, 0.0), (4.0, 4.0, 4.0), solids=[wedge_solid(1.0, 2.5, -4.0, 4.0, 0.0, 2.6)]),
+        room_struct((-3.0, -2.5, 0.0), (3.0, 2.5, 3.0), [Door("-y", -0.75, 0.75, 2.25)]),
+        ramp_struct(0.0, 6.0, -1.0, 1.0, 0.0, -2.5, 3.0),
+    ]
+    for st in structs:
+        cs = st.data
+        _check_physics_bsp(cs["physics_bsp"], cs["vertices"], cs["physics_polygons"])
+    shell = gfx_obj(shell_boxes((-3.0, -2.5, 0.0), (3.0, 2.5, 3.0), 0.25, Door("-y", -0.75, 0.75, 2.25)))
+    _check_physics_bsp(shell["physics_bsp"], shell["vertices"], shell["physics_polygons"])
+    # 7 boxes (roof, north, east, west, two jambs, lintel): 6 empty leaves and a solid one each,
+    # as many as the shared house's shell
+    assert shell["num_physics_leaves"] == 7 * 7
+    # and the engine's loader accepts them all
+    world, _, _ = house_world()
+    assert len(world.landblocks[0xA9B4].env_cells) == 1 and len(world.landblocks[0xA9B4].buildings) == 1
+    world, cells = cellar_world()
+    assert all(world.get_landcell(c) is not None for c in cells)
 
 
 # -- steps -------------------------------------------------------------------------------------------
@@ -192,9 +282,9 @@ def cellar_world() -> tuple[engine.World, list[int]]:
     ramp = b.add_struct(ramp_struct(0.0, 6.0, -1.0, 1.0, 0.0, -2.5, 3.0))
     cellar = b.add_struct(room_struct((6.0, -3.0, -2.5), (12.0, 3.0, 0.5), [Door("-x", -1.0, 1.0)]))
     c0, c1, c2 = b.cell_id(0x100), b.cell_id(0x101), b.cell_id(0x102)
-    b.add_env_cell(upper, (CX, CY, GROUND), [(c1, 0)])
-    b.add_env_cell(ramp, (CX, CY, GROUND), [(c0, 0), (c2, 0)])
-    b.add_env_cell(cellar, (CX, CY, GROUND), [(c1, 1)])
+    b.add_env_cell(upper, (CX, CY, GROUND), [(c1, 1)])
+    b.add_env_cell(ramp, (CX, CY, GROUND), [(c2, 0), (c0, 0)])  # east end, west end
+    b.add_env_cell(cellar, (CX, CY, GROUND), [(c1, 0)])
     return b.world(), [c0, c1, c2]
 
 
