@@ -274,18 +274,25 @@ def test_a_five_metre_wall_stops_a_walker_and_slides_it_along() -> None:
 
 
 def cellar_world() -> tuple[engine.World, list[int]]:
-    """An upper room (floor z = 0), a 6 m ramp corridor down to z = -2.5, and a
-    cellar room (floor -2.5): three EnvCells joined by full-height doorways.
-    Cell-local: upper x -4..0, ramp x 0..6 (y -1..1), cellar x 6..12."""
+    """A house over a cellar. Cell-local (all cells at (108, 108, 50)): an upper
+    room x -4..0, y -2..2, floor z = 0 (the ground), with a door to the outside
+    in its west wall (y -0.75..0.75, 2.25 m high) inside a building shell; a
+    ramp corridor x 0..6, y -1..1, its floor going down from z = 0 to -2.5; a
+    cellar x 6..12, y -3..3, floor -2.5. Full-height doorways join the cells.
+    Returns the world and [outdoor cell, upper room, ramp, cellar]."""
     b = SceneBuilder()
-    upper = b.add_struct(room_struct((-4.0, -2.0, 0.0), (0.0, 2.0, 3.0), [Door("+x", -1.0, 1.0)]))
+    ulo, uhi = (-4.0, -2.0, 0.0), (0.0, 2.0, 3.0)
+    door = Door("-x", -0.75, 0.75, 2.25)
+    upper = b.add_struct(room_struct(ulo, uhi, [door, Door("+x", -1.0, 1.0)]))
     ramp = b.add_struct(ramp_struct(0.0, 6.0, -1.0, 1.0, 0.0, -2.5, 3.0))
     cellar = b.add_struct(room_struct((6.0, -3.0, -2.5), (12.0, 3.0, 0.5), [Door("-x", -1.0, 1.0)]))
     c0, c1, c2 = b.cell_id(0x100), b.cell_id(0x101), b.cell_id(0x102)
-    b.add_env_cell(upper, (CX, CY, GROUND), [(c1, 1)])
+    b.add_env_cell(upper, (CX, CY, GROUND), [(c1, 1), (0xFFFF, 0)])  # portals in face order: east, then west
     b.add_env_cell(ramp, (CX, CY, GROUND), [(c2, 0), (c0, 0)])  # east end, west end
     b.add_env_cell(cellar, (CX, CY, GROUND), [(c1, 0)])
-    return b.world(), [c0, c1, c2]
+    shell = b.add_gfx_obj(gfx_obj(shell_boxes(ulo, uhi, 0.25, door)))
+    b.add_building(shell, (CX, CY, GROUND), [(c0, 1)])
+    return b.world(), [b.outdoor_cell(CX, CY), c0, c1, c2]
 
 
 def ramp_floor(x: float) -> float:
@@ -293,26 +300,39 @@ def ramp_floor(x: float) -> float:
     return 0.0 if x <= 0.0 else -2.5 if x >= 6.0 else -2.5 * x / 6.0
 
 
-def test_walking_down_a_ramp_into_a_cellar_keeps_contact_all_the_way() -> None:
-    world, (upper, ramp, cellar) = cellar_world()
-    mid = stand(world, walker(), upper, local(-3.0, 0.0))
-    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 60)  # 12 m east: to x = 9 in the cellar
+@pytest.mark.parametrize("direction", ["down", "up"])
+def test_a_ramp_down_into_a_cellar_keeps_contact_all_the_way(direction: str) -> None:
+    world, (outside, upper, ramp, cellar) = cellar_world()
+    start, step, n = (-7.0, 0.2, 80) if direction == "down" else (9.0, -0.2, 80)  # 16 m: outside <-> cellar
+    start_cell = outside if direction == "down" else cellar
+    mid = stand(world, walker(), start_cell, local(start, 0.0, ramp_floor(start)))
+    results = walk(world, mid, Vec3(step, 0.0, 0.0), n)
     nz = 6.0 / math.hypot(6.0, 2.5)  # the ramp's normal z (22.6 degrees: walkable)
     assert nz > FLOOR_Z
+    above = R * (1.0 / nz - 1.0)  # 0.04 m: the origin over the floor line where the foot sphere rests on the slope
     cells = []
     for r in results:
         o = r.position.origin
         x = o.x - CX
         assert r.ok and r.contact and r.on_walkable, f"lost contact at x = {x:.2f}"
+        assert o.y == pytest.approx(CY, abs=1e-4)
         z = o.z - GROUND
-        # the foot sphere rests on the floor: on the ramp its centre is R / nz above
-        # the slope, so the origin is R (1 / nz - 1) = 0.04 m above the floor line
-        assert ramp_floor(x) - 1e-3 <= z <= ramp_floor(x) + R * (1.0 / nz - 1.0) + 1e-3
+        # the foot sphere rests on the floor: on the slope its centre is R / nz
+        # above it, at the creases it rests on the edge, in between
+        assert ramp_floor(x) - 1e-3 <= z <= ramp_floor(x) + above + 1e-3
         if 1.0 < x < 5.0:
-            assert z == pytest.approx(ramp_floor(x) + R * (1.0 / nz - 1.0), abs=1e-3)
-        cells.append(r.position.cell_id)
-    assert ramp in cells and cells[-1] == cellar
-    assert results[-1].position.origin.z == pytest.approx(GROUND - 2.5, abs=1e-4)
+            assert z == pytest.approx(ramp_floor(x) + above, abs=1e-3)
+        if not cells or cells[-1] != r.position.cell_id:
+            cells.append(r.position.cell_id)
+    order = [outside, upper, ramp, cellar]
+    assert cells == (order if direction == "down" else order[::-1])
+    end = results[-1].position.origin
+    if direction == "down":  # going down, every stride keeps its full length
+        assert end.x == pytest.approx(CX + start + n * step, abs=1e-3)
+        assert end.z == pytest.approx(GROUND - 2.5, abs=1e-4)
+    else:  # going up, a level stride is slid along the slope, so it gets less far: out of the house all the same
+        assert end.x < CX - 4.25 - R
+        assert end.z == pytest.approx(GROUND, abs=1e-4)
 
 
 # -- roofs ---------------------------------------------------------------------------------------------
@@ -335,6 +355,18 @@ def test_a_flat_roof_catches_a_falling_mover() -> None:
     assert (o.x, o.y) == (pytest.approx(CX + 0.5, abs=1e-6), pytest.approx(CY - 0.5, abs=1e-6))
     assert final.contact_plane is not None and final.contact_plane.normal.z == pytest.approx(1.0, abs=1e-6)
     assert min(r.position.origin.z for r in results) >= GROUND + roof_top - 1e-3  # never sank into it
+
+
+def test_a_building_roof_catches_a_falling_mover() -> None:
+    # the house's shell roof: 0.25 m thick on 3 m walls, so its top is 3.25 m up
+    world, room, b = house_world()
+    cell = b.outdoor_cell(CX, CY)
+    mid = world.add_mover(walker(state=["IsPlayer"]), Position.at(cell, local(1.0, 1.0, 8.0)))
+    results = [world.step(mid, Vec3(0.0, 0.0, 0.0), 0.05) for _ in range(60)]
+    final = results[-1]
+    assert final.contact and final.on_walkable and final.position.cell_id == cell
+    assert final.position.origin.z == pytest.approx(GROUND + 3.25, abs=1e-3)
+    assert min(r.position.origin.z for r in results) >= GROUND + 3.25 - 1e-3
 
 
 # -- slopes ----------------------------------------------------------------------------------------------
@@ -374,36 +406,77 @@ HOUSE_LO, HOUSE_HI = (-3.0, -2.5, 0.0), (3.0, 2.5, 3.0)
 HOUSE_DOOR = Door("-y", -0.75, 0.75, 2.25)  # 1.5 m wide, 2.25 m high, in the south wall
 
 
-def house_world() -> tuple[engine.World, int, SceneBuilder]:
-    """One room with a doorway to the outside in a building shell (0.25 m walls, flat roof)."""
+def house_world(yaw_degrees: float = 0.0) -> tuple[engine.World, int, SceneBuilder]:
+    """One room with a doorway to the outside in a building shell (0.25 m walls,
+    flat roof), turned by `yaw_degrees` about its origin (108, 108, 50)."""
+    th = math.radians(yaw_degrees) / 2.0
+    q = (math.cos(th), 0.0, 0.0, math.sin(th))
     b = SceneBuilder()
     room = b.add_struct(room_struct(HOUSE_LO, HOUSE_HI, [HOUSE_DOOR]))
     shell = b.add_gfx_obj(gfx_obj(shell_boxes(HOUSE_LO, HOUSE_HI, 0.25, HOUSE_DOOR)))
-    cell = b.add_env_cell(room, (CX, CY, GROUND), [(0xFFFF, 0)])
-    b.add_building(shell, (CX, CY, GROUND), [(cell, 0)])
+    cell = b.add_env_cell(room, (CX, CY, GROUND), [(0xFFFF, 0)], orientation=q)
+    b.add_building(shell, (CX, CY, GROUND), [(cell, 0)], orientation=q)
     return b.world(), cell, b
 
 
-def test_walking_through_a_doorway_moves_the_mover_into_the_env_cell_and_back_out() -> None:
-    world, room, b = house_world()
-    outside = b.outdoor_cell(CX, CY - 5.5)
+def turned(x: float, y: float, yaw_degrees: float, z: float = 0.0) -> Vec3:
+    """House-local (x, y) -> landblock coordinates, the house turned by `yaw_degrees`."""
+    c, s = math.cos(math.radians(yaw_degrees)), math.sin(math.radians(yaw_degrees))
+    return Vec3(CX + c * x - s * y, CY + s * x + c * y, GROUND + z)
+
+
+def house_local(p: Vec3, yaw_degrees: float) -> tuple[float, float]:
+    c, s = math.cos(math.radians(yaw_degrees)), math.sin(math.radians(yaw_degrees))
+    return c * (p.x - CX) + s * (p.y - CY), -s * (p.x - CX) + c * (p.y - CY)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 30.0, 135.0])
+def test_walking_through_a_doorway_moves_the_mover_into_the_env_cell_and_back_out(yaw: float) -> None:
+    world, room, b = house_world(yaw)
+    start = turned(0.0, -5.5, yaw)
+    outside = b.outdoor_cell(start.x, start.y)
     assert outside == b.outdoor_cell(CX, CY)  # the building's LandCell
-    mid = stand(world, walker(), outside, local(0.0, -5.5))
-    inward = walk(world, mid, Vec3(0.0, 0.2, 0.0), 30)  # to y = +0.5, inside
-    outward = walk(world, mid, Vec3(0.0, -0.2, 0.0), 30)  # back to y = -5.5
+    mid = stand(world, walker(), outside, start)
+    d = turned(0.0, 0.2, yaw) - turned(0.0, 0.0, yaw)  # straight in along the house's +y
+    inward = walk(world, mid, d, 30)  # to y = +0.5, inside
+    outward = walk(world, mid, d * -1.0, 30)  # back to y = -5.5
     for r in inward + outward:
         assert r.ok and r.contact and r.on_walkable
         assert r.position.origin.z == pytest.approx(GROUND, abs=1e-4)
-        assert r.position.origin.x == pytest.approx(CX, abs=1e-4)  # straight through the middle of the door
-        y = r.position.origin.y - CY
-        # the cell holding the origin: the room's box is y > -2.5
+        x, y = house_local(r.position.origin, yaw)
+        assert x == pytest.approx(0.0, abs=1e-3)  # straight through the middle of the door
+        # the cell holding the origin: the room's box is y >= -2.5
         if y > -2.5 + 0.05:
             assert r.position.cell_id == room, f"at y = {y:.2f}"
         elif y < -2.5 - 0.05:
             assert r.position.cell_id == outside, f"at y = {y:.2f}"
-    assert inward[-1].position.origin.y == pytest.approx(CY + 0.5, abs=1e-3)
+    assert house_local(inward[-1].position.origin, yaw)[1] == pytest.approx(0.5, abs=1e-3)
+    assert inward[-1].position.cell_id == room
     assert outward[-1].position.cell_id == outside
-    assert outward[-1].position.origin.y == pytest.approx(CY - 5.5, abs=1e-3)
+    assert house_local(outward[-1].position.origin, yaw)[1] == pytest.approx(-5.5, abs=1e-3)
+
+
+@pytest.mark.parametrize("x, fits", [(0.26, True), (-0.27, True), (0.28, False), (-0.3, False)])
+def test_a_walker_fits_through_the_door_only_within_its_clearance(x: float, fits: bool) -> None:
+    """The door is 1.5 m wide, the walker 0.96 m: from outside it gets in only
+    with its centre within 0.75 - 0.48 = 0.27 m of the door's middle; wider, the
+    shell's door jamb stops it at the shell's outer face."""
+    world, room, b = house_world()
+    outside = b.outdoor_cell(CX, CY)
+    mid = stand(world, walker(), outside, local(x, -4.0))
+    results = walk(world, mid, Vec3(0.0, 0.2, 0.0), 15)  # to y = -1 if nothing stops it
+    held_or_moved(results, local(x, -4.0))
+    final = results[-1].position
+    assert final.origin.x == pytest.approx(CX + x, abs=1e-4)
+    if fits:
+        assert final.cell_id == room and final.origin.y == pytest.approx(CY - 1.0, abs=1e-3)
+    else:
+        # the foot sphere meets the jamb's edge (x = +-0.75, y = -2.75), overlapping it
+        # by 1 - 3 cm: its centre stops sqrt(0.48^2 - (0.75 - |x|)^2) short of the face
+        reach = math.sqrt(R * R - (0.75 - abs(x)) ** 2)
+        assert final.cell_id == outside
+        assert final.origin.y <= CY - 2.75 - reach + 1e-3
+        assert final.origin.y >= CY - 2.75 - reach - 0.2 - 1e-3
 
 
 def test_the_shell_beside_the_doorway_stops_a_walker_outside() -> None:
@@ -477,15 +550,23 @@ def test_a_missile_stops_at_the_first_wall() -> None:
     )
 
 
-def test_a_missile_fired_through_the_doorway_stops_at_the_back_wall() -> None:
+@pytest.mark.parametrize("z, stopped", [(1.0, False), (2.0, False), (2.5, True), (2.75, True)])
+def test_a_missile_flies_through_the_doorway_only_below_the_lintel(z: float, stopped: bool) -> None:
+    # the door is 2.25 m high: a 0.25 m missile at 2 m just clears it, at 2.5 m it hits
+    # the lintel's face (y = -2.75) from outside and stops a radius short of it
     world, room, b = house_world()
     outside = b.outdoor_cell(CX, CY)
-    z = GROUND + 1.0
-    mid = world.add_mover(missile_spec(), Position.at(outside, Vec3(CX, CY - 5.0, z)))
-    r = world.move(mid, Position.at(outside, Vec3(CX, CY + 2.5, z)))  # 7.5 m: through the door, into the north wall
+    mid = world.add_mover(missile_spec(), Position.at(outside, local(0.0, -5.0, z)))
+    r = world.move(mid, Position.at(outside, local(0.0, 2.5, z)))  # 7.5 m: 30 steps of 0.25 m
     o = r.position.origin
-    assert r.ok and r.position.cell_id == room
-    assert CY + 2.5 - 2 * MISSILE_R - 1e-3 <= o.y <= CY + 2.5 - MISSILE_R + 1e-4
+    assert r.ok and o.z == pytest.approx(GROUND + z, abs=1e-5)
+    assert r.collision_normal is not None and r.collision_normal.y == pytest.approx(-1.0, abs=1e-6)
+    if stopped:
+        assert r.position.cell_id == outside
+        assert CY - 2.75 - 2 * MISSILE_R - 1e-3 <= o.y <= CY - 2.75 - MISSILE_R + 1e-4
+    else:  # through the door, stopped by the room's north wall
+        assert r.position.cell_id == room
+        assert CY + 2.5 - 2 * MISSILE_R - 1e-3 <= o.y <= CY + 2.5 - MISSILE_R + 1e-4
 
 
 # -- placement ------------------------------------------------------------------------------------------------
@@ -562,3 +643,37 @@ def test_random_walks_never_leave_a_closed_room(moves: list[tuple[float, float]]
         assert CY + ROOM_LO[1] + R - 1e-3 <= o.y <= CY + ROOM_HI[1] - R + 1e-3, f"y {o.y - CY:.4f} outside the room"
         assert o.z == pytest.approx(GROUND, abs=1e-3)
         assert r.contact
+
+
+PILLAR_LO, PILLAR_HI = (-2.0, -0.5), (-1.0, 0.5)  # a 1 m square pillar, floor to ceiling
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(yaw=st.sampled_from([30.0, 135.0, 250.0]), moves=moves_strategy)
+def test_random_walks_in_a_turned_furnished_room_stay_in_it_and_out_of_the_furniture(
+    yaw: float, moves: list[tuple[float, float]]
+) -> None:
+    """The closed room turned about its origin, with a pillar and the 0.25 m step."""
+    th = math.radians(yaw) / 2.0
+    b = SceneBuilder()
+    solids = [box_solid((*PILLAR_LO, 0.0), (*PILLAR_HI, 3.0)), box_solid((STEP_X, -3.0, 0.0), (4.0, 3.0, STEP_H))]
+    struct = b.add_struct(room_struct(ROOM_LO, ROOM_HI, solids=solids))
+    cell = b.add_env_cell(struct, (CX, CY, GROUND), orientation=(math.cos(th), 0.0, 0.0, math.sin(th)))
+    world = b.world()
+    mid = stand(world, walker(), cell, turned(-3.0, -2.0, yaw))
+    edge_gap = math.sqrt(R * R - (R - STEP_H) ** 2)  # how near the riser a foot sphere on the floor gets
+    for heading, length in moves:
+        p = world.mover(mid).position
+        target = p.with_origin(p.origin + Vec3(math.cos(heading) * length, math.sin(heading) * length, 0.0))
+        r = world.move(mid, target)
+        x, y = house_local(r.position.origin, yaw)
+        z = r.position.origin.z - GROUND
+        where = f"at ({x:.4f}, {y:.4f}, {z:.4f})"
+        assert r.position.cell_id == cell and r.contact, where
+        assert ROOM_LO[0] + R - 1e-3 <= x <= ROOM_HI[0] - R + 1e-3 and ROOM_LO[1] + R - 1e-3 <= y <= ROOM_HI[1] - R + 1e-3, where
+        assert -1e-3 <= z <= STEP_H + 1e-3, where  # on the floor, the step, or the riser's edge between
+        if z < 1e-3:
+            assert x <= STEP_X - edge_gap + 1e-3, where  # on the floor: not into the step
+        dx = max(PILLAR_LO[0] - x, 0.0, x - PILLAR_HI[0])
+        dy = max(PILLAR_LO[1] - y, 0.0, y - PILLAR_HI[1])
+        assert math.hypot(dx, dy) >= R - 1e-3, where  # not into the pillar
