@@ -237,8 +237,7 @@ class BSPTree:
         local_space_pos = path.local_space_pos
         assert local_space_pos is not None
         offset = local_space_pos.local_to_global_vec(valid_pos.center - check_pos.center) * scale
-        path.check_pos = path.check_pos.moved(offset)
-        path.cache_global_sphere(offset)
+        path.shift_check_pos(offset)
         plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
         ci = transition.collision_info
         ci.set_contact_plane(Plane(plane.normal, plane.d * scale), False)

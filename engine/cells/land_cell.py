@@ -19,6 +19,9 @@ if TYPE_CHECKING:
 
 __all__ = ["LandCell", "add_all_outside_cells", "outdoor_cell_id_at_lcoord"]
 
+#: slack of the quick square test; far above rounding, far below anything real
+_MARGIN = 1e-3
+
 
 def outdoor_cell_id_at_lcoord(x: int, y: int) -> int:
     """Cell id of the outdoor cell at world cell coordinates (x, y)."""
@@ -28,12 +31,15 @@ def outdoor_cell_id_at_lcoord(x: int, y: int) -> int:
 class LandCell(ObjCell):
     """The client's CLandCell (a SortCell: it may carry one building)."""
 
-    __slots__ = ("polygons", "building")
+    __slots__ = ("polygons", "building", "x0", "y0")
 
     def __init__(self, cell_id: int, pos: Position, polygons: tuple[TerrainTriangle, TerrainTriangle]) -> None:
         super().__init__(cell_id, pos)
         self.polygons = polygons
         self.building: Any = None
+        # the south-west corner of the cell's square, landblock-local
+        self.x0 = pos.frame.origin.x - CELL_LENGTH * 0.5
+        self.y0 = pos.frame.origin.y - CELL_LENGTH * 0.5
 
     def find_collisions(self, transition: Transition) -> int:
         """Terrain first, then the building, then objects (LandCell.FindCollisions)."""
@@ -48,6 +54,11 @@ class LandCell(ObjCell):
 
     def find_terrain_poly(self, point: Vec3) -> TerrainTriangle | None:
         """The triangle under a landblock-local point, if it is over this cell."""
+        # clearly outside the cell's square: neither triangle can hold it
+        x0 = self.x0
+        y0 = self.y0
+        if point.x < x0 - _MARGIN or point.x > x0 + CELL_LENGTH + _MARGIN or point.y < y0 - _MARGIN or point.y > y0 + CELL_LENGTH + _MARGIN:
+            return None
         for tri in self.polygons:
             if tri.point_in_poly_2d(point):
                 return tri
@@ -125,10 +136,16 @@ def add_all_outside_cells(
     block_x = ((cell_id >> 24) & 0xFF) << 3
     block_y = ((cell_id >> 16) & 0xFF) << 3
     floor = math.floor
+    last_x = last_y = last_r = math.nan
     for sphere in spheres[:num_sphere]:
         c = sphere.center
         cx = c.x
         cy = c.y
+        if cx == last_x and cy == last_y and sphere.radius == last_r:
+            continue  # an upright mover's head sphere: the same cells again
+        last_x = cx
+        last_y = cy
+        last_r = sphere.radius
         if -EPSILON < cx < EPSILON:
             cx = 0.0
         if -EPSILON < cy < EPSILON:

@@ -5,6 +5,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
+import struct
+
 from ..geometry.f32 import vec_f32
 from ..geometry.landdefs import get_block_offset
 from .state import InsertType
@@ -14,6 +16,8 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 __all__ = ["SpherePath"]
+
+_F32X12 = struct.Struct("<12f")
 
 
 class SpherePath:
@@ -147,8 +151,47 @@ class SpherePath:
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
         self.cell_array_valid = False
-        self.check_pos = self.check_pos.with_origin(vec_f32(self.check_pos.frame.origin + offset))
-        self.cache_global_sphere(offset)
+        self.shift_check_pos(offset)
+
+    def shift_check_pos(self, offset: Vec3) -> None:
+        """Move the check position and its cached global spheres by `offset`,
+        keeping them at single precision as the client does (one rounding call
+        for all of them: this runs several times per sub-step)."""
+        o = self.check_pos.frame.origin
+        lp = self.global_low_point
+        ox = offset.x
+        oy = offset.y
+        oz = offset.z
+        spheres = self.global_sphere
+        if len(spheres) == 2:
+            a = spheres[0].center
+            b = spheres[1].center
+            v = _F32X12.unpack(
+                _F32X12.pack(
+                    o.x + ox, o.y + oy, o.z + oz,
+                    a.x + ox, a.y + oy, a.z + oz,
+                    b.x + ox, b.y + oy, b.z + oz,
+                    lp.x + ox, lp.y + oy, lp.z + oz,
+                )
+            )
+            spheres[0].center = Vec3(v[3], v[4], v[5])
+            spheres[1].center = Vec3(v[6], v[7], v[8])
+            self.global_low_point = Vec3(v[9], v[10], v[11])
+        elif len(spheres) == 1:
+            a = spheres[0].center
+            v = _F32X12.unpack(
+                _F32X12.pack(
+                    o.x + ox, o.y + oy, o.z + oz,
+                    a.x + ox, a.y + oy, a.z + oz,
+                    lp.x + ox, lp.y + oy, lp.z + oz,
+                    0.0, 0.0, 0.0,
+                )
+            )
+            spheres[0].center = Vec3(v[3], v[4], v[5])
+            self.global_low_point = Vec3(v[6], v[7], v[8])
+        else:
+            v = _F32X12.unpack(_F32X12.pack(o.x + ox, o.y + oy, o.z + oz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        self.check_pos = self.check_pos.with_origin(Vec3(v[0], v[1], v[2]))
 
     def adjust_check_pos(self, cell_id: int) -> None:
         """Re-home the check position into `cell_id` (an outdoor cell may be in

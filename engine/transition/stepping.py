@@ -67,9 +67,7 @@ def step_down(t: Transition, step_down_height: float, z_val: float) -> bool:
 
     if not path.step_up:
         path.cell_array_valid = False
-        offset = Vec3(0.0, 0.0, -step_down_height)
-        path.check_pos = path.check_pos.moved(offset)
-        path.cache_global_sphere(offset)
+        path.shift_check_pos(Vec3(0.0, 0.0, -step_down_height))
 
     state = t.transitional_insert(5)
     path.step_down = False
