@@ -305,6 +305,25 @@ def test_a_missile_stops_at_the_first_obstacle() -> None:
     assert r.collision_normal is not None and r.collision_normal.x == pytest.approx(-1.0, abs=1e-6)
 
 
+def test_a_missile_hitting_a_live_object_ends_its_flight() -> None:
+    # PhysicsObj.track_object_collision: hitting a non-static object clears Missile
+    w = flat_world()
+    z = GROUND + 1.0
+    add(w, sphere_obstacle(60.0, 60.0, z, 0.5, obj_id=0x80000002, static=False), 60.0, 60.0)
+    arrow = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 0.5)], state=["PathClipped"], step_down=False, gravity=False)
+    mid = w.add_mover(arrow, Position.at(cell_at(56.0, 60.0), Vec3(56.0, 60.0, z)))
+    assert w.mover(mid).missile
+    r = w.move(mid, Position.at(cell_at(56.0, 60.0), Vec3(64.0, 60.0, z)))
+    assert r.collide_objects == [0x80000002]
+    assert not w.mover(mid).missile
+    # against a static object the flight ends too, as an environment collision
+    w2 = flat_world()
+    add(w2, sphere_obstacle(60.0, 60.0, z, 0.5), 60.0, 60.0)
+    mid2 = w2.add_mover(arrow, Position.at(cell_at(56.0, 60.0), Vec3(56.0, 60.0, z)))
+    r2 = w2.move(mid2, Position.at(cell_at(56.0, 60.0), Vec3(64.0, 60.0, z)))
+    assert r2.collision_normal is not None and not w2.mover(mid2).missile
+
+
 def test_a_player_walks_through_a_player_but_not_an_impenetrable_one() -> None:
     centre = Vec3(60.0, 60.0, GROUND + 0.9)
 

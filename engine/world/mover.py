@@ -235,6 +235,12 @@ class Mover:
         """Bounce off what we hit and track the stationary-fall flags."""
         ci = t.collision_info
         apply_bounce = not (prev_on_walkable and self.transient & TS.ON_WALKABLE)
+        for obj in ci.collide_object:
+            # track_object_collision: hitting a live object ends a missile's flight
+            if getattr(obj, "static", False):
+                self.report_environment_collision()
+            elif not getattr(obj, "ignore_collisions", False):
+                self.missile = False
         if self.colliding_with_environment:
             self.colliding_with_environment = ci.collided_with_environment
         elif ci.collided_with_environment or (not prev_on_walkable and self.transient & TS.ON_WALKABLE):
