@@ -385,13 +385,14 @@ def convex_struct(faces: Sequence[Face], solids: Sequence[Solid] = ()) -> Struct
 @dataclass(frozen=True)
 class Door:
     """An opening in one wall of a box room: `wall` is "-x", "+x", "-y" or "+y";
-    it spans `lo..hi` along the wall's horizontal axis and the floor up to `top`
-    (None: the full height)."""
+    it spans `lo..hi` along the wall's horizontal axis and from `sill` (None:
+    the floor) up to `top` (None: the ceiling)."""
 
     wall: str
     lo: float
     hi: float
     top: float | None = None
+    sill: float | None = None
 
 
 def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
@@ -415,6 +416,7 @@ def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
             raise ValueError("doors go in walls, not floors or ceilings")
         u = 1 - axis  # the wall's horizontal axis
         top = hi[2] if door.top is None else door.top
+        sill = lo[2] if door.sill is None else door.sill
         walls = []
 
         def rect(ulo: float, uhi: float, zlo: float, zhi: float) -> None:
@@ -425,11 +427,12 @@ def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
                 walls.append(axis_rect(axis, value, a, b))
 
         rect(lo[u], hi[u], top, hi[2])
-        rect(lo[u], door.lo, lo[2], top)
-        rect(door.hi, hi[u], lo[2], top)
+        rect(lo[u], door.lo, sill, top)
+        rect(door.hi, hi[u], sill, top)
+        rect(lo[u], hi[u], lo[2], sill)
         a = [0.0, 0.0, 0.0]
         b = [0.0, 0.0, 0.0]
-        a[u], a[2], b[u], b[2] = door.lo, lo[2], door.hi, top
+        a[u], a[2], b[u], b[2] = door.lo, sill, door.hi, top
         faces.append(Face(plane, walls, axis_rect(axis, value, a, b)))
     return faces
 

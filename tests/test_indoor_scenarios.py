@@ -230,6 +230,86 @@ def test_a_step_up_reaches_one_and_a_half_step_up_heights_and_no_further() -> No
         assert (final.z > GROUND + 0.1) == climbs, step_up
 
 
+def two_rooms_with_a_step() -> tuple[engine.World, int, int]:
+    """Room A (x -4..0, floor 0) and room B (x 0..4, floor 0.25), y -2..2, joined
+    by a doorway in the wall x = 0 (y -0.75..0.75) whose sill is B's floor:
+    A's side of it has a 0.25 m riser under the opening."""
+    b = SceneBuilder()
+    a_struct = b.add_struct(room_struct((-4.0, -2.0, 0.0), (0.0, 2.0, 3.0), [Door("+x", -0.75, 0.75, 2.25, sill=STEP_H)]))
+    b_struct = b.add_struct(room_struct((0.0, -2.0, STEP_H), (4.0, 2.0, 3.0), [Door("-x", -0.75, 0.75, 2.25)]))
+    a, b_ = b.cell_id(0x100), b.cell_id(0x101)
+    b.add_env_cell(a_struct, (CX, CY, GROUND), [(b_, 0)])
+    b.add_env_cell(b_struct, (CX, CY, GROUND), [(a, 0)])
+    return b.world(), a, b_
+
+
+@pytest.mark.parametrize("step_up, climbs", [(0.3, True), (0.2, True), (0.15, False)])
+def test_a_step_between_two_rooms_is_climbed_into_the_next_cell(step_up: float, climbs: bool) -> None:
+    world, a, b = two_rooms_with_a_step()
+    mid = stand(world, walker(step_up), a, local(-2.0, 0.0))
+    results = walk(world, mid, Vec3(0.2, 0.0, 0.0), 20)  # to x = 2 in room B
+    held_or_moved(results, local(-2.0, 0.0))
+    final = results[-1].position
+    if climbs:
+        assert final.cell_id == b
+        assert final.origin.x == pytest.approx(CX + 2.0, abs=1e-3)
+        assert final.origin.z == pytest.approx(GROUND + STEP_H, abs=1e-4)
+        # and back down into A, keeping contact
+        back = walk(world, mid, Vec3(-0.2, 0.0, 0.0), 20)
+        assert all(r.ok and r.contact and r.on_walkable for r in back)
+        assert back[-1].position.cell_id == a
+        assert back[-1].position.origin.z == pytest.approx(GROUND, abs=1e-4)
+    else:
+        edge_gap = math.sqrt(R * R - (R - STEP_H) ** 2)
+        assert final.cell_id == a
+        assert CX - edge_gap - 0.2 - 1e-3 <= final.origin.x <= CX - edge_gap + 1e-3
+        assert final.origin.z == pytest.approx(GROUND, abs=1e-4)
+
+
+def test_a_staircase_is_climbed_and_descended_step_by_step() -> None:
+    # four 0.25 m steps with 0.4 m treads from x = 0, then a landing 1 m up from x = 1.6
+    stairs = [box_solid((0.4 * i, -3.0, 0.0), (0.4 * (i + 1), 3.0, STEP_H * (i + 1))) for i in range(4)]
+    world, cell = closed_room(solids=stairs + [box_solid((1.6, -3.0, 0.0), (4.0, 3.0, 1.0))])
+    mid = stand(world, walker(0.3), cell, local(-2.0, 0.0))
+    up = walk(world, mid, Vec3(0.2, 0.0, 0.0), 25)  # to x = 3 on the landing
+    down = walk(world, mid, Vec3(-0.2, 0.0, 0.0), 25)  # back to x = -2
+    for results, rising in ((up, True), (down, False)):
+        zs = [r.position.origin.z - GROUND for r in results]
+        assert all(r.ok and r.contact and r.on_walkable and r.position.cell_id == cell for r in results)
+        # always resting on a tread (at 0, 0.25, 0.5, 0.75 or 1 m), one step at a time
+        for z in zs:
+            assert min(abs(z - STEP_H * k) for k in range(5)) < 1e-4
+        for z0, z1 in zip(zs, zs[1:]):
+            assert (z1 - z0 if rising else z0 - z1) in (pytest.approx(0.0, abs=1e-4), pytest.approx(STEP_H, abs=1e-4))
+    assert up[-1].position.origin.z == pytest.approx(GROUND + 1.0, abs=1e-4)
+    assert up[-1].position.origin.x == pytest.approx(CX + 3.0, abs=1e-3)
+    assert down[-1].position.origin.z == pytest.approx(GROUND, abs=1e-4)
+    assert down[-1].position.origin.x == pytest.approx(CX - 2.0, abs=1e-3)
+
+
+def test_a_crate_standing_in_a_room_is_walked_around() -> None:
+    """A 1 m cube (GfxObj) among the EnvCell's static objects, x 1..2, y -0.5..0.5:
+    too high to step onto, so a walker heading past its corner slides round it."""
+    b = SceneBuilder()
+    crate = b.add_gfx_obj(gfx_obj([box_solid((-0.5, -0.5, 0.0), (0.5, 0.5, 1.0))]))
+    struct = b.add_struct(room_struct(ROOM_LO, ROOM_HI))
+    cell = b.add_env_cell(struct, (CX, CY, GROUND), static_objects=[(crate, (CX + 1.5, CY, GROUND))])
+    world = b.world()
+    mid = stand(world, walker(), cell, local(-2.0, 0.2))
+    results = walk(world, mid, Vec3(0.2, 0.05, 0.0), 30)
+    touched = False
+    for r in results:
+        x, y = r.position.origin.x - CX, r.position.origin.y - CY
+        assert r.ok and r.contact and r.position.origin.z == pytest.approx(GROUND, abs=1e-4)
+        gap = math.hypot(max(1.0 - x, 0.0, x - 2.0), max(-0.5 - y, 0.0, y - 0.5)) - R
+        assert gap >= -1e-3  # never into the crate
+        touched = touched or gap < 0.2
+    assert touched
+    final = results[-1].position.origin
+    assert final.x > CX + 2.0 + R  # past it, on its north side
+    assert final.y > CY + 0.5 + R - 1e-3
+
+
 # -- walls ---------------------------------------------------------------------------------------------
 
 
