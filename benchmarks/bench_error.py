@@ -109,6 +109,7 @@ class Acc:
 
     times: list[float]
     err_ref: list[float]
+    err_ref_unknown: list[float] = dataclasses.field(default_factory=list)  # cases not listed as known divergences
     contact_ref: int = 0
     err_base: list[float] = dataclasses.field(default_factory=list)
     contact_base: int = 0
@@ -177,6 +178,8 @@ def run(quick: bool, cases_per_trace: int | None = None, only_reference: bool = 
     """
     settings = all_settings()[:1] if only_reference else all_settings()
     records: dict[str, list[Any]] = {}
+    case_max: dict[str, float] = {}
+    known = set(known_divergent())
     limit = cases_per_trace if cases_per_trace is not None else (3 if quick else None)
     accs = {name: Acc([], []) for name, _, _ in settings}
     pending_accs = {name: Acc([], []) for name, _, _ in settings}
@@ -219,8 +222,13 @@ def run(quick: bool, cases_per_trace: int | None = None, only_reference: bool = 
                             acc.compared += 1
                         d = _dist(exp.get("position"), got.get("position")) if "position" in exp else 0.0
                         acc.err_ref.append(d)
+                        if case["id"] not in known:
+                            acc.err_ref_unknown.append(d)
                         acc.contact_ref += _contact_differs(exp, got)
                         tr["max_err_ref"][name] = max(tr["max_err_ref"].get(name, 0.0), d)
+                        if name == settings[0][0]:
+                            case_max[case["id"]] = max(case_max.get(case["id"], 0.0), d)
+                            tr["over_1e-4"] = tr.get("over_1e-4", 0) + (d > 1e-4)
                         if base_pairs is not None and i < len(base_pairs):
                             b = base_pairs[i][1]
                             acc.err_base.append(_dist(b.get("position"), got.get("position")) if "position" in b else 0.0)
@@ -238,7 +246,28 @@ def run(quick: bool, cases_per_trace: int | None = None, only_reference: bool = 
         "per_trace": per_trace,
         "skipped": skipped,
         "base_records": records,
+        "worst_cases": sorted(([k, v] for k, v in case_max.items() if v > 1e-3), key=lambda kv: -kv[1]),
+        "known_divergent": known_divergent(),
     }
+
+
+def known_divergent() -> list[str]:
+    """The case ids tests/test_trace_replay.py lists as known divergences (read, not imported)."""
+    import ast
+
+    path = common.ROOT / "tests" / "test_trace_replay.py"
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+    except (OSError, SyntaxError):
+        return []
+    for node in ast.walk(tree):
+        target = node.targets[0] if isinstance(node, ast.Assign) else getattr(node, "target", None)
+        if isinstance(target, ast.Name) and target.id == "KNOWN_DIVERGENT" and getattr(node, "value", None) is not None:
+            try:
+                return sorted(ast.literal_eval(node.value))
+            except ValueError:
+                return []
+    return []
 
 
 def _row(name: str, desc: str, s: engine.EngineSettings, a: Acc) -> dict[str, Any]:
@@ -255,7 +284,10 @@ def _row(name: str, desc: str, s: engine.EngineSettings, a: Acc) -> dict[str, An
         "us_mean": sum(a.times) / len(a.times) * 1e6 if a.times else math.nan,
         "total_s": sum(a.times),
         "err_ref": {"median": pct(finite, 50), "p99": pct(finite, 99), "max": max(finite) if finite else math.nan,
-                    "missing": n - len(finite)},
+                    "missing": n - len(finite), "over_1e-4": sum(1 for e in finite if e > 1e-4),
+                    "over_1e-3": sum(1 for e in finite if e > 1e-3)},
+        "err_ref_without_known": {"moves": len(a.err_ref_unknown), "p99": pct([e for e in a.err_ref_unknown if math.isfinite(e)], 99),
+                                  "max": max((e for e in a.err_ref_unknown if math.isfinite(e)), default=math.nan)},
         "contact_ref_frac": a.contact_ref / n if n else math.nan,
         "err_base": {"median": pct(a.err_base, 50), "p99": pct(a.err_base, 99),
                      "max": max(a.err_base) if a.err_base else math.nan,

@@ -4,6 +4,11 @@ Runs the chosen benchmarks, stores their raw results in
 benchmarks/out/results.json (a section keeps its last results when another
 section is re-run alone), draws the plots into benchmarks/plots/ and rewrites
 docs/performance.md from all stored sections.
+
+Exit status 1 when the stress run found NaN/inf, fall-throughs, penetrations
+or exceptions (their reproducers: benchmarks/out/stress_failures.json).
+Bounded: the service part listens on 127.0.0.1 only and every loop ends after
+a fixed count or time; the stress run stops at --stress-seconds.
 """
 
 from __future__ import annotations

@@ -532,7 +532,9 @@ def _record(out: dict[str, Any], recorded: set[str] | None, kind: str, failure: 
 def run(total_moves: int, seconds: float, jobs: int = 2, seed: int = 6) -> dict[str, Any]:
     per = max(1, total_moves // len(SCENARIOS))
     chunks = max(1, per // 20000)  # split big scenarios so both workers stay busy
-    tasks = [(sc.name, seed * 1000003 + i * 7919 + k, per // chunks, seconds / max(1, len(SCENARIOS) * chunks / jobs))
+    n_tasks = len(SCENARIOS) * chunks
+    counts = [total_moves // n_tasks + (1 if i < total_moves % n_tasks else 0) for i in range(n_tasks)]
+    tasks = [(sc.name, seed * 1000003 + i * 7919 + k, counts[i * chunks + k], seconds / max(1.0, n_tasks / jobs))
              for i, sc in enumerate(SCENARIOS) for k in range(chunks)]
     t0 = time.monotonic()
     results: dict[str, dict[str, Any]] = {}
