@@ -93,10 +93,10 @@ def plane_of(points: Sequence[Point], facing: Sequence[float] | None = None) -> 
 
 def oriented(points: Sequence[Point], facing: Sequence[float]) -> list[Point]:
     """`points` in the order whose make_plane normal points along `facing`."""
-    pts = [tuple(float(c) for c in p) for p in points]
+    pts: list[Point] = [(float(p[0]), float(p[1]), float(p[2])) for p in points]
     if _dot(fan_normal(pts), facing) < 0.0:
         pts.reverse()
-    return pts  # type: ignore[return-value]
+    return pts
 
 
 def axis_rect(axis: int, value: float, lo: Sequence[float], hi: Sequence[float]) -> list[Point]:

@@ -2,15 +2,18 @@
 
 Every world is built by `indoor_builder` as an acphys-scene/1 dict (rooms as
 EnvCells, buildings and props as GfxObjs) on flat ground at z = 50, and loaded
-with `engine.world_from_scene_dict`. Cells sit at (108, 108, 50) with identity
-orientation, so cell-local x, y, z are the landblock's minus (108, 108, 50).
-The expected numbers come from radii, heights and step-up heights.
+with `engine.world_from_scene_dict`. Cells and buildings sit at (108, 108, 50),
+mostly unturned, so cell-local x, y, z are the landblock's minus (108, 108, 50)
+(`local`); turned ones say so (`turned`). The expected numbers come from radii,
+heights, step-up heights and the client's stepping and placement rules, as the
+tests' comments derive them.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +37,8 @@ from indoor_builder import (
     wedge_solid,
 )
 
-SCENES = Path("/work/shared/oracle/scenes")
+#: the shared reference scenes (as conftest finds the shared directory)
+SCENES = Path(os.environ.get("ACPHYS_SHARED", Path(__file__).resolve().parent.parent.parent / "shared")) / "oracle" / "scenes"
 
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # the head sphere's centre above the origin
@@ -390,7 +394,7 @@ def test_a_ramp_down_into_a_cellar_keeps_contact_all_the_way(direction: str) -> 
     nz = 6.0 / math.hypot(6.0, 2.5)  # the ramp's normal z (22.6 degrees: walkable)
     assert nz > FLOOR_Z
     above = R * (1.0 / nz - 1.0)  # 0.04 m: the origin over the floor line where the foot sphere rests on the slope
-    cells = []
+    cells: list[int] = []
     for r in results:
         o = r.position.origin
         x = o.x - CX
@@ -550,6 +554,9 @@ def test_a_walker_fits_through_the_door_only_within_its_clearance(x: float, fits
     assert final.origin.x == pytest.approx(CX + x, abs=1e-4)
     if fits:
         assert final.cell_id == room and final.origin.y == pytest.approx(CY - 1.0, abs=1e-3)
+        back = walk(world, mid, Vec3(0.0, -0.2, 0.0), 15)  # and out again
+        assert all(r.ok and r.contact for r in back)
+        assert back[-1].position.cell_id == outside and back[-1].position.origin.y == pytest.approx(CY - 4.0, abs=1e-3)
     else:
         # the foot sphere meets the jamb's edge (x = +-0.75, y = -2.75), overlapping it
         # by 1 - 3 cm: its centre stops sqrt(0.48^2 - (0.75 - |x|)^2) short of the face
