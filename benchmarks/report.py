@@ -80,10 +80,18 @@ def plot_engine(eng: dict[str, Any]) -> str | None:
     for x, r in zip(xs, rows):
         if r.get("target_us"):
             a1.hlines(r["target_us"], x - 0.45, x + 0.45, colors="red", linestyles="dashed")
+    var = eng.get("variant") or {}
+    vlabel = {"compiled": "compiled (mypyc) median", "pure": "pure Python median"}.get(var.get("kind", ""), "")
+    vw = {r["name"]: r["us"]["median"] for r in var.get("workloads", []) if "us" in r} if not var.get("failed") else {}
+    vt = {r["name"]: r["us"]["median"] for r in var.get("traces", []) if "us" in r} if not var.get("failed") else {}
+    if vw:
+        pts = [(x, vw[r["name"]]) for x, r in zip(xs, rows) if r["name"] in vw]
+        a1.scatter([x - 0.2 for x, _ in pts], [v for _, v in pts], marker="D", color="tab:green", zorder=3, label=vlabel)
     a1.set_yscale("log")
     a1.set_xticks(list(xs), names, rotation=30, ha="right")
     a1.set_ylabel("µs per move")
     a1.set_title("synthetic workloads (RETAIL); red: issue 6 target")
+    a2.set_title("reference traces replayed (ACE_COMPAT)")
     a1.legend()
     tn = [r["name"] for r in trows]
     tm = [r["us"]["median"] for r in trows]
@@ -92,6 +100,9 @@ def plot_engine(eng: dict[str, Any]) -> str | None:
     anchors = [(x, r["anchor_us"]) for x, r in zip(xs2, trows) if r.get("anchor_us")]
     if anchors:
         a2.scatter([x for x, _ in anchors], [a for _, a in anchors], color="black", marker="_", s=400, label="ACE (Mono)")
+    if vt:
+        pts = [(x, vt[r["name"]]) for x, r in zip(xs2, trows) if r["name"] in vt]
+        a2.scatter([x for x, _ in pts], [v for _, v in pts], marker="D", color="tab:green", zorder=3, label=vlabel)
     a2.set_yscale("log")
     a2.set_xticks(list(xs2), tn, rotation=30, ha="right")
     a2.set_ylabel("µs per move (median)")
@@ -184,18 +195,33 @@ def _summary(results: dict[str, Any]) -> list[str]:
            "| target | measured | verdict |", "|---|---|---|"]
     eng = results.get("engine")
     if eng:
+        var = eng.get("variant") or {}
+        vkind = var.get("kind") if var and not var.get("failed") else None
+        vt = {r["name"]: r["us"]["median"] for r in var.get("traces", []) if "us" in r} if vkind else {}
+        vw = {r["name"]: r["us"]["median"] for r in var.get("workloads", []) if "us" in r} if vkind else {}
+        tree = "interpreted" if vkind == "compiled" else ("compiled" if vkind == "pure" else "")
+
+        def both(med: float, other: float | None, lim: float, anchor: float | None = None) -> tuple[str, str]:
+            txt = f"{med:.1f} µs median" + (f" {tree}" if tree else "")
+            if anchor:
+                txt += f" ({med / anchor:.1f}x ACE)"
+            verdict = _verdict(med, lim)
+            if other:
+                txt += f"; {other:.1f} µs {vkind}" + (f" ({other / anchor:.1f}x ACE)" if anchor else "")
+                best = min(med, other)
+                verdict = _verdict(best, lim) + (" (best build)" if tree else "")
+            return txt, verdict
+
         for r in eng["traces"]:
             if r.get("anchor_us"):
-                med = r["us"]["median"]
                 lim = min(15.0, 2 * r["anchor_us"])
+                txt, verdict = both(r["us"]["median"], vt.get(r["name"]), lim, r["anchor_us"])
                 out.append(f"| terrain trace `{r['name']}`: ≤ {lim:g} µs/move (15 µs and 2x ACE's {r['anchor_us']} µs) "
-                           f"| {med:.1f} µs median ({med / r['anchor_us']:.1f}x ACE) "
-                           f"| {_verdict(med, lim)} |")
+                           f"| {txt} | {verdict} |")
         for r in eng["workloads"]:
             if "us" in r and r.get("target_us"):
-                med = r["us"]["median"]
-                out.append(f"| workload `{r['name']}`: ≤ {r['target_us']:g} µs/move | {med:.1f} µs median "
-                           f"| {_verdict(med, r['target_us'])} |")
+                txt, verdict = both(r["us"]["median"], vw.get(r["name"]), r["target_us"])
+                out.append(f"| workload `{r['name']}`: ≤ {r['target_us']:g} µs/move | {txt} | {verdict} |")
             elif "unavailable" in r:
                 out.append(f"| workload `{r['name']}` | not measured: {r['unavailable']} | gap |")
     err = results.get("error")
@@ -258,8 +284,19 @@ def _limits(results: dict[str, Any]) -> list[str]:
                     "a new object per operation, the cell and sphere loops of the transition): no single hot spot "
                     "closes a gap of this size; compiling the per-step path, or restructuring it to allocate less, is "
                     "what the issue asks for. ")
-        txt += (f"Compiled modules in this run: {len(compiled)}." if compiled else
-                "This run used the interpreted engine only (no compiled modules were built).")
+        var = eng.get("variant") or {}
+        vflat = next((r["us"]["median"] for r in var.get("traces", []) if r["name"] == "flat" and "us" in r), None)
+        if var.get("kind") == "compiled" and vflat and flat:
+            txt += (f"Compiled with mypyc (the project's setup.py, built by `--build-compiled`), the flat trace takes "
+                    f"{vflat:.1f} µs ({vflat / 4.5:.1f}x ACE, {flat['us']['median'] / vflat:.1f}x faster than "
+                    "interpreted) with the same answers (section 2: error 0 against the interpreted run). The "
+                    "compiled build is not profiled here (cProfile does not see inside compiled functions).")
+        elif var.get("kind") == "pure" and vflat and flat:
+            txt += (f"This run's tree is compiled ({len(compiled)} modules); interpreted, the flat trace takes "
+                    f"{vflat:.1f} µs ({vflat / flat['us']['median']:.1f}x slower).")
+        else:
+            txt += (f"Compiled modules in this run: {len(compiled)}." if compiled else
+                    "This run measured the interpreted engine only.")
         out.append(txt)
     svc = results.get("service")
     if svc and "latency" in svc:
@@ -321,45 +358,74 @@ def _known_text(err: dict[str, Any]) -> str:
     return txt + "."
 
 
+def _engine_tables(eng: dict[str, Any]) -> list[str]:
+    var = eng.get("variant") or eng.get("pure") or {}
+    kind = var.get("kind", "pure") if var else None
+    has = bool(var) and not var.get("failed")
+    vw = {r["name"]: r for r in var.get("workloads", []) if "us" in r} if has else {}
+    vt = {r["name"]: r for r in var.get("traces", []) if "us" in r} if has else {}
+    label = "pure Python" if kind == "pure" else "compiled"
+
+    def speedup(this: float, other: float | None) -> str:
+        if not other:
+            return ""
+        return _ratio(other / this if kind == "pure" else this / other)
+
+    head = "| workload | what it does | median µs | p99 µs | moves/s | target µs | median / target |"
+    rule = "|---|---|---:|---:|---:|---:|---:|"
+    if has:
+        head += f" {label} median µs | compiled speed-up |"
+        rule += "---:|---:|"
+    out = [head, rule]
+    for r in eng["workloads"]:
+        if "us" not in r:
+            out.append(f"| {r['name']} | {r['description']} | not measured: {r['unavailable']} | | | | |" + (" | |" if has else ""))
+            continue
+        u = r["us"]
+        line = (f"| {r['name']} | {r['description']} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
+                f"| {_f(r.get('target_us'), 0)} | {u['median'] / r['target_us']:.1f}x |")
+        if has:
+            o = vw.get(r["name"], {}).get("us", {}).get("median")
+            line += f" {_f(o)} | {speedup(u['median'], o)} |"
+        out.append(line)
+    out += ["", ("The reference traces replayed move by move (ACE_COMPAT, placements skipped) against ACE's own time "
+            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class):"), ""]
+    head = "| trace scene | moves | median µs | p99 µs | moves/s | ACE µs | acphys / ACE |"
+    rule = "|---|---:|---:|---:|---:|---:|---:|"
+    if has:
+        head += f" {label} median µs | {label} / ACE | compiled speed-up |"
+        rule += "---:|---:|---:|"
+    out += [head, rule]
+    for r in eng["traces"]:
+        u = r["us"]
+        line = (f"| {r['name']} | {u['n']:,} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
+                f"| {_f(r.get('anchor_us'))} | {_ratio(r.get('ratio_to_ace'))} |")
+        if has:
+            o = vt.get(r["name"], {}).get("us", {}).get("median")
+            line += (f" {_f(o)} | {_ratio(o / r['anchor_us'] if o and r.get('anchor_us') else None)} "
+                     f"| {speedup(u['median'], o)} |")
+        out.append(line)
+    if var.get("failed"):
+        out += ["", f"The {label} run failed: {var['failed']}"]
+    elif has:
+        out += ["", (f"The {label} columns: the same workloads in a child process that imports a "
+                     + ("copy of the engine's .py sources only" if kind == "pure" else
+                        "copy of the engine compiled with the project's setup.py (mypyc)")
+                     + " (`benchmarks/pure.py`), in the same run, with fewer moves (2,000 per workload, at most "
+                     "3,000 per trace).")]
+    else:
+        out += ["", ("The working tree's engine only (no other build measured beside it; "
+                     "`--build-compiled` adds a compiled copy).")]
+    return out
+
+
 def _engine(eng: dict[str, Any], plot: str | None) -> list[str]:
     out = ["## 1. Engine, in process", "", _meta(eng), "",
            ("Only the engine call is timed (`World.move` / `World.step`: one transition plus SetPositionInternal, "
            "as ACE's anchor figures); targets are built and movers reset outside the timer. Scenes are built by "
            "`benchmarks/scenes.py` (synthetic terrain and sphere objects) or are the shared reference scenes. "
            f"{eng['moves_per_workload']} timed moves per workload after a warm-up, RETAIL settings."), "",
-           "| workload | what it does | median µs | p99 µs | moves/s | target µs | median / target | pure Python median µs | compiled speed-up |",
-           "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-    pure = eng.get("pure") or {}
-    pure_w = {r["name"]: r for r in pure.get("workloads", []) if "us" in r}
-    pure_t = {r["name"]: r for r in pure.get("traces", []) if "us" in r}
-    for r in eng["workloads"]:
-        if "us" not in r:
-            out.append(f"| {r['name']} | {r['description']} | not measured: {r['unavailable']} | | | | | | |")
-            continue
-        u = r["us"]
-        pu = pure_w.get(r["name"], {}).get("us", {}).get("median")
-        out.append(f"| {r['name']} | {r['description']} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
-                   f"| {_f(r.get('target_us'), 0)} | {u['median'] / r['target_us']:.1f}x | {_f(pu)} "
-                   f"| {_ratio(pu / u['median'] if pu else None)} |")
-    out += ["", ("The reference traces replayed move by move (ACE_COMPAT, placements skipped) against ACE's own time "
-            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class):"), "",
-            "| trace scene | moves | median µs | p99 µs | moves/s | ACE µs | acphys / ACE | pure Python median µs | pure / ACE |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in eng["traces"]:
-        u = r["us"]
-        pu = pure_t.get(r["name"], {}).get("us", {}).get("median")
-        out.append(f"| {r['name']} | {u['n']:,} | {u['median']:.1f} | {u['p99']:.1f} | {r['moves_per_s']:,.0f} "
-                   f"| {_f(r.get('anchor_us'))} | {_ratio(r.get('ratio_to_ace'))} | {_f(pu)} "
-                   f"| {_ratio(pu / r['anchor_us'] if pu and r.get('anchor_us') else None)} |")
-    if pure.get("failed"):
-        out += ["", f"The pure-Python run failed: {pure['failed']}"]
-    elif pure:
-        out += ["", ("The pure-Python columns: the same workloads in a child process that imports a copy of the "
-                "engine's .py sources only (`benchmarks/pure.py`), in the same run, with fewer moves "
-                "(2,000 per workload, at most 3,000 per trace).")]
-    else:
-        out += ["", ("No compiled engine modules were present, so there is no pure-Python comparison: every figure is "
-                "the interpreted engine.")]
+           *_engine_tables(eng)]
     if plot:
         out += ["", f"![engine µs per move]({plot})"]
     for prof in eng.get("profiles", []):
@@ -397,8 +463,7 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
         a, b = _nan(err["settings"][0]["us_mean"]), _nan(rep[0]["us_mean"])
         out += ["", (f"Noise: `{rep[0]['name']}` runs the first row's settings again; its mean run time differs from the "
                 f"first row's by {100.0 * abs(b - a) / a:.1f} %. Run-time differences between rows smaller than that "
-                "are machine noise, and so is the order of the Pareto front along the time axis (the settings "
-                "only change what happens on the rare moves that hit the step cap or an outdoor camera).")]
+                "are machine noise (the EngineSettings rows differ only on the rare moves that hit the step cap or an outdoor camera).")]
     worst = err.get("worst_cases") or []
     if worst:
         known = set(err.get("known_divergent") or [])
@@ -420,10 +485,16 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
     if err.get("skipped"):
         out += ["", "Not run (exceptions while loading or replaying):", ""]
         out += [f"- {k}: {v}" for k, v in list(err["skipped"].items())[:20]]
-    out += ["", ("What is not a setting yet: the issue's float32 against float64 arithmetic, compiled kernels against "
-            "pure Python, step subdivision size, and the per-cell skips. The engine offers none of them as a switch "
-            "today (see `engine/transition/settings.py`); each becomes one line of `SETTINGS` when it does, and the "
-            "skips must show error 0 against the most exact setting in this table.")]
+    has_var = any(r["name"].endswith((", pure", ", compiled")) for r in err["settings"])
+    out += ["", ("Compiled against pure Python: " + (
+        "the `..., pure` or `..., compiled` row runs the first row's settings on the other build of the engine in a "
+        "child process (`benchmarks/pure.py`); its error against the most exact setting is the difference between "
+        "compiled and interpreted answers, which must be 0." if has_var else
+        "only the working tree's build was measured; `--build-compiled` (or a compiled tree) adds a row for the "
+        "other build.")
+        + " Not a setting yet: float32 against float64 arithmetic, step subdivision size and the per-cell skips; "
+        "the engine offers none of them as a switch (see `engine/transition/settings.py`). Each becomes one line "
+        "of `SETTINGS` when it does, and a skip must show error 0 against the most exact setting here.")]
     if plot:
         out += ["", f"![run time against error]({plot})"]
     return out + [""]
@@ -509,7 +580,9 @@ measured in the same run. Nothing here is asserted by the test suite.
 Re-run:
 
     pip install matplotlib          # for the plots (optional)
-    python3 -m benchmarks           # everything (about half an hour), or:
+    python3 -m benchmarks --build-compiled   # everything, with a mypyc-compiled copy beside an
+                                             # interpreted tree (about ten minutes here), or:
+    python3 -m benchmarks           # everything, the working tree's build only
     python3 -m benchmarks --quick   # a few minutes, small counts
     python3 -m benchmarks --only engine,error --error-cases 5
     python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 1800

@@ -49,6 +49,20 @@ def _clean(x: Any) -> Any:
     return x
 
 
+def _variant(args: argparse.Namespace) -> str | None:
+    """Which other build of the engine to measure beside the working tree's: 'pure' when the tree
+    runs compiled modules, 'compiled' when it does not and a compiled copy is (or may be) built."""
+    if args.no_variant:
+        return None
+    from . import pure
+
+    if common.compiled_modules():
+        return "pure"
+    if args.build_compiled or pure.compiled_ready():
+        return "compiled"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python3 -m benchmarks", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -62,8 +76,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--stress-jobs", type=int, default=2, help="worker processes of the stress run (default 2)")
     p.add_argument("--error-cases", type=int, default=None,
                    help="cases per reference trace in the error benchmark (default: all; 3 with --quick)")
-    p.add_argument("--no-pure", action="store_true",
-                   help="skip the pure-Python engine runs (made when compiled engine modules are present)")
+    p.add_argument("--build-compiled", action="store_true",
+                   help="when the working tree's engine is not compiled, build a compiled copy in benchmarks/out/compiled "
+                        "with the project's setup.py (mypyc; minutes) and measure it beside the interpreted one")
+    p.add_argument("--no-variant", action="store_true",
+                   help="measure only the working tree's engine (no pure-Python or compiled copy beside it)")
     p.add_argument("--no-doc", action="store_true", help="do not rewrite docs/performance.md and the plots")
     args = p.parse_args(argv)
     only = [s.strip() for s in args.only.split(",") if s.strip()]
@@ -88,19 +105,21 @@ def main(argv: list[str] | None = None) -> int:
             from . import bench_engine
 
             data = bench_engine.run(args.quick)
-            if common.compiled_modules() and not args.no_pure:
+            kind = _variant(args)
+            if kind:
                 from . import pure
 
                 try:
-                    data["pure"] = pure.run_child("engine", ["--quick"] if args.quick else [])
+                    data["variant"] = pure.run_child(kind, "engine", ["--quick"] if args.quick else [])
                 except Exception as e:  # noqa: BLE001 - the doc says why instead
-                    data["pure"] = {"failed": f"{type(e).__name__}: {e}"}
+                    data["variant"] = {"kind": kind, "failed": f"{type(e).__name__}: {e}"}
         elif section == "error":
             from . import bench_error
 
             data = bench_error.run(args.quick, args.error_cases)
             records = data.pop("base_records")
-            if common.compiled_modules() and not args.no_pure:
+            kind = _variant(args)
+            if kind:
                 from . import pure
 
                 path = common.OUT / "base_records.json"
@@ -109,13 +128,16 @@ def main(argv: list[str] | None = None) -> int:
                 if args.error_cases is not None:
                     child_args += ["--error-cases", str(args.error_cases)]
                 try:
-                    child = pure.run_child("error", child_args)
+                    child = pure.run_child(kind, "error", child_args)
                     row = child["settings"][0]
-                    row["name"] = f"{row['name']}, pure Python"
-                    row["description"] = "the same settings, the engine's sources interpreted (no compiled modules), in a child process"
+                    row["name"] = f"{row['name']}, {kind}"
+                    row["description"] = ("the same settings, the engine's sources interpreted (no compiled modules)"
+                                          if kind == "pure" else
+                                          "the same settings, the engine's hot modules compiled with mypyc (setup.py)"
+                                          ) + ", in a child process"
                     data["settings"].append(row)
                 except Exception as e:  # noqa: BLE001
-                    data["pure_failed"] = f"{type(e).__name__}: {e}"
+                    data["variant_failed"] = f"{type(e).__name__}: {e}"
             data["pareto"] = bench_error.pareto(data["settings"])
         elif section == "service":
             from . import bench_service
