@@ -61,7 +61,8 @@ class Quat:
         return self.x == 0.0 and self.y == 0.0 and self.z == 0.0 and self.w == 1.0
 
     def is_finite(self) -> bool:
-        return all(math.isfinite(c) for c in (self.w, self.x, self.y, self.z))
+        isfinite = math.isfinite
+        return isfinite(self.w) and isfinite(self.x) and isfinite(self.y) and isfinite(self.z)
 
     def is_valid(self) -> bool:
         """Finite and of unit length within 5 EPSILON (`Quaternion.IsValid`)."""

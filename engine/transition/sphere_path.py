@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 __all__ = ["SpherePath"]
 
 _F32X12 = struct.Struct("<12f")
+_F32X6 = struct.Struct("<6f")
 
 
 class SpherePath:
@@ -226,6 +227,13 @@ class SpherePath:
         pos = self.curr_pos
         assert pos is not None
         frame = pos.frame
+        if self.num_sphere == 2:
+            a = frame.local_to_global(self.local_sphere[0].center)
+            b = frame.local_to_global(self.local_sphere[1].center)
+            v = _F32X6.unpack(_F32X6.pack(a.x, a.y, a.z, b.x, b.y, b.z))
+            self.global_curr_center[0].center = Vec3(v[0], v[1], v[2])
+            self.global_curr_center[1].center = Vec3(v[3], v[4], v[5])
+            return
         for i in range(self.num_sphere):
             self.global_curr_center[i].center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
 
@@ -237,6 +245,19 @@ class SpherePath:
             self.global_low_point = vec_f32(self.global_low_point + offset)
             return
         frame = self.check_pos.frame
+        if self.num_sphere == 2:
+            g0 = self.global_sphere[0]
+            g1 = self.global_sphere[1]
+            g0.radius = self.local_sphere[0].radius
+            g1.radius = self.local_sphere[1].radius
+            a = frame.local_to_global(self.local_sphere[0].center)
+            b = frame.local_to_global(self.local_sphere[1].center)
+            c = frame.local_to_global(self.local_low_point)
+            v = _F32X12.unpack(_F32X12.pack(a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, 0.0, 0.0, 0.0))
+            g0.center = Vec3(v[0], v[1], v[2])
+            g1.center = Vec3(v[3], v[4], v[5])
+            self.global_low_point = Vec3(v[6], v[7], v[8])
+            return
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             g.radius = self.local_sphere[i].radius
