@@ -38,9 +38,11 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def child_env() -> dict[str, str]:
+def child_env(engine_root: Path | None = None) -> dict[str, str]:
+    """The environment of a child: the repo on the path (after `engine_root`, whose engine then wins)."""
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(common.ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    first = [str(engine_root)] if engine_root is not None else []
+    env["PYTHONPATH"] = os.pathsep.join([*first, str(common.ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     env["PYTHONUNBUFFERED"] = "1"
     return env
 
@@ -48,9 +50,10 @@ def child_env() -> dict[str, str]:
 class Child:
     """A subprocess that prints `marker` when ready; stopped by SIGINT, then killed."""
 
-    def __init__(self, args: list[str], marker: str) -> None:
-        self.proc = subprocess.Popen(args, cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, text=True)
+    def __init__(self, args: list[str], marker: str, engine_root: Path | None = None) -> None:
+        # `python -m` puts the working directory first on the path: the engine copy's root when given
+        self.proc = subprocess.Popen(args, cwd=engine_root or common.ROOT, env=child_env(engine_root),
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.output: list[str] = []
         ready = threading.Event()
 
@@ -245,14 +248,16 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     return out
 
 
-def run(quick: bool) -> dict[str, Any]:
+def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
+    """The whole service benchmark; with `engine_root`, the service imports the engine found there
+    (benchmarks/out/compiled, say) instead of the working tree's."""
     import zenoh  # noqa: F401 - fail early, with a clear message, when zenoh is missing
 
     scene = scene_file()
     port, echo_port = free_port(), free_port()
     endpoint, echo_endpoint = f"tcp/127.0.0.1:{port}", f"tcp/127.0.0.1:{echo_port}"
     service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint,
-                     "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
+                     "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
     echo = None
     try:
         echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
@@ -266,7 +271,8 @@ def run(quick: bool) -> dict[str, Any]:
         service.stop()
         if echo is not None:
             echo.stop()
-    return {"latency": lat, "throughput": rows, "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off"}
+    return {"latency": lat, "throughput": rows, "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off",
+            "engine_root": str(engine_root) if engine_root else None}
 
 
 if __name__ == "__main__":

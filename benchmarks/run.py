@@ -147,6 +147,14 @@ def main(argv: list[str] | None = None) -> int:
             except Exception as e:  # noqa: BLE001 - the doc says why instead
                 log(f"service benchmark failed: {type(e).__name__}: {e}")
                 data = {"failed": f"{type(e).__name__}: {e}"}
+            if _variant(args) == "compiled" and "failed" not in data:
+                from . import pure
+
+                log("service, again with the compiled engine copy:")
+                try:
+                    data["compiled"] = bench_service.run(args.quick, engine_root=pure.build_compiled())
+                except Exception as e:  # noqa: BLE001
+                    data["compiled"] = {"failed": f"{type(e).__name__}: {e}"}
         else:
             from . import stress
 
