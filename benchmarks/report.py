@@ -187,7 +187,8 @@ def _meta(sec: dict[str, Any]) -> str:
             f"({mach.get('cpus', '?')} CPUs, {mach.get('cpu', '?')}, Python {mach.get('python', '?')}; "
             f"load average at start {', '.join(f'{x:.2f}' for x in mach.get('loadavg_at_start', []))}); "
             f"took {m.get('seconds', 0):.0f} s{' (quick run)' if m.get('quick') else ''}. "
-            f"Engine modules loaded compiled: {', '.join(mach.get('compiled_engine_modules') or []) or 'none (pure Python)'}.")
+            + (f"The working tree's engine ran compiled ({len(mach['compiled_engine_modules'])} modules)."
+               if mach.get("compiled_engine_modules") else "The working tree's engine ran interpreted (no compiled modules)."))
 
 
 def _summary(results: dict[str, Any]) -> list[str]:
