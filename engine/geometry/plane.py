@@ -4,7 +4,15 @@ from __future__ import annotations
 
 from typing import Final
 
+import struct
+
 from ..constants import EPSILON
+
+_F32 = struct.Struct("<f")
+
+
+def _f32(x: float) -> float:
+    return _F32.unpack(_F32.pack(x))[0]
 from .vec3 import Vec3
 
 __all__ = ["Plane", "Side"]
@@ -60,7 +68,15 @@ class Plane:
         nz = self.normal.z
         if abs(nz) <= EPSILON:
             return offset
-        z = -(offset.dot2d(self.normal) + self.d) * (1.0 / nz) - 1.0 / nz * -self.d
+        # In single precision, as the client computes it: the two large terms
+        # (d / nz is the plane's height at the origin, ~100 m) cancel with a
+        # rounding error of up to ~1e-5 m, and that error is part of the
+        # client's behaviour (it decides when a step leaves the EPSILON band).
+        n = self.normal
+        d = _f32(self.d)
+        dot2d = _f32(_f32(offset.x * _f32(n.x)) + _f32(offset.y * _f32(n.y)))
+        inv = _f32(1.0 / _f32(nz))
+        z = _f32(_f32(-_f32(dot2d + d) * inv) - _f32(inv * -d))
         return Vec3(offset.x, offset.y, z)
 
     def height_at(self, x: float, y: float) -> float | None:
