@@ -6,44 +6,32 @@ build, compare and serialise them without touching engine internals.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Final
 
-from dataclasses import dataclass, field
-
 from ..geometry import Plane, Position, Vec3
+from ..transition.state import OI
 
 __all__ = ["SphereSpec", "CylSphereSpec", "MoverSpec", "MoveResult", "ObjectState"]
 
 
 class ObjectState:
-    """ObjectInfoState flag names accepted in `MoverSpec.state` (the client's values)."""
-
-    CONTACT: Final = 0x1
-    ON_WALKABLE: Final = 0x2
-    IS_VIEWER: Final = 0x4
-    PATH_CLIPPED: Final = 0x8
-    FREE_ROTATE: Final = 0x10
-    PERFECT_CLIP: Final = 0x40
-    IS_IMPENETRABLE: Final = 0x80
-    IS_PLAYER: Final = 0x100
-    EDGE_SLIDE: Final = 0x200
-    IGNORE_CREATURES: Final = 0x400
-    IS_PK: Final = 0x800
-    IS_PK_LITE: Final = 0x1000
+    """ObjectInfoState flag names accepted in `MoverSpec.state`, with the
+    client's bit values (engine.transition.state.OI)."""
 
     BY_NAME: Final = {
-        "Contact": CONTACT,
-        "OnWalkable": ON_WALKABLE,
-        "IsViewer": IS_VIEWER,
-        "PathClipped": PATH_CLIPPED,
-        "FreeRotate": FREE_ROTATE,
-        "PerfectClip": PERFECT_CLIP,
-        "IsImpenetrable": IS_IMPENETRABLE,
-        "IsPlayer": IS_PLAYER,
-        "EdgeSlide": EDGE_SLIDE,
-        "IgnoreCreatures": IGNORE_CREATURES,
-        "IsPK": IS_PK,
-        "IsPKLite": IS_PK_LITE,
+        "Contact": OI.CONTACT,
+        "OnWalkable": OI.ON_WALKABLE,
+        "IsViewer": OI.IS_VIEWER,
+        "PathClipped": OI.PATH_CLIPPED,
+        "FreeRotate": OI.FREE_ROTATE,
+        "PerfectClip": OI.PERFECT_CLIP,
+        "IsImpenetrable": OI.IS_IMPENETRABLE,
+        "IsPlayer": OI.IS_PLAYER,
+        "EdgeSlide": OI.EDGE_SLIDE,
+        "IgnoreCreatures": OI.IGNORE_CREATURES,
+        "IsPK": OI.IS_PK,
+        "IsPKLite": OI.IS_PK_LITE,
     }
 
     @classmethod
