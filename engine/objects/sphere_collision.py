@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import get_block_offset
-from ..transition.slide import slide_sphere_object
+from ..transition.slide import slide_sphere, slide_sphere_object
 from ..transition.state import OI, InsertType, TransitionState
 
 if TYPE_CHECKING:
@@ -337,38 +337,6 @@ def slide_sphere_toward(center: Vec3, transition: Transition, check_sphere: Sphe
 
 def slide_sphere_env(transition: Transition, sphere: Sphere, collision_normal: Vec3, curr_pos: Vec3) -> int:
     """The wall slide of any path sphere (Sphere.SlideSphere(transition, ref
-    collisionNormal, currPos) called on `sphere`).
-
-    `engine.transition.slide.slide_sphere` is this routine for the foot
-    sphere; the object code also slides the head sphere, whose displacement
-    differs from the foot's when the mover turns.
-    """
-    path = transition.sphere_path
-    ci = transition.collision_info
-    if collision_normal.x == 0.0 and collision_normal.y == 0.0 and collision_normal.z == 0.0:
-        path.add_offset_to_check_pos((curr_pos - sphere.center) * 0.5)
-        return _ADJUSTED
-
-    ci.set_collision_normal(collision_normal)
-    assert path.curr_pos is not None
-    block_offset = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
-    displacement = block_offset + (sphere.center - curr_pos)
-
-    plane = ci.contact_plane if ci.contact_plane_valid else ci.last_known_contact_plane
-    crease = collision_normal.cross(plane.normal)
-    crease_len_sq = crease.length_sq()
-    if crease_len_sq >= EPSILON:
-        along = crease * (crease.dot(displacement) * (1.0 / crease_len_sq))
-        if along.length_sq() < EPSILON:
-            return _COLLIDED
-        path.add_offset_to_check_pos(along - displacement)
-        return _SLID
-
-    if collision_normal.dot(plane.normal) >= 0.0:
-        path.add_offset_to_check_pos(collision_normal * -collision_normal.dot(displacement))
-        return _SLID
-
-    back = (-displacement).normalized_or_none()
-    if back is not None:
-        ci.set_collision_normal(back)
-    return _OK
+    collisionNormal, currPos) called on `sphere`): `slide.slide_sphere` with
+    the sphere named."""
+    return slide_sphere(transition, collision_normal, curr_pos, sphere)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..constants import EPSILON
-from ..geometry import Vec3
+from ..geometry import Sphere, Vec3
 from ..geometry.landdefs import get_block_offset
 from .state import TransitionState
 
@@ -15,17 +15,19 @@ if TYPE_CHECKING:
 __all__ = ["slide_sphere", "slide_sphere_object"]
 
 
-def slide_sphere(t: Transition, collision_normal: Vec3, curr_center: Vec3) -> int:
-    """Slide the foot sphere along a wall (Sphere.SlideSphere, environment variant).
+def slide_sphere(t: Transition, collision_normal: Vec3, curr_center: Vec3, sphere: Sphere | None = None) -> int:
+    """Slide a path sphere along a wall (Sphere.SlideSphere, environment variant).
 
     The step's displacement (from `curr_center`, the sphere at the current
     position, to the check position) is projected onto the crease between the
     wall and the ground we stand on; with no crease (wall parallel to the
-    ground) it is pushed straight out of the wall.
+    ground) it is pushed straight out of the wall. `sphere` is the path sphere
+    that slides (the foot sphere unless given; object collisions slide the
+    head sphere too).
     """
     path = t.sphere_path
     ci = t.collision_info
-    g = path.global_sphere[0]
+    g = path.global_sphere[0] if sphere is None else sphere
     if collision_normal.x == 0.0 and collision_normal.y == 0.0 and collision_normal.z == 0.0:
         path.add_offset_to_check_pos((curr_center - g.center) * 0.5)
         return TransitionState.ADJUSTED
