@@ -163,20 +163,22 @@ class Mover:
             t.init_sliding_normal(self.sliding_normal)
         if self.missile:
             state |= OI.PATH_CLIPPED
-        t.init_object(
-            ObjectInfo(
-                state,
-                obj=self,
-                scale=self.scale,
-                step_up_height=self.step_up_height * self.scale,
-                step_down_height=self.step_down_height * self.scale,
-                ethereal=self.ethereal,
-                step_down=self.step_down and not self.missile,
-                gravity=self.gravity,
-            )
-        )
+        t.init_object(self.object_info(state))
         t.init_sphere(self.spheres, self.scale)
         return t
+
+    def object_info(self, state: int) -> ObjectInfo:
+        """This object's ObjectInfo with the given state flags (ObjectInfo.Init)."""
+        return ObjectInfo(
+            state,
+            obj=self,
+            scale=self.scale,
+            step_up_height=self.step_up_height * self.scale,
+            step_down_height=self.step_down_height * self.scale,
+            ethereal=self.ethereal,
+            step_down=self.step_down and not self.missile,
+            gravity=self.gravity,
+        )
 
     def transition(self, world: World, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
         t = self.make_transition(world, settings)

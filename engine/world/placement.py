@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING, Any
 
 from ..geometry import Position
 from ..geometry.landdefs import adjust_to_outside
-from ..transition.object_info import ObjectInfo
 from ..transition.transition import Transition
 from . import shadows
 from .types import MoveResult
@@ -69,18 +68,7 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
 
     t = Transition(world, world.settings)
     # ObjectInfo Default: no EdgeSlide, no contact plane, no sliding normal.
-    t.init_object(
-        ObjectInfo(
-            0,
-            obj=mover,
-            scale=mover.scale,
-            step_up_height=mover.step_up_height * mover.scale,
-            step_down_height=mover.step_down_height * mover.scale,
-            ethereal=mover.ethereal,
-            step_down=mover.step_down and not mover.missile,
-            gravity=mover.gravity,
-        )
-    )
+    t.init_object(mover.object_info(0))
     t.init_sphere(mover.spheres, mover.scale)
 
     cell, position = _adjust_position(world, target, t.sphere_path.local_sphere[0].center)
