@@ -36,7 +36,6 @@ from engine.bsp import (
 from engine.constants import EPSILON, FLOOR_Z, LANDING_Z
 from engine.geometry import Frame, Plane, Position, Quat, Side, Sphere, Vec3
 from engine.geometry.polygon import Polygon, PolyHit
-from engine.transition import slide as slide_module
 from engine.transition.collision_info import CollisionInfo
 from engine.transition.object_info import ObjectInfo
 from engine.transition.sphere_path import SpherePath

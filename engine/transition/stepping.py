@@ -11,12 +11,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..constants import LANDING_Z, STEP_DOWN_PROBE
-from ..geometry import Plane, Position, Sphere, Vec3
+from ..geometry import Plane, Vec3
 from ..geometry.landdefs import get_block_offset
 from .state import OI, InsertType, TransitionState
 
 if TYPE_CHECKING:
-    from ..geometry.polygon import Polygon
     from .transition import Transition
 
 __all__ = ["step_up", "step_down", "check_walkable", "edge_slide", "cliff_slide", "set_edge_slide"]

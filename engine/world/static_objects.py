@@ -56,8 +56,6 @@ def _setup_has_bsp(cache: PortalCache, model_id: int) -> bool:
 
 
 def _make_object(cache: PortalCache, model_id: int, position: Position) -> Any:
-    from .indoor_loader import frame_from_dict  # noqa: F401  (keeps the import graph explicit)
-
     if _setup_has_bsp(cache, model_id):
         return StaticBSPObject(model_id, cache.parts_of(model_id, position.frame, position.cell_id), position)
     from ..objects.obstacle import Obstacle  # sphere and cylsphere shapes

@@ -9,14 +9,13 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Iterable
+from typing import Any, Callable
 
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError, UnknownMoverError
-from ..geometry import Frame, Plane, Position, Quat, Sphere, Vec3
+from ..geometry import Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside, cell_in_range
-from ..transition.object_info import is_valid_walkable
 from ..transition.settings import RETAIL, EngineSettings
-from ..transition.state import OI, STATE_NAMES
+from ..transition.state import OI
 from .landblock import Landblock
 from . import shadows
 from .mover import Mover
