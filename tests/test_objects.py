@@ -531,3 +531,33 @@ def test_missile_ignore_rules() -> None:
     arrow.target_id = 0x80000002
     assert not missile_ignore(arrow, creature)  # ...but not the target
     assert not missile_ignore(arrow, rock)
+
+
+def test_a_cylsphere_object_on_a_cell_corner_is_in_all_four_cells() -> None:
+    # ACE registers a cylsphere object in every cell a sphere of its radius at
+    # its low point touches; a pillar on the corner of four cells touches four
+    from scenes import HEIGHT_TABLE
+
+    scene = {
+        "format": "acphys-scene/1",
+        "height_table": HEIGHT_TABLE,
+        "gfx_objs": {"01000001": {"vertices": {}}},
+        "setups": {
+            "02000001": {
+                "parts": ["01000001"],
+                "cyl_spheres": [{"origin": [0.0, 0.0, 0.0], "radius": 0.6, "height": 4.0}],
+                "spheres": [],
+            }
+        },
+        "landblocks": [
+            {
+                "id": "A9B4",
+                "heights": [100] * 81,
+                "objects": [{"id": "02000001", "frame": {"origin": [48.0, 48.0, 50.0], "orientation": [1, 0, 0, 0]}}],
+            }
+        ],
+    }
+    w = engine.world_from_scene_dict(scene)
+    holding = sorted(c.id & 0xFFFF for c in w.landblocks[0xA9B4].cells if c.shadow_objects)
+    # cells (1,1), (1,2), (2,1), (2,2) around the corner (48, 48): indexes cx*8+cy+1
+    assert holding == sorted([1 * 8 + 1 + 1, 1 * 8 + 2 + 1, 2 * 8 + 1 + 1, 2 * 8 + 2 + 1])

@@ -12,40 +12,15 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from ..geometry import Position
 from ..geometry.landdefs import outdoor_cell_id
-from ..transition.state import OI, TransitionState
+from ..objects.obstacle import Obstacle
+from ..cells.cell_array import CellArray
+from ..cells.find_cell_list import find_cell_list
+from ..geometry import Sphere
 
 if TYPE_CHECKING:
-    from ..objects.gfx_obj import PhysicsPart
-    from ..transition.transition import Transition
     from .indoor_loader import PortalCache
 
-__all__ = ["StaticBSPObject", "attach_static_objects"]
-
-
-class StaticBSPObject:
-    """A static object whose shape is its parts' physics BSPs (a dat object:
-    Static, HasPhysicsBSP, no weenie). PhysicsObj.FindObjCollisions, BSP branch."""
-
-    __slots__ = ("id", "parts", "position", "ethereal")
-
-    def __init__(self, model_id: int, parts: list[PhysicsPart], position: Position) -> None:
-        self.id = 0  # dat objects carry no instance id
-        self.parts = parts
-        self.position = position
-        self.ethereal = False
-
-    def find_obj_collisions(self, transition: Transition) -> int:
-        path = transition.sphere_path
-        path.obstruction_ethereal = False
-        for part in self.parts:
-            state = part.find_obj_collisions(transition)
-            if state != TransitionState.OK:
-                if not path.step_down and not transition.object_info.state & OI.CONTACT:
-                    transition.collision_info.collided_with_environment = True
-                path.obstruction_ethereal = False
-                return state
-        path.obstruction_ethereal = False
-        return TransitionState.OK
+__all__ = ["attach_static_objects"]
 
 
 def _setup_has_bsp(cache: PortalCache, model_id: int) -> bool:
@@ -57,9 +32,9 @@ def _setup_has_bsp(cache: PortalCache, model_id: int) -> bool:
 
 def _make_object(cache: PortalCache, model_id: int, position: Position) -> Any:
     if _setup_has_bsp(cache, model_id):
-        return StaticBSPObject(model_id, cache.parts_of(model_id, position.frame, position.cell_id), position)
-    from ..objects.obstacle import Obstacle  # sphere and cylsphere shapes
-
+        # a dat object (Static, no weenie) shaped by its parts' physics BSPs
+        parts = cache.parts_of(model_id, position.frame, position.cell_id)
+        return Obstacle(0, position, parts=parts, static=True)
     return Obstacle.static_from_setup(model_id, cache.setup(model_id), position)
 
 
@@ -84,7 +59,31 @@ def attach_static_objects(landblock: Any, lb_data: Mapping[str, Any], cache: Por
             landblock.objects.append(obj)
 
 
-def _register(landblock: Any, obj: Any, cell_id: int) -> None:
-    cell = landblock.get_cell(cell_id)
-    if cell is not None:
+class _ThisLandblock:
+    """Cell lookup during loading: only the landblock being built exists yet."""
+
+    def __init__(self, landblock: Any) -> None:
+        self.landblock = landblock
+
+    def get_landcell(self, cell_id: int) -> Any:
+        if (cell_id >> 16) & 0xFFFF != self.landblock.id:
+            return None
+        return self.landblock.get_cell(cell_id)
+
+
+def _register(landblock: Any, obj: Obstacle, cell_id: int) -> None:
+    """Put the object in the cells it occupies: a cylsphere object in every cell
+    that a sphere of each cylsphere's radius at its low point touches
+    (find_cell_list over the cylspheres), anything else in its own cell."""
+    cells: list[Any] = []
+    if obj.cyl_spheres and not obj.has_physics_bsp:
+        frame = obj.position.frame
+        spheres = [Sphere(frame.local_to_global(c.low_point), c.radius) for c in obj.cyl_spheres[:10]]
+        found = CellArray(_ThisLandblock(landblock))
+        find_cell_list(obj.position, len(spheres), spheres, found, False, None)
+        cells = [c for c in found.cells() if c is not None]
+    if not cells:
+        own = landblock.get_cell(cell_id)
+        cells = [own] if own is not None else []
+    for cell in cells:
         cell.shadow_objects.append(obj)
