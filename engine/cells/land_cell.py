@@ -52,12 +52,16 @@ class LandCell(ObjCell):
                 state = self.find_obj_collisions(transition)
         return state
 
-    def find_terrain_poly(self, point: Vec3) -> TerrainTriangle | None:
-        """The triangle under a landblock-local point, if it is over this cell."""
-        # clearly outside the cell's square: neither triangle can hold it
+    def find_terrain_poly(self, point: Vec3, quick: bool = True) -> TerrainTriangle | None:
+        """The triangle under a landblock-local point, if it is over this cell.
+
+        With `quick`, a point clearly outside the cell's square is refused
+        before the triangle tests (which would refuse it too)."""
         x0 = self.x0
         y0 = self.y0
-        if point.x < x0 - _MARGIN or point.x > x0 + CELL_LENGTH + _MARGIN or point.y < y0 - _MARGIN or point.y > y0 + CELL_LENGTH + _MARGIN:
+        if quick and (
+            point.x < x0 - _MARGIN or point.x > x0 + CELL_LENGTH + _MARGIN or point.y < y0 - _MARGIN or point.y > y0 + CELL_LENGTH + _MARGIN
+        ):
             return None
         for tri in self.polygons:
             if tri.point_in_poly_2d(point):
@@ -73,7 +77,7 @@ class LandCell(ObjCell):
         path = transition.sphere_path
         block_offset = get_block_offset(path.check_pos.cell_id, self.id)
         local_point = path.global_low_point - block_offset
-        walkable = self.find_terrain_poly(local_point)
+        walkable = self.find_terrain_poly(local_point, transition.settings.skip_far_cells)
         if walkable is None:
             return TransitionState.OK
 
@@ -136,12 +140,14 @@ def add_all_outside_cells(
     block_x = ((cell_id >> 24) & 0xFF) << 3
     block_y = ((cell_id >> 16) & 0xFF) << 3
     floor = math.floor
+    settings = getattr(world, "settings", None)
+    dedupe = settings is None or settings.skip_repeat_spheres
     last_x = last_y = last_r = math.nan
     for sphere in spheres[:num_sphere]:
         c = sphere.center
         cx = c.x
         cy = c.y
-        if cx == last_x and cy == last_y and sphere.radius == last_r:
+        if dedupe and cx == last_x and cy == last_y and sphere.radius == last_r:
             continue  # an upright mover's head sphere: the same cells again
         last_x = cx
         last_y = cy

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..constants import ACE_MAX_STEPS, RETAIL_MAX_STEPS
 
@@ -18,14 +18,25 @@ class EngineSettings:
     - `ace_outdoor_viewer`: ACE's terrain check for cameras, which only lets a
       camera clear the ground when its path began indoors (so an outdoor
       camera never moves). Retail lets it move.
+
+    Skips of work that cannot change an answer (on by default; off only to
+    measure what they save, see docs/performance.md):
+
+    - `skip_far_cells`: a terrain cell's triangles are not tested for a
+      point clearly outside its 24 m square.
+    - `skip_repeat_spheres`: the outdoor cell search does not repeat itself
+      for a sphere at the same x, y and radius as the one before (an upright
+      mover's head sphere).
     """
 
     max_steps: int = RETAIL_MAX_STEPS
     ace_normals: bool = False
     ace_outdoor_viewer: bool = False
+    skip_far_cells: bool = True
+    skip_repeat_spheres: bool = True
 
     def with_ace_step_cap(self) -> EngineSettings:
-        return EngineSettings(ACE_MAX_STEPS, self.ace_normals, self.ace_outdoor_viewer)
+        return replace(self, max_steps=ACE_MAX_STEPS)
 
 
 RETAIL = EngineSettings()
