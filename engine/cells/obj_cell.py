@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..geometry import Position, Vec3
-from ..terrain.water import WaterType
+from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
 from ..transition.state import InsertType, TransitionState
 
 if TYPE_CHECKING:
@@ -95,8 +95,6 @@ class ObjCell:
 
     def get_water_depth(self, point: Vec3) -> float:
         """ObjCell.get_water_depth: how far below the ground a mover floats."""
-        from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH
-
         wt = self.water_type
         if wt == WaterType.NOT_WATER:
             return 0.0

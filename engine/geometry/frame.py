@@ -9,6 +9,7 @@ orientation, which nearly every outdoor mover has.
 
 from __future__ import annotations
 
+from ..constants import EPSILON
 from .quaternion import IDENTITY, Quat
 from .vec3 import Vec3
 
@@ -79,8 +80,6 @@ class Frame:
         (The client's orientation half compares each frame with itself, so only
         the origins decide.)
         """
-        from ..constants import EPSILON
-
         a, b = self.origin, other.origin
         return abs(a.x - b.x) <= EPSILON and abs(a.y - b.y) <= EPSILON and abs(a.z - b.z) <= EPSILON
 

@@ -41,15 +41,21 @@ def placement_insert(t: Transition) -> int:
     return state
 
 
+def _accept_check_pos(t: Transition) -> None:
+    """The check position becomes the current one (shared by both validations)."""
+    path = t.sphere_path
+    path.curr_pos = path.check_pos
+    path.curr_cell = path.check_cell
+    path.cache_global_curr_center()
+
+
 def validate_placement(t: Transition, state: int, adjust: bool) -> int:
     """Accept the check position, or retry once after an adjustment (ValidatePlacement)."""
     path = t.sphere_path
     if path.check_cell is None:
         return _COLLIDED
     if state == _OK:
-        path.curr_pos = path.check_pos
-        path.curr_cell = path.check_cell
-        path.cache_global_curr_center()
+        _accept_check_pos(t)
     elif state in (TransitionState.ADJUSTED, TransitionState.SLID):
         if adjust:
             return validate_placement(t, placement_insert(t), False)
@@ -62,9 +68,7 @@ def validate_placement_transition(t: Transition, state: int) -> int:
     if path.check_cell is None:
         return _COLLIDED
     if state == _OK:
-        path.curr_pos = path.check_pos
-        path.curr_cell = path.check_cell
-        path.cache_global_curr_center()
+        _accept_check_pos(t)
     elif state in (_COLLIDED, TransitionState.ADJUSTED, TransitionState.SLID):
         if path.placement_allows_sliding and t.object_info.target_id == 0:
             t.collision_info.reset_collide_objects()

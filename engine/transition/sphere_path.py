@@ -9,7 +9,8 @@ import struct
 
 from ..geometry.f32 import vec_f32
 from ..geometry.landdefs import get_block_offset
-from .state import InsertType
+from .slide import slide_sphere
+from .state import InsertType, TransitionState
 
 if TYPE_CHECKING:
     from ..geometry.polygon import Polygon
@@ -330,7 +331,6 @@ class SpherePath:
     # -- slides that live on the path in the client ---------------------------
     def step_up_slide(self, transition: Transition) -> int:
         """Slide along the normal that a failed step-up met (StepUpSlide)."""
-        from .slide import slide_sphere
 
         ci = transition.collision_info
         ci.contact_plane_valid = False
@@ -339,8 +339,6 @@ class SpherePath:
 
     def precipice_slide(self, transition: Transition) -> int:
         """Slide along the edge of the walkable we are about to leave (PrecipiceSlide)."""
-        from .slide import slide_sphere
-        from .state import TransitionState
 
         assert self.walkable is not None and self.walkable_check_pos is not None
         edge_normal = self.walkable.find_crossed_edge(self.walkable_check_pos, self.walkable_up)

@@ -24,7 +24,7 @@ from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
-from ..geometry import UNIT_Z, ZERO, Plane, Position, Sphere, Vec3
+from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
@@ -166,8 +166,6 @@ class Transition:
                 return step != 0 and state == _OK
 
             if not free_rotate:
-                from ..geometry import Quat
-
                 q = Quat.lerp(begin_q, end_q, (step + 1) / num_steps) if rotating else end_q
                 if rotating or path.check_pos.frame.orientation != q:
                     path.check_pos = Position(path.check_pos.cell_id, path.check_pos.frame.with_orientation(q))
