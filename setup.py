@@ -17,10 +17,12 @@ from setuptools import setup
 # are not hot, and they use dynamic features mypyc does not compile).
 HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
+# The world's per-move part: the mover, its shadows, the cell lookup and the move itself.
+WORLD_HOT = ("mover", "transient", "landscape", "landblock", "shadows", "resolve")
 
 
 def hot_modules() -> list[str]:
-    mods = ["engine/constants.py", "engine/world/mover.py", "engine/world/transient.py"]
+    mods = ["engine/constants.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
     for pkg in HOT_PACKAGES:
         for path in sorted(glob.glob(f"engine/{pkg}/*.py")):
             if not path.endswith("__init__.py") and path not in NOT_COMPILED:

@@ -9,7 +9,7 @@ and the velocity collision responses act on.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..constants import (
     DEFAULT_FRICTION,
@@ -29,8 +29,6 @@ from ..transition.state import OI
 from ..transition.transition import Transition
 from .transient import TS
 
-if TYPE_CHECKING:
-    from .world import World
 
 __all__ = ["Mover"]
 
@@ -146,7 +144,7 @@ class Mover:
         return contact
 
     # -- one transition (PhysicsObj.transition) --------------------------------
-    def make_transition(self, world: World, settings: EngineSettings) -> Transition:
+    def make_transition(self, world: Any, settings: EngineSettings) -> Transition:
         """A Transition set up from this object's carried state (get_object_info)."""
         t = Transition(world, settings)
         state = self.oi_flags
@@ -180,7 +178,7 @@ class Mover:
             gravity=self.gravity,
         )
 
-    def transition(self, world: World, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
+    def transition(self, world: Any, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
         t = self.make_transition(world, settings)
         t.init_path(self.cell, old_pos, new_pos)
         ci = t.collision_info

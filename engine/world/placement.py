@@ -59,7 +59,7 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     shift under 5 cm is accepted. The result's `placement_result` is "OK",
     "NoValidPosition" or "NoCell(lost)".
     """
-    from .world import _result
+    from .resolve import move_result as _result
 
     if mode not in PLACEMENT_MODES:
         raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")

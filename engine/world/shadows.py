@@ -17,7 +17,6 @@ from ..geometry import Sphere
 
 if TYPE_CHECKING:
     from .mover import Mover
-    from .world import World
 
 __all__ = ["enter_world", "reshadow", "remove_shadows", "obstacle_of"]
 
@@ -61,7 +60,7 @@ def reshadow(mover: Mover, cell_array: CellArray) -> None:
     _add_shadows(mover, cell_array.cells())
 
 
-def enter_world(world: World, mover: Mover) -> None:
+def enter_world(world: Any, mover: Mover) -> None:
     """Shadows for a mover entering the world at its current position."""
     position = mover.position
     frame = position.frame

@@ -11,15 +11,17 @@ from __future__ import annotations
 import math
 from typing import Any, Callable
 
-from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError, UnknownMoverError
+from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownMoverError
 from ..geometry import Plane, Position, Sphere, Vec3
-from ..geometry.landdefs import adjust_to_outside, cell_in_range
+from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from .landblock import Landblock
+from .landscape import Landscape
 from . import shadows
 from .mover import Mover
-from .transient import TS, transient_names
+from .resolve import move_mover, move_result
+from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
 
 __all__ = ["World"]
@@ -32,12 +34,29 @@ class World:
     """Holds landblocks (loaded up front or on demand) and movers."""
 
     def __init__(self, settings: EngineSettings = RETAIL, loader: LandblockLoader | None = None) -> None:
-        self.settings = settings
-        self.landblocks: dict[int, Landblock] = {}
+        #: the loaded landblocks and settings, where transitions look cells up
+        self.landscape = Landscape({}, settings, self.load_landblock if loader is not None else None)
         self.movers: dict[int, Mover] = {}
         self._next_mover_id = 1
         self._loader = loader
         self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
+
+    @property
+    def settings(self) -> EngineSettings:
+        return self.landscape.settings
+
+    @settings.setter
+    def settings(self, settings: EngineSettings) -> None:
+        self.landscape.settings = settings
+
+    @property
+    def landblocks(self) -> dict[int, Landblock]:
+        """Loaded landblocks by id."""
+        return self.landscape.landblocks
+
+    @landblocks.setter
+    def landblocks(self, landblocks: dict[int, Landblock]) -> None:
+        self.landscape.set_landblocks(landblocks)
 
     # -- landblocks -------------------------------------------------------------
     def add_landblock(self, landblock: Landblock) -> None:
@@ -67,10 +86,7 @@ class World:
 
     def get_landcell(self, cell_id: int) -> Any:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
-        lb = self.landblocks.get((cell_id >> 16) & 0xFFFF)
-        if lb is None:
-            return None
-        return lb.get_cell(cell_id)
+        return self.landscape.get_landcell(cell_id)
 
     # -- movers -------------------------------------------------------------------
     def add_mover(
@@ -131,7 +147,7 @@ class World:
         self._enter_cells(new)
 
     def mover_state(self, mover_id: int) -> MoveResult:
-        return _result(self.mover(mover_id), True, "NoTransition", None)
+        return move_result(self.mover(mover_id), True, "NoTransition", None)
 
     # -- moves ----------------------------------------------------------------------
     def move(self, mover_id: int, target: Position, velocity: Vec3 | None = None) -> MoveResult:
@@ -141,12 +157,12 @@ class World:
         contact checks and collision responses see); None keeps its own.
         """
         mover = self.mover(mover_id)
-        self._check_position(target)
+        self.landscape.check_position(target)
         if velocity is not None:
             if not velocity.is_finite():
                 raise NonFiniteError("velocity has non-finite components")
             mover.velocity = velocity
-        return self._move_mover(mover, target)
+        return move_mover(self.landscape, mover, target)
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
         """Advance a mover by `dt` seconds with its own motion `motion` (object
@@ -158,48 +174,20 @@ class World:
             raise ValueError(f"dt must not be negative, got {dt}")
         frame = mover.integrate(motion, dt)
         target = Position(mover.position.cell_id, frame)
-        return self._move_mover(mover, target)
-
-    def _move_mover(self, mover: Mover, target: Position) -> MoveResult:
-        current = mover.position
-        if target.frame.equals_within_epsilon(current.frame) and target.cell_id == current.cell_id:
-            mover.position = Position(current.cell_id, target.frame)
-            return _result(mover, True, "NoTransition", None)
-        if _block_dist(current.cell_id, target.cell_id) > 1:
-            return _result(mover, False, "NoTransition", None)
-        self._ensure_loaded(target.cell_id)
-        t = mover.transition(self, current, target, self.settings)
-        if t is None or t.sphere_path.curr_cell is None:
-            mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
-            return _result(mover, False, "Invalid", t)
-        mover.set_position_internal(t)
-        shadows.reshadow(mover, t.cell_array)
-        return _result(mover, True, "OK", t)
+        return move_mover(self.landscape, mover, target)
 
     def _enter_cells(self, mover: Mover) -> None:
         """Cast the mover's shadow into the cells its spheres touch, so other
         movers collide with it (the client adds a new object to its cell and
         its CellArray)."""
-        shadows.enter_world(self, mover)
+        shadows.enter_world(self.landscape, mover)
 
     # -- checks -----------------------------------------------------------------------
     def _check_position(self, position: Position) -> None:
-        if not position.frame.is_finite():
-            raise NonFiniteError(f"position {position!r} has non-finite numbers")
-        index = position.cell_id & 0xFFFF
-        if not cell_in_range(index) or index == 0xFFFF or index == 0:
-            raise UnknownCellError(f"cell id {position.cell_id:08X} is not a valid cell id")
-        self._ensure_loaded(position.cell_id)
-        if index >= 0x100 and self.get_landcell(position.cell_id) is None:
-            raise UnknownCellError(f"cell {position.cell_id:08X} does not exist in landblock {position.cell_id >> 16:04X}")
+        self.landscape.check_position(position)
 
     def _ensure_loaded(self, cell_id: int) -> None:
-        lb_id = (cell_id >> 16) & 0xFFFF
-        if lb_id not in self.landblocks:
-            if self._loader is not None:
-                self.load_landblock(lb_id)
-            else:
-                raise LandblockNotLoadedError(f"landblock {lb_id:04X} (cell {cell_id:08X}) is not loaded")
+        self.landscape.ensure_loaded(cell_id)
 
     def _cell_for(self, position: Position) -> Any:
         cell = self.get_landcell(position.cell_id)
@@ -215,10 +203,6 @@ class World:
         if lb is None:
             raise LandblockNotLoadedError(f"landblock {(cell_id >> 16) & 0xFFFF:04X} is not loaded")
         return lb.terrain.height_at(x, y)
-
-
-def _block_dist(a: int, b: int) -> int:
-    return max(abs(((a >> 24) & 0xFF) - ((b >> 24) & 0xFF)), abs(((a >> 16) & 0xFF) - ((b >> 16) & 0xFF)))
 
 
 def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
@@ -247,38 +231,6 @@ def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
         ethereal=spec.ethereal,
         creature=creature,
         cyl_spheres=list(spec.cyl_spheres),
-    )
-
-
-def _result(mover: Mover, ok: bool, state: str, t: Any) -> MoveResult:
-    """What a move did. Collision normal and the stationary-fall counter are the
-    transition's own; a move that ran no transition has neither."""
-    ts = mover.transient
-    collision_normal = None
-    fsf = None
-    collide_objects: list[int] = []
-    if t is not None:
-        ci = t.collision_info
-        if ci.collision_normal_valid:
-            collision_normal = ci.collision_normal
-        fsf = ci.frames_stationary_fall
-        collide_objects = [(getattr(o, "owner", None) or o).id for o in ci.collide_object]
-    contact = bool(ts & TS.CONTACT)
-    # the plane is reported whenever the object is in contact
-    return MoveResult(
-        ok=ok,
-        position=mover.position,
-        transition_state=state,
-        contact=contact,
-        on_walkable=bool(ts & TS.ON_WALKABLE),
-        contact_plane=mover.contact_plane if contact else None,
-        contact_plane_cell=mover.contact_plane_cell_id if contact else None,
-        collision_normal=collision_normal,
-        sliding_normal=mover.sliding_normal if ts & TS.SLIDING else None,
-        water_contact=bool(ts & TS.WATER_CONTACT),
-        frames_stationary_fall=fsf,
-        transient_state=transient_names(ts),
-        collide_objects=collide_objects,
     )
 
 

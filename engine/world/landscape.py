@@ -1,0 +1,93 @@
+"""Landscape: the loaded landblocks as a transition sees them (the client's LScape).
+
+A transition looks cells up by id several times a move (the cell search, the
+outdoor neighbours, building portals). The World keeps its landblocks here, in
+a compiled object, so those lookups stay in native code; the World itself is
+the interpreted facade around it.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError
+from ..geometry.landdefs import cell_in_range
+from ..geometry.position import Position
+from ..transition.settings import EngineSettings
+
+__all__ = ["Landscape"]
+
+
+class Landscape:
+    """Landblocks by id, the engine settings, and where missing landblocks come from.
+
+    `landblocks` may be a dict subclass that tracks use (the dat world's LRU);
+    lookups then go through its own methods so every use is seen.
+    """
+
+    __slots__ = ("settings", "_landblocks", "_tracked", "_load")
+
+    def __init__(
+        self,
+        landblocks: dict[int, Any],
+        settings: EngineSettings,
+        load: Callable[[int], Any] | None = None,
+    ) -> None:
+        self.settings = settings
+        self._landblocks: dict[int, Any] = landblocks
+        # a dict subclass, reached through its own (overridden) methods
+        self._tracked: Any = None if type(landblocks) is dict else landblocks
+        self._load = load
+
+    @property
+    def landblocks(self) -> dict[int, Any]:
+        return self._landblocks
+
+    def set_landblocks(self, landblocks: dict[int, Any]) -> None:
+        self._landblocks = landblocks
+        self._tracked = None if type(landblocks) is dict else landblocks
+
+    def set_loader(self, load: Callable[[int], Any] | None) -> None:
+        self._load = load
+
+    def landblock(self, landblock_id: int) -> Any:
+        """The loaded landblock with this id, or None."""
+        tracked = self._tracked
+        if tracked is None:
+            return self._landblocks.get(landblock_id)
+        return tracked.get(landblock_id)
+
+    def get_landcell(self, cell_id: int) -> Any:
+        """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
+        lb = self.landblock((cell_id >> 16) & 0xFFFF)
+        if lb is None:
+            return None
+        index = cell_id & 0xFFFF
+        if 1 <= index <= 64:
+            return lb.cells[index - 1]
+        return lb.env_cells.get(cell_id)
+
+    def ensure_loaded(self, cell_id: int) -> None:
+        """Load the landblock of `cell_id` from the World's source if it is not loaded."""
+        lb_id = (cell_id >> 16) & 0xFFFF
+        tracked = self._tracked
+        loaded = (lb_id in self._landblocks) if tracked is None else (lb_id in tracked)
+        if loaded:
+            return
+        load = self._load
+        if load is None:
+            raise LandblockNotLoadedError(f"landblock {lb_id:04X} (cell {cell_id:08X}) is not loaded")
+        load(lb_id)
+
+    def check_position(self, position: Position) -> None:
+        """A position a move may use: finite numbers, a valid cell id, its landblock
+        loaded (or loadable) and, for an indoor cell, the cell present."""
+        if not position.frame.is_finite():
+            raise NonFiniteError(f"position {position!r} has non-finite numbers")
+        cell_id = position.cell_id
+        index = cell_id & 0xFFFF
+        if not cell_in_range(index) or index == 0xFFFF or index == 0:
+            raise UnknownCellError(f"cell id {cell_id:08X} is not a valid cell id")
+        self.ensure_loaded(cell_id)
+        if index >= 0x100 and self.get_landcell(cell_id) is None:
+            raise UnknownCellError(f"cell {cell_id:08X} does not exist in landblock {cell_id >> 16:04X}")

@@ -1,0 +1,88 @@
+"""Resolving one move of a mover: transition, SetPositionInternal, shadows, result.
+
+This is the part of the client's PhysicsObj.SetPosition / UpdateObjectInternal
+that runs once the target frame is known: run the transition from the current
+position, and on success take its result (SetPositionInternal) and move the
+mover's shadows into the cells the transition found. It is compiled with the
+rest of the per-move path; World.move and World.step are thin checks around it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..geometry.position import Position
+from ..geometry.vec3 import Vec3
+from ..transition.transition import Transition
+from .landscape import Landscape
+from .mover import Mover
+from .shadows import reshadow
+from .transient import TS, transient_names
+from .types import MoveResult
+
+__all__ = ["move_mover", "move_result"]
+
+
+def _block_distance(a: int, b: int) -> int:
+    """How many landblocks apart two cell ids are (Chebyshev, in block units)."""
+    dx = abs(((a >> 24) & 0xFF) - ((b >> 24) & 0xFF))
+    dy = abs(((a >> 16) & 0xFF) - ((b >> 16) & 0xFF))
+    return dx if dx > dy else dy
+
+
+def move_mover(landscape: Landscape, mover: Mover, target: Position) -> MoveResult:
+    """Move `mover` toward `target` (already checked): PhysicsObj.SetPosition through
+    a transition. A target within EPSILON of where the mover stands runs no
+    transition; one more than a landblock away is refused, as the client refuses it."""
+    current = mover.position
+    if target.cell_id == current.cell_id and target.frame.equals_within_epsilon(current.frame):
+        mover.position = Position(current.cell_id, target.frame)
+        return move_result(mover, True, "NoTransition", None)
+    if _block_distance(current.cell_id, target.cell_id) > 1:
+        return move_result(mover, False, "NoTransition", None)
+    landscape.ensure_loaded(target.cell_id)
+    t = mover.transition(landscape, current, target, landscape.settings)
+    if t is None or t.sphere_path.curr_cell is None:
+        mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
+        return move_result(mover, False, "Invalid", t)
+    mover.set_position_internal(t)
+    reshadow(mover, t.cell_array)
+    return move_result(mover, True, "OK", t)
+
+
+def _object_id(obj: Any) -> int:
+    owner = getattr(obj, "owner", None)
+    return int(owner.id if owner is not None else obj.id)
+
+
+def move_result(mover: Mover, ok: bool, state: str, t: Transition | None) -> MoveResult:
+    """What a move did. Collision normal and the stationary-fall counter are the
+    transition's own; a move that ran no transition has neither."""
+    ts = mover.transient
+    collision_normal: Vec3 | None = None
+    frames_stationary_fall: int | None = None
+    collide_objects: list[int] = []
+    if t is not None:
+        ci = t.collision_info
+        if ci.collision_normal_valid:
+            collision_normal = ci.collision_normal
+        frames_stationary_fall = ci.frames_stationary_fall
+        for obj in ci.collide_object:
+            collide_objects.append(_object_id(obj))
+    contact = bool(ts & TS.CONTACT)
+    # the plane is reported whenever the object is in contact
+    return MoveResult(
+        ok=ok,
+        position=mover.position,
+        transition_state=state,
+        contact=contact,
+        on_walkable=bool(ts & TS.ON_WALKABLE),
+        contact_plane=mover.contact_plane if contact else None,
+        contact_plane_cell=mover.contact_plane_cell_id if contact else None,
+        collision_normal=collision_normal,
+        sliding_normal=mover.sliding_normal if ts & TS.SLIDING else None,
+        water_contact=bool(ts & TS.WATER_CONTACT),
+        frames_stationary_fall=frames_stationary_fall,
+        transient_state=transient_names(ts),
+        collide_objects=collide_objects,
+    )
