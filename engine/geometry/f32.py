@@ -9,24 +9,19 @@ slide differently).
 
 from __future__ import annotations
 
-import struct
-
 from .plane import Plane
+from .single import to_single
 from .vec3 import Vec3
 
 __all__ = ["f32", "vec_f32", "plane_f32"]
 
-_pack3 = struct.Struct("<3f")
-_pack1 = struct.Struct("<f")
-
 
 def f32(x: float) -> float:
-    return _pack1.unpack(_pack1.pack(x))[0]
+    return to_single(x)
 
 
 def vec_f32(v: Vec3) -> Vec3:
-    x, y, z = _pack3.unpack(_pack3.pack(v.x, v.y, v.z))
-    return Vec3(x, y, z)
+    return Vec3(to_single(v.x), to_single(v.y), to_single(v.z))
 
 
 def plane_f32(p: Plane) -> Plane:

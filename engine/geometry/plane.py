@@ -4,15 +4,8 @@ from __future__ import annotations
 
 from typing import Final
 
-import struct
-
 from ..constants import EPSILON
-
-_F32 = struct.Struct("<f")
-
-
-def _f32(x: float) -> float:
-    return _F32.unpack(_F32.pack(x))[0]
+from .single import to_single as _f32
 from .vec3 import Vec3
 
 __all__ = ["Plane", "Side"]

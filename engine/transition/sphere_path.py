@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
-import struct
 
 from ..geometry.f32 import vec_f32
+from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
@@ -17,10 +17,6 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 __all__ = ["SpherePath"]
-
-_F32X12 = struct.Struct("<12f")
-_F32X6 = struct.Struct("<6f")
-
 
 class SpherePath:
     """The client's SPHEREPATH.
@@ -157,43 +153,17 @@ class SpherePath:
 
     def shift_check_pos(self, offset: Vec3) -> None:
         """Move the check position and its cached global spheres by `offset`,
-        keeping them at single precision as the client does (one rounding call
-        for all of them: this runs several times per sub-step)."""
+        keeping them at single precision as the client does."""
         o = self.check_pos.frame.origin
-        lp = self.global_low_point
         ox = offset.x
         oy = offset.y
         oz = offset.z
-        spheres = self.global_sphere
-        if len(spheres) == 2:
-            a = spheres[0].center
-            b = spheres[1].center
-            v = _F32X12.unpack(
-                _F32X12.pack(
-                    o.x + ox, o.y + oy, o.z + oz,
-                    a.x + ox, a.y + oy, a.z + oz,
-                    b.x + ox, b.y + oy, b.z + oz,
-                    lp.x + ox, lp.y + oy, lp.z + oz,
-                )
-            )
-            spheres[0].center = Vec3(v[3], v[4], v[5])
-            spheres[1].center = Vec3(v[6], v[7], v[8])
-            self.global_low_point = Vec3(v[9], v[10], v[11])
-        elif len(spheres) == 1:
-            a = spheres[0].center
-            v = _F32X12.unpack(
-                _F32X12.pack(
-                    o.x + ox, o.y + oy, o.z + oz,
-                    a.x + ox, a.y + oy, a.z + oz,
-                    lp.x + ox, lp.y + oy, lp.z + oz,
-                    0.0, 0.0, 0.0,
-                )
-            )
-            spheres[0].center = Vec3(v[3], v[4], v[5])
-            self.global_low_point = Vec3(v[6], v[7], v[8])
-        else:
-            v = _F32X12.unpack(_F32X12.pack(o.x + ox, o.y + oy, o.z + oz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-        self.check_pos = self.check_pos.with_origin(Vec3(v[0], v[1], v[2]))
+        for sphere in self.global_sphere:
+            c = sphere.center
+            sphere.center = Vec3(to_single(c.x + ox), to_single(c.y + oy), to_single(c.z + oz))
+        lp = self.global_low_point
+        self.global_low_point = Vec3(to_single(lp.x + ox), to_single(lp.y + oy), to_single(lp.z + oz))
+        self.check_pos = self.check_pos.with_origin(Vec3(to_single(o.x + ox), to_single(o.y + oy), to_single(o.z + oz)))
 
     def adjust_check_pos(self, cell_id: int) -> None:
         """Re-home the check position into `cell_id` (an outdoor cell may be in
@@ -228,13 +198,6 @@ class SpherePath:
         pos = self.curr_pos
         assert pos is not None
         frame = pos.frame
-        if self.num_sphere == 2:
-            a = frame.local_to_global(self.local_sphere[0].center)
-            b = frame.local_to_global(self.local_sphere[1].center)
-            v = _F32X6.unpack(_F32X6.pack(a.x, a.y, a.z, b.x, b.y, b.z))
-            self.global_curr_center[0].center = Vec3(v[0], v[1], v[2])
-            self.global_curr_center[1].center = Vec3(v[3], v[4], v[5])
-            return
         for i in range(self.num_sphere):
             self.global_curr_center[i].center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
 
@@ -246,19 +209,6 @@ class SpherePath:
             self.global_low_point = vec_f32(self.global_low_point + offset)
             return
         frame = self.check_pos.frame
-        if self.num_sphere == 2:
-            g0 = self.global_sphere[0]
-            g1 = self.global_sphere[1]
-            g0.radius = self.local_sphere[0].radius
-            g1.radius = self.local_sphere[1].radius
-            a = frame.local_to_global(self.local_sphere[0].center)
-            b = frame.local_to_global(self.local_sphere[1].center)
-            c = frame.local_to_global(self.local_low_point)
-            v = _F32X12.unpack(_F32X12.pack(a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, 0.0, 0.0, 0.0))
-            g0.center = Vec3(v[0], v[1], v[2])
-            g1.center = Vec3(v[3], v[4], v[5])
-            self.global_low_point = Vec3(v[6], v[7], v[8])
-            return
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             g.radius = self.local_sphere[i].radius

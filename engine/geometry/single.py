@@ -1,0 +1,45 @@
+"""Rounding a double to single precision, in plain float arithmetic.
+
+The client computes in 32-bit floats; the engine emulates that where it
+decides an outcome (SnapToPlane) and in what a move leaves behind. Rounding
+through `struct` costs two calls and two allocations; Veltkamp's split does it
+in three float operations, which the compiled engine keeps in registers.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Final
+
+__all__ = ["to_single"]
+
+#: 2**29 + 1: multiplying by it splits a 53-bit significand after its top 24 bits
+_SPLIT: Final = 536870913.0
+#: the smallest normal float32; below it float32 has fewer significant bits
+_MIN_NORMAL: Final = 1.1754943508222875e-38
+#: safely below where float32 overflows to infinity (3.4028235677973366e38)
+_SAFE_MAX: Final = 3.4e38
+
+_SINGLE = struct.Struct("<f")
+
+
+def _through_struct(x: float) -> float:
+    return float(_SINGLE.unpack(_SINGLE.pack(x))[0])
+
+
+def to_single(x: float) -> float:
+    """`x` rounded to the nearest float32 (ties to even), as C's `(float)x` rounds it.
+
+    In float32's normal range the high half of Veltkamp's split is exactly that
+    rounding under the double-precision round-to-nearest-even arithmetic that
+    CPython and the compiled engine use; zeros, subnormals, huge values, NaN
+    and infinities take the struct path (which raises OverflowError beyond
+    float32's range, as packing a float32 does).
+    """
+    if x == 0.0:
+        return x
+    ax = abs(x)
+    if _MIN_NORMAL <= ax < _SAFE_MAX:
+        scaled = _SPLIT * x
+        return scaled + (x - scaled)
+    return _through_struct(x)
