@@ -702,6 +702,33 @@ def test_placement_pushes_a_mover_out_of_a_wall_object(x: float) -> None:
     assert math.hypot(o.x - x, o.y - 108.0) <= 1.5
 
 
+@pytest.mark.parametrize(
+    ("height", "scale", "lands"),
+    [(0.45, 1.25, False), (0.35, 1.25, True), (0.35, 0.8, True), (0.45, 0.8, False)],
+)
+def test_a_placement_lands_within_the_step_down_height_whatever_the_scale(height: float, scale: float, lands: bool) -> None:
+    """Placement lands an object by one LandingZ step-down of its step-down
+    height (0.4 m here; two spheres, so a single step). The height is taken as
+    given, not multiplied by the object's scale, as in the reference traces
+    (house-placement-073: scale 1.25, 0.46 m up, not landed): a mover 0.35 m
+    above the floor lands on it, one 0.45 m up stays where it was placed, with
+    no contact, at either scale (a scaled 0.5 m or 0.32 m step would reverse
+    the 1.25 / 0.45 and 0.8 / 0.35 answers)."""
+    world, cell = closed_room()
+    mid = stand(world, walker(scale=scale, state=["IsPlayer", "EdgeSlide"]), cell, local(-2.0, 0.0))
+    target = local(0.0, 0.0, height)
+    r = place_mover(world, mid, Position.at(cell, target), "enter_world", slide=True)
+    o = r.position.origin
+    assert r.ok and r.placement_result == "OK" and r.position.cell_id == cell
+    assert (o.x, o.y) == pytest.approx((target.x, target.y), abs=1e-4)
+    if lands:
+        assert r.contact and r.on_walkable
+        assert o.z == pytest.approx(GROUND, abs=1e-4)
+    else:
+        assert not r.contact and not r.on_walkable
+        assert o.z == pytest.approx(target.z, abs=1e-4)
+
+
 # -- property: no tunnelling out of a closed room ----------------------------------------------------------
 
 ROOM_LO, ROOM_HI = (-4.0, -3.0, 0.0), (4.0, 3.0, 3.0)

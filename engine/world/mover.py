@@ -166,13 +166,23 @@ class Mover:
         return t
 
     def object_info(self, state: int) -> ObjectInfo:
-        """This object's ObjectInfo with the given state flags (ObjectInfo.Init)."""
+        """This object's ObjectInfo with the given state flags (ObjectInfo.Init).
+
+        The step heights are taken as given, not multiplied by `scale`. The
+        client reads them from the part array (setup height times the part
+        array's own scale, PartArray.GetStepDownHeight), a scale apart from
+        the object's; the spheres follow the object's scale. The reference
+        traces show the part array's scale left at 1 for scaled movers:
+        house-placement-073 (scale 1.25, 0.46 m above the floor) is not
+        landed, as a 0.4 m step-down would not reach, a 0.5 m one would;
+        steep-043 and cliff-036 agree only this way too.
+        """
         return ObjectInfo(
             state,
             obj=self,
             scale=self.scale,
-            step_up_height=self.step_up_height * self.scale,
-            step_down_height=self.step_down_height * self.scale,
+            step_up_height=self.step_up_height,
+            step_down_height=self.step_down_height,
             ethereal=self.ethereal,
             step_down=self.step_down and not self.missile,
             gravity=self.gravity,
