@@ -20,12 +20,14 @@ class CellArray:
     with an explicit slot list and free list.
     """
 
-    __slots__ = ("added_outside", "load_cells", "world", "_slots", "_index", "_free")
+    __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_slots", "_index", "_free")
 
     def __init__(self, world: Any = None) -> None:
         #: Where cells are looked up by id (the client's LScape).
         self.world = world
         self.added_outside = False
+        #: the outdoor cells under this search's spheres are in (skip_repeat_outside)
+        self.outside_searched = False
         self.load_cells = False
         self._slots: list[tuple[int, Any] | None] = []
         self._index: dict[int, int] = {}
@@ -34,12 +36,14 @@ class CellArray:
     def reset_count(self) -> None:
         """What the client does at the start of a search: keep the cells."""
         self.added_outside = False
+        self.outside_searched = False
 
     def clear(self) -> None:
         self._slots.clear()
         self._index.clear()
         self._free.clear()
         self.added_outside = False
+        self.outside_searched = False
 
     def add_cell(self, cell_id: int, cell: Any) -> None:
         if cell_id in self._index:

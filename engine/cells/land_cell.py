@@ -126,7 +126,7 @@ def add_all_outside_cells(
     The sphere centres are in the frame of `position`'s landblock; a centre
     past the landblock's edge lands in the neighbouring landblock's cells.
     """
-    if cell_array.added_outside:
+    if cell_array.added_outside or cell_array.outside_searched:
         return
     cell_id = position.cell_id
     if num_sphere == 0:
@@ -142,6 +142,8 @@ def add_all_outside_cells(
     floor = math.floor
     settings = getattr(world, "settings", None)
     dedupe = settings is None or settings.skip_repeat_spheres
+    # the same spheres add the same cells again later in this search
+    cell_array.outside_searched = settings is None or settings.skip_repeat_outside
     last_x = last_y = last_r = math.nan
     for sphere in spheres[:num_sphere]:
         c = sphere.center

@@ -27,6 +27,10 @@ class EngineSettings:
     - `skip_repeat_spheres`: the outdoor cell search does not repeat itself
       for a sphere at the same x, y and radius as the one before (an upright
       mover's head sphere).
+    - `skip_repeat_outside`: within one cell search, the outdoor cells under
+      the spheres are added once. The client adds them again from every
+      outdoor cell the search visits, with the same spheres, which adds
+      nothing new.
     """
 
     max_steps: int = RETAIL_MAX_STEPS
@@ -34,6 +38,7 @@ class EngineSettings:
     ace_outdoor_viewer: bool = False
     skip_far_cells: bool = True
     skip_repeat_spheres: bool = True
+    skip_repeat_outside: bool = True
 
     def with_ace_step_cap(self) -> EngineSettings:
         return replace(self, max_steps=ACE_MAX_STEPS)
