@@ -103,6 +103,34 @@ def test_edge_slide_keeps_a_creature_on_the_plateau() -> None:
     assert w.mover(mid).position.origin.z > 59.0
 
 
+@pytest.mark.parametrize(("step_down_height", "steps_down"), [(0.4, False), (0.5, True)])
+def test_a_scaled_mover_steps_down_by_its_given_height_not_a_scaled_one(step_down_height: float, steps_down: bool) -> None:
+    # Flat at 100 m up to x = 72, then a walkable slope down 21.5 m over 24 m
+    # (gradient 0.896, normal z 0.745). Scale 1.25 makes the spheres 0.6 m, so
+    # a 0.55 m move is one sub-step, ending 0.5 m past the edge where the
+    # ground is 0.448 m lower. A 0.4 m step-down cannot reach it (had the
+    # scale multiplied it, 0.5 m would): the edge slide puts the creature back.
+    w = world_from_heights(lambda bx, by, x, y: 200 if x <= 3 else 157)
+    spec = MoverSpec(
+        spheres=PLAYER.spheres,
+        step_up_height=0.4,
+        step_down_height=step_down_height,
+        state=PLAYER.state,
+        scale=1.25,
+    )
+    mid = standing(w, 71.95, 60.0, spec)
+    start = w.mover(mid).position
+    r = w.move(mid, start.with_origin(Vec3(72.5, 60.0, 100.0)))
+    assert r.ok and r.contact and r.on_walkable
+    if steps_down:
+        assert math.isclose(r.position.origin.x, 72.5, abs_tol=1e-4)
+        assert math.isclose(r.position.origin.z, 100.0 - 0.5 * 21.5 / 24.0, abs_tol=1e-4)
+        assert r.contact_plane is not None and r.contact_plane.normal.z < 0.75
+    else:
+        assert (r.position.origin - start.origin).length() < 1e-5
+        assert r.contact_plane is not None and r.contact_plane.normal == Vec3(0.0, 0.0, 1.0)
+
+
 def test_crossing_cells_and_landblocks_keeps_z_continuous() -> None:
     blocks = [(0xA9, 0xB4), (0xAA, 0xB4)]
     w = world_from_heights(lambda bx, by, x, y: 100 + (bx - 0xA9) * 8 * 2 + 2 * x, blocks)  # one smooth ramp
