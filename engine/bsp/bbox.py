@@ -6,7 +6,7 @@ that decides which cells an object's parts reach.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterable
+from typing import Final, Iterable, TYPE_CHECKING
 
 from ..constants import EPSILON
 from ..geometry.plane import Plane, Side
@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 
 __all__ = ["BBox", "intersect_box"]
 
-_BIG = 3.4028234663852886e38  # float.MaxValue of the reference
+_BIG: Final = 3.4028234663852886e38  # float.MaxValue of the reference
 
 
 class BBox:

@@ -10,7 +10,7 @@ negative child only, `BPIN`/`BPnN`/`PORT` both.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Final, Mapping
 
 from ..geometry.plane import Plane
 from ..geometry.polygon import Polygon
@@ -21,9 +21,9 @@ from .tree import BSPTree
 
 __all__ = ["build_polygons", "build_bsp", "build_vertices"]
 
-_POS_ONLY = frozenset(("BPnn", "BPIn"))
-_NEG_ONLY = frozenset(("BpIN", "BpnN"))
-_BOTH = frozenset(("BPIN", "BPnN"))
+_POS_ONLY: Final = frozenset(("BPnn", "BPIn"))
+_NEG_ONLY: Final = frozenset(("BpIN", "BpnN"))
+_BOTH: Final = frozenset(("BPIN", "BPnN"))
 
 
 def build_vertices(vertices_dict: Mapping[Any, Any]) -> dict[int, Vec3]:

@@ -51,7 +51,7 @@ class BoundingType:
     ENTIRELY_INSIDE: Final = 2
 
 
-_ZERO_PLANE = Plane(ZERO, 0.0)
+_ZERO_PLANE: Final = Plane(ZERO, 0.0)
 
 
 class BSPNode:

@@ -21,7 +21,7 @@ curr_center) -> int`.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import ADJUST_TO_PLANE_ITERATIONS, LANDING_Z, PLACEMENT_ITERATIONS
 from ..geometry.plane import Plane
@@ -39,9 +39,9 @@ if TYPE_CHECKING:
 
 __all__ = ["BSPTree", "plane_local_to_global"]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
-_ADJUSTED = TransitionState.ADJUSTED
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
+_ADJUSTED: Final = TransitionState.ADJUSTED
 
 
 def plane_local_to_global(to: Position, from_: Position, local_plane: Plane) -> Plane:

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Any, Iterator
+from typing import Any, Final, Iterator
 
 __all__ = ["CellArray", "END"]
 
 #: What `live_entry` returns past the last entry (a cell may itself be None).
-END = object()
+END: Final = object()
 
 
 class CellArray:

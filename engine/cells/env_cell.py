@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Final, TYPE_CHECKING
 
 from ..constants import EPSILON
 from ..bsp.node import BoundingType
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 
 __all__ = ["EnvCell", "CellPortal"]
 
-OUTSIDE_CELL = 0xFFFF
+OUTSIDE_CELL: Final = 0xFFFF
 
 
 @dataclass(frozen=True, slots=True)

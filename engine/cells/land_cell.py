@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Final, TYPE_CHECKING
 
 from ..constants import BLOCK_LENGTH, CELL_LENGTH, EPSILON, LAND_LENGTH
 from ..geometry import Position, Sphere, Vec3
@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 __all__ = ["LandCell", "add_all_outside_cells", "outdoor_cell_id_at_lcoord"]
 
 #: slack of the quick square test; far above rounding, far below anything real
-_MARGIN = 1e-3
+_MARGIN: Final = 1e-3
 
 
 def outdoor_cell_id_at_lcoord(x: int, y: int) -> int:

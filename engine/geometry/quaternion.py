@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from ..constants import EPSILON
 from .vec3 import Vec3
@@ -134,4 +135,4 @@ class Quat:
         return Quat(math.cos(half), 0.0, 0.0, math.sin(half))
 
 
-IDENTITY = Quat(1.0, 0.0, 0.0, 0.0)
+IDENTITY: Final = Quat(1.0, 0.0, 0.0, 0.0)

@@ -20,7 +20,7 @@ _MIN_NORMAL: Final = 1.1754943508222875e-38
 #: safely below where float32 overflows to infinity (3.4028235677973366e38)
 _SAFE_MAX: Final = 3.4e38
 
-_SINGLE = struct.Struct("<f")
+_SINGLE: Final = struct.Struct("<f")
 
 
 def _through_struct(x: float) -> float:

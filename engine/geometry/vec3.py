@@ -9,6 +9,7 @@ per-move path than it saves.
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from ..constants import EPSILON
 
@@ -108,5 +109,5 @@ class Vec3:
         return (self.x, self.y, self.z)
 
 
-ZERO = Vec3(0.0, 0.0, 0.0)
-UNIT_Z = Vec3(0.0, 0.0, 1.0)
+ZERO: Final = Vec3(0.0, 0.0, 0.0)
+UNIT_Z: Final = Vec3(0.0, 0.0, 1.0)

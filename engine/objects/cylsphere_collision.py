@@ -21,7 +21,7 @@ As in the reference:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, Plane, Position, Sphere, Vec3
@@ -34,11 +34,11 @@ if TYPE_CHECKING:
 
 __all__ = ["CylSphere"]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
-_ADJUSTED = TransitionState.ADJUSTED
-_PLACEMENT = InsertType.PLACEMENT
-_CONTACT_OR_WALKABLE = OI.CONTACT | OI.ON_WALKABLE
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
+_ADJUSTED: Final = TransitionState.ADJUSTED
+_PLACEMENT: Final = InsertType.PLACEMENT
+_CONTACT_OR_WALKABLE: Final = OI.CONTACT | OI.ON_WALKABLE
 
 
 class CylSphere:

@@ -14,7 +14,7 @@ others through the same code.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any, Final, Sequence, TYPE_CHECKING
 
 from ..constants import EPSILON
 from ..geometry import ZERO, Frame, Position, Sphere, Vec3
@@ -29,8 +29,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Obstacle", "MoverObstacle", "ObstaclePart", "find_obj_collisions", "missile_ignore"]
 
-_OK = TransitionState.OK
-_ONE = Vec3(1.0, 1.0, 1.0)
+_OK: Final = TransitionState.OK
+_ONE: Final = Vec3(1.0, 1.0, 1.0)
 
 
 class ObstaclePart:

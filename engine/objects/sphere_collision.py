@@ -25,7 +25,7 @@ pin them down:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import Plane, Position, Sphere, Vec3
@@ -49,12 +49,12 @@ __all__ = [
     "find_time_of_collision",
 ]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
-_ADJUSTED = TransitionState.ADJUSTED
-_SLID = TransitionState.SLID
-_PLACEMENT = InsertType.PLACEMENT
-_CONTACT_OR_WALKABLE = OI.CONTACT | OI.ON_WALKABLE
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
+_ADJUSTED: Final = TransitionState.ADJUSTED
+_SLID: Final = TransitionState.SLID
+_PLACEMENT: Final = InsertType.PLACEMENT
+_CONTACT_OR_WALKABLE: Final = OI.CONTACT | OI.ON_WALKABLE
 
 
 def collides_with_sphere(disp: Vec3, radsum: float) -> bool:

@@ -8,9 +8,11 @@ the ground up to several metres off on a slope.
 
 from __future__ import annotations
 
+from typing import Final
+
 __all__ = ["split_sw_to_ne"]
 
-_MASK = 0xFFFFFFFF
+_MASK: Final = 0xFFFFFFFF
 
 
 def split_sw_to_ne(gx: int, gy: int) -> bool:

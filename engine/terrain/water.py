@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Final
-
 import math
+from typing import Final
 
 __all__ = ["WaterType", "is_water_terrain", "ENTIRELY_WATER_DEPTH", "PARTIAL_WATER_DEPTH", "SHORE_DEPTH"]
 
@@ -16,9 +15,9 @@ class WaterType:
 
 
 # Float32 values the client uses (0.9, 0.45, 0.1 rounded to single precision).
-ENTIRELY_WATER_DEPTH = 0.89999998
-PARTIAL_WATER_DEPTH = 0.44999999
-SHORE_DEPTH = 0.1
+ENTIRELY_WATER_DEPTH: Final = 0.89999998
+PARTIAL_WATER_DEPTH: Final = 0.44999999
+SHORE_DEPTH: Final = 0.1
 
 
 def is_water_terrain(word: int) -> bool:

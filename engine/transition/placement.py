@@ -8,7 +8,7 @@ around it for a free spot, then lands the object with a LandingZ step-down.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import Vec3
@@ -25,8 +25,8 @@ __all__ = [
     "placement_insert",
 ]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
 
 
 def placement_insert(t: Transition) -> int:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Final
+
 from dataclasses import dataclass, replace
 
 from ..constants import ACE_MAX_STEPS, RETAIL_MAX_STEPS
@@ -44,6 +46,6 @@ class EngineSettings:
         return replace(self, max_steps=ACE_MAX_STEPS)
 
 
-RETAIL = EngineSettings()
+RETAIL: Final = EngineSettings()
 #: What replaying the reference traces needs (ACE's known departures from retail).
-ACE_COMPAT = EngineSettings(max_steps=ACE_MAX_STEPS, ace_normals=True, ace_outdoor_viewer=True)
+ACE_COMPAT: Final = EngineSettings(max_steps=ACE_MAX_STEPS, ace_normals=True, ace_outdoor_viewer=True)

@@ -19,7 +19,7 @@ class TransitionState:
     SLID: Final = 4  # projected along a surface; check again
 
 
-STATE_NAMES = {0: "Invalid", 1: "OK", 2: "Collided", 3: "Adjusted", 4: "Slid"}
+STATE_NAMES: Final = {0: "Invalid", 1: "OK", 2: "Collided", 3: "Adjusted", 4: "Slid"}
 
 
 class InsertType:

@@ -8,7 +8,7 @@ flag set, so the cells answer with the ground they find.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import Plane, Vec3
@@ -20,8 +20,8 @@ if TYPE_CHECKING:
 
 __all__ = ["step_up", "step_down", "check_walkable", "edge_slide", "cliff_slide", "set_edge_slide"]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
 
 
 def step_up(t: Transition, collision_normal: Vec3) -> bool:

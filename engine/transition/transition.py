@@ -18,7 +18,7 @@ placement in `placement.py`, the terrain contact rule in `walkable.py`.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Final
 
 from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
@@ -36,11 +36,11 @@ from .state import OI, InsertType, TransitionState
 
 __all__ = ["Transition"]
 
-_OK = TransitionState.OK
-_COLLIDED = TransitionState.COLLIDED
-_ADJUSTED = TransitionState.ADJUSTED
-_SLID = TransitionState.SLID
-_INVALID = TransitionState.INVALID
+_OK: Final = TransitionState.OK
+_COLLIDED: Final = TransitionState.COLLIDED
+_ADJUSTED: Final = TransitionState.ADJUSTED
+_SLID: Final = TransitionState.SLID
+_INVALID: Final = TransitionState.INVALID
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)

@@ -9,7 +9,7 @@ and the velocity collision responses act on.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Final
 
 from ..constants import (
     DEFAULT_FRICTION,
@@ -32,11 +32,11 @@ from .transient import TS
 
 __all__ = ["Mover"]
 
-DEFAULT_ELASTICITY = 0.05
+DEFAULT_ELASTICITY: Final = 0.05
 
 #: ObjectInfo flags that are properties of the object. Contact and OnWalkable
 #: come from the transient state; PathClipped from the live Missile state.
-_STATIC_OI = ~(OI.CONTACT | OI.ON_WALKABLE | OI.PATH_CLIPPED)
+_STATIC_OI: Final = ~(OI.CONTACT | OI.ON_WALKABLE | OI.PATH_CLIPPED)
 
 
 class Mover:

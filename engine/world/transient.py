@@ -20,7 +20,7 @@ class TS:
     CHECK_ETHEREAL: Final = 0x100
 
 
-_NAMES = (
+_NAMES: Final = (
     ("Contact", TS.CONTACT),
     ("OnWalkable", TS.ON_WALKABLE),
     ("Sliding", TS.SLIDING),
