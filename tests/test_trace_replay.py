@@ -47,10 +47,7 @@ TRACES = [
 #: Cases that disagree with the reference today, with what we know of why.
 KNOWN_DIVERGENT = {
     "steep-043-walk": "at a cell seam on a steep slope; not yet understood",
-    "steep-056-walk": "foot sphere 0.2 mm below a steep plane: the EPSILON test flips between float32 and float64",
     "cliff-036-walk": "cliff slide at a cell seam: the reference ends with no collision normal; not yet understood",
-    "cliff-missile-000-missile": "a 5 cm missile grazing a cliff: 1.3 cm apart after float32 accumulation",
-    "rolling-missile-033-missile": "a 5 cm missile grazing a slope: float32 knife edge",
     "house-placement-073-place": "the push-out leaves the sphere exactly touching the wall (gap 0): the landing re-check hinges on rounding",
     "objects-placement-130-place": "landing after a push-out beside an object: the same touching edge as house-placement-073 (unverified)",
     "interior-placement-106-place": "landing after a push-out in the rotated building; likely the same touching-wall edge as house-placement-073 (unverified)",

@@ -8,13 +8,17 @@ __all__ = ["TerrainTriangle"]
 
 
 class TerrainTriangle:
-    """Three landblock-local vertices, counter-clockwise seen from above."""
+    """Three landblock-local vertices, counter-clockwise seen from above.
+
+    The plane is computed in single precision as the client's
+    LandblockStruct builds it (`Plane.from_points_f32`).
+    """
 
     __slots__ = ("vertices", "plane")
 
     def __init__(self, v0: Vec3, v1: Vec3, v2: Vec3) -> None:
         self.vertices = (v0, v1, v2)
-        self.plane = Plane.from_points([v0, v1, v2])
+        self.plane = Plane.from_points_f32([v0, v1, v2])
 
     def point_in_poly_2d(self, p: Vec3) -> bool:
         """Is p inside (or on the edge of) the triangle seen from above?
