@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Final
 
 from ..constants import EPSILON
 from ..geometry import Plane, Sphere, Vec3
@@ -14,6 +14,10 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 __all__ = ["validate_walkable"]
+
+#: a float64 distance above this is above EPSILON in float32 too (the float32
+#: value is within ~1e-4 m of it at any landblock coordinate)
+_CLEAR: Final = EPSILON + 1e-3
 
 
 def validate_walkable(
@@ -55,7 +59,10 @@ def validate_walkable(
     # point sits within rounding (~1e-5 m at these coordinates) of the
     # EPSILON band, so the float64 value can fall on the other side of it.
     c = check_sphere.center
-    dist = plane_dist_f32(c.x, c.y, f32(c.z - check_sphere.radius), plane)
+    low_z = c.z - check_sphere.radius
+    if c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth > _CLEAR:
+        return TransitionState.OK  # far above the band: float32 rounding cannot matter
+    dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
     if water_depth != 0.0:
         dist = f32(dist + f32(water_depth))
     if dist >= -EPSILON:
