@@ -46,9 +46,6 @@ TRACES = [
 
 #: Cases that disagree with the reference today, with what we know of why.
 KNOWN_DIVERGENT = {
-    "steep-056-walk": "foot sphere 0.2 mm below a steep plane: the EPSILON test flips between float32 and float64",
-    "cliff-missile-000-missile": "a 5 cm missile grazing a cliff: 1.3 cm apart after float32 accumulation",
-    "rolling-missile-033-missile": "a 5 cm missile grazing a slope: float32 knife edge",
 }
 
 

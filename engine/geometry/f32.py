@@ -5,15 +5,27 @@ engine computes in double precision but stores what a move leaves behind at
 the client's precision, so the next move starts from the same numbers the
 client would (a strict `< 0` test on an offset of 1e-6 m otherwise decides a
 slide differently).
+
+A few computations inside a move are also done at the client's precision,
+because their float64 value lands on the other side of an EPSILON test or
+an f32 rounding boundary often enough to change a decision: terrain planes
+(`Plane.from_points_f32`), the terrain contact distance (ValidateWalkable),
+AdjustOffset, and the per-step offset. The helpers below emulate C# float
+arithmetic on float32 inputs: each operation is done in float64 (exact for
+products, and correctly rounded after a second rounding for +, -, /, sqrt)
+and rounded to float32, in the order the client's expression evaluates.
 """
 
 from __future__ import annotations
 
+import math
+
+from ..constants import EPSILON
 from .plane import Plane
 from .single import to_single
 from .vec3 import Vec3
 
-__all__ = ["f32", "vec_f32", "plane_f32"]
+__all__ = ["f32", "vec_f32", "plane_f32", "dot_f32", "plane_dist_f32", "scale_f32", "sub_f32", "cross_f32", "normalize_check_small_f32"]
 
 
 def f32(x: float) -> float:
@@ -26,3 +38,41 @@ def vec_f32(v: Vec3) -> Vec3:
 
 def plane_f32(p: Plane) -> Plane:
     return Plane(vec_f32(p.normal), f32(p.d))
+
+
+def dot_f32(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> float:
+    """Vector3.Dot in single precision: (x*x' + y*y') + z*z', each step rounded."""
+    return to_single(to_single(to_single(ax * bx) + to_single(ay * by)) + to_single(az * bz))
+
+
+def plane_dist_f32(x: float, y: float, z: float, plane: Plane) -> float:
+    """Vector3.Dot(p, normal) + d in single precision."""
+    n = plane.normal
+    return to_single(to_single(to_single(to_single(x * n.x) + to_single(y * n.y)) + to_single(z * n.z)) + plane.d)
+
+
+def scale_f32(v: Vec3, s: float) -> Vec3:
+    """v * s in single precision."""
+    return Vec3(to_single(v.x * s), to_single(v.y * s), to_single(v.z * s))
+
+
+def sub_f32(a: Vec3, b: Vec3) -> Vec3:
+    """a - b in single precision."""
+    return Vec3(to_single(a.x - b.x), to_single(a.y - b.y), to_single(a.z - b.z))
+
+
+def cross_f32(a: Vec3, b: Vec3) -> Vec3:
+    """Vector3.Cross in single precision (products rounded, then differences)."""
+    return Vec3(
+        to_single(to_single(a.y * b.z) - to_single(a.z * b.y)),
+        to_single(to_single(a.z * b.x) - to_single(a.x * b.z)),
+        to_single(to_single(a.x * b.y) - to_single(a.y * b.x)),
+    )
+
+
+def normalize_check_small_f32(v: Vec3) -> Vec3 | None:
+    """Vec.NormalizeCheckSmall in single precision: None when shorter than EPSILON."""
+    length = f32(math.sqrt(dot_f32(v.x, v.y, v.z, v.x, v.y, v.z)))
+    if length < EPSILON:
+        return None
+    return scale_f32(v, f32(1.0 / length))

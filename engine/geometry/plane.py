@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Final
 
 from ..constants import EPSILON
@@ -78,6 +79,39 @@ class Plane:
         if abs(n.z) <= EPSILON:
             return None
         return -((y * n.y + x * n.x + self.d) / n.z)
+
+    @staticmethod
+    def from_points_f32(vertices: list[Vec3]) -> Plane:
+        """Polygon.make_plane in single precision, as the client computes it.
+
+        Every difference, product and sum of the fan's cross products, the
+        length's square root, the normal's three divisions by it, and the
+        mean of dot(n, v) are rounded to float32 in the client's order. The
+        result differs from `from_points` in the last bits of the normal and
+        by up to ~1e-5 m in d: enough to move a resting sphere across the
+        EPSILON band of the terrain contact test. The reference's terrain
+        contact planes are exactly these values.
+        """
+        f = _f32
+        v0 = vertices[0]
+        x0, y0, z0 = f(v0.x), f(v0.y), f(v0.z)
+        nx = ny = nz = 0.0
+        for i in range(1, len(vertices) - 1):
+            a = vertices[i]
+            b = vertices[i + 1]
+            ax, ay, az = f(f(a.x) - x0), f(f(a.y) - y0), f(f(a.z) - z0)
+            bx, by, bz = f(f(b.x) - x0), f(f(b.y) - y0), f(f(b.z) - z0)
+            nx = f(nx + f(f(ay * bz) - f(az * by)))
+            ny = f(ny + f(f(az * bx) - f(ax * bz)))
+            nz = f(nz + f(f(ax * by) - f(ay * bx)))
+        length = f(math.sqrt(f(f(f(nx * nx) + f(ny * ny)) + f(nz * nz))))
+        if length == 0.0:
+            return Plane(Vec3(0.0, 0.0, 0.0), 0.0)
+        nx, ny, nz = f(nx / length), f(ny / length), f(nz / length)
+        total = 0.0
+        for v in vertices:
+            total = f(total + f(f(f(nx * f(v.x)) + f(ny * f(v.y))) + f(nz * f(v.z))))
+        return Plane(Vec3(nx, ny, nz), f(-f(total / len(vertices))))
 
     @staticmethod
     def from_points(vertices: list[Vec3]) -> Plane:

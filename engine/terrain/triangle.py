@@ -8,13 +8,17 @@ __all__ = ["TerrainTriangle"]
 
 
 class TerrainTriangle:
-    """Three landblock-local vertices, counter-clockwise seen from above."""
+    """Three landblock-local vertices, counter-clockwise seen from above.
+
+    The plane is computed in single precision as the client's
+    LandblockStruct builds it (`Plane.from_points_f32`).
+    """
 
     __slots__ = ("vertices", "plane", "c0", "dx0", "dy0", "c1", "dx1", "dy1", "c2", "dx2", "dy2")
 
     def __init__(self, v0: Vec3, v1: Vec3, v2: Vec3) -> None:
         self.vertices = (v0, v1, v2)
-        self.plane = Plane.from_points([v0, v1, v2])
+        self.plane = Plane.from_points_f32([v0, v1, v2])
         # The edges in the order point_in_poly_2d walks them (from the last
         # vertex back to the first), each as (c, dx, dy) with p on its left
         # when c + dx * p.y - dy * p.x <= 0. c is the part of that sum the

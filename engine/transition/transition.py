@@ -25,6 +25,7 @@ from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
+from ..geometry.f32 import cross_f32, dot_f32, f32, normalize_check_small_f32, plane_dist_f32, scale_f32, sub_f32
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
@@ -115,7 +116,8 @@ class Transition:
         if not self.object_info.state & OI.IS_VIEWER:
             if step > 1.0:
                 num_steps = math.ceil(step)
-                return offset, offset * (1.0 / num_steps), num_steps
+                # offset * (1f / n) in single precision, as the client splits it
+                return offset, scale_f32(offset, f32(1.0 / num_steps)), num_steps
             if offset.x != 0.0 or offset.y != 0.0 or offset.z != 0.0:
                 return offset, offset, 1
             return offset, ZERO, 0
@@ -196,11 +198,19 @@ class Transition:
 
     def adjust_offset(self, offset: Vec3) -> Vec3:
         """Bend a step along the contact plane and away from the sliding normal,
-        and lift the sphere back above the contact plane (AdjustOffset)."""
+        and lift the sphere back above the contact plane (AdjustOffset).
+
+        Computed in single precision, as the client does: the lift puts a
+        resting sphere back on its plane every step, and its float64 value
+        rounds to a different float32 height often enough to decide the next
+        EPSILON test differently.
+        """
         ci = self.collision_info
         check_slide = False
-        sliding_angle = offset.dot(ci.sliding_normal)
+        sn = ci.sliding_normal
+        sliding_angle = 0.0
         if ci.sliding_normal_valid:
+            sliding_angle = dot_f32(offset.x, offset.y, offset.z, sn.x, sn.y, sn.z)
             if sliding_angle < 0.0:
                 check_slide = True
             else:
@@ -208,18 +218,20 @@ class Transition:
 
         if not ci.contact_plane_valid:
             if check_slide:
-                offset = offset - ci.sliding_normal * sliding_angle
+                offset = sub_f32(offset, scale_f32(sn, sliding_angle))
             return offset
 
         plane = ci.contact_plane
-        collision_angle = offset.dot(plane.normal)
+        n = plane.normal
         if check_slide:
-            crease = plane.normal.cross(ci.sliding_normal).normalized_or_none()
-            offset = ZERO if crease is None else crease * crease.dot(offset)
-        elif collision_angle <= 0.0:
-            offset = offset - plane.normal * collision_angle
+            crease = normalize_check_small_f32(cross_f32(n, sn))
+            offset = ZERO if crease is None else scale_f32(crease, dot_f32(crease.x, crease.y, crease.z, offset.x, offset.y, offset.z))
         else:
-            offset = plane.snap_to_plane(offset)
+            collision_angle = dot_f32(offset.x, offset.y, offset.z, n.x, n.y, n.z)
+            if collision_angle <= 0.0:
+                offset = sub_f32(offset, scale_f32(n, collision_angle))
+            else:
+                offset = plane.snap_to_plane(offset)
 
         if ci.contact_plane_cell_id == 0 or ci.contact_plane_is_water:
             return offset
@@ -227,10 +239,11 @@ class Transition:
         path = self.sphere_path
         g = path.global_sphere[0]
         block_offset = get_block_offset(path.check_pos.cell_id, ci.contact_plane_cell_id)
-        dist = (g.center - block_offset).dot(plane.normal) + plane.d
-        if dist >= g.radius - EPSILON:
+        c = g.center if block_offset is ZERO else sub_f32(g.center, block_offset)
+        dist = plane_dist_f32(c.x, c.y, c.z, plane)
+        if dist >= f32(g.radius - EPSILON):
             return offset
-        z_dist = (g.radius - dist) / plane.normal.z
+        z_dist = f32(f32(g.radius - dist) / n.z)
         if g.radius > abs(z_dist):
             path.add_offset_to_check_pos(Vec3(0.0, 0.0, z_dist))
         return offset

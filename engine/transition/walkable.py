@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Final
 
 from ..constants import EPSILON
 from ..geometry import Plane, Sphere, Vec3
+from ..geometry.f32 import f32, plane_dist_f32
 from .object_info import is_valid_walkable
 from .state import OI, TransitionState
 
@@ -13,6 +14,10 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 __all__ = ["validate_walkable"]
+
+#: a float64 distance above this is above EPSILON in float32 too (the float32
+#: value is within ~1e-4 m of it at any landblock coordinate)
+_CLEAR: Final = EPSILON + 1e-3
 
 
 def validate_walkable(
@@ -50,8 +55,16 @@ def validate_walkable(
         ci.collided_with_environment = True
         return TransitionState.ADJUSTED
 
+    # In single precision, as the client computes it: a resting sphere's low
+    # point sits within rounding (~1e-5 m at these coordinates) of the
+    # EPSILON band, so the float64 value can fall on the other side of it.
     c = check_sphere.center
-    dist = c.x * normal.x + c.y * normal.y + (c.z - check_sphere.radius) * normal.z + plane.d + water_depth
+    low_z = c.z - check_sphere.radius
+    if c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth > _CLEAR:
+        return TransitionState.OK  # far above the band: float32 rounding cannot matter
+    dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
+    if water_depth != 0.0:
+        dist = f32(dist + f32(water_depth))
     if dist >= -EPSILON:
         if dist > EPSILON:
             return TransitionState.OK
@@ -65,7 +78,7 @@ def validate_walkable(
 
     if path.check_walkable:
         return TransitionState.COLLIDED
-    z_dist = dist / normal.z
+    z_dist = f32(dist / normal.z)
     if path.step_down or not state & OI.ON_WALKABLE or is_valid_walkable(normal):
         ci.set_contact_plane(plane, is_water)
         ci.contact_plane_cell_id = cell_id
