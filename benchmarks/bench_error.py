@@ -40,11 +40,15 @@ SETTINGS: list[tuple[str, str, engine.EngineSettings]] = [
     ("ace-compat+retail-cap", "ACE_COMPAT with the retail step cap (30)", dataclasses.replace(engine.ACE_COMPAT, max_steps=RETAIL_MAX_STEPS)),
     ("retail", "RETAIL: the client's own behaviour, step cap 30", engine.RETAIL),
     ("retail+relaxed-cap", "RETAIL with the relaxed step cap (1000)", dataclasses.replace(engine.RETAIL, max_steps=ACE_MAX_STEPS)),
+    ("ace-compat+double", "ACE_COMPAT computed and stored in double precision throughout",
+     dataclasses.replace(engine.ACE_COMPAT, single_precision=False)),
+    ("ace-compat+step-length=2", "ACE_COMPAT with sub-steps of up to two radii (the client: one)",
+     dataclasses.replace(engine.ACE_COMPAT, step_length=2.0)),
     # the same settings again: its error is 0 by construction, its run time shows how much of the
     # differences between the other rows is machine noise
     ("ace-compat (repeat)", "ACE_COMPAT again: the noise control of the run-time column", engine.ACE_COMPAT),
 ]
-KNOWN_FIELDS = {"max_steps", "ace_normals", "ace_outdoor_viewer"}
+KNOWN_FIELDS = {"max_steps", "ace_normals", "ace_outdoor_viewer", "single_precision", "step_length"}
 
 TRACES = [
     "flat", "rolling", "steep", "cliff", "water",

@@ -73,6 +73,13 @@ class Plane:
         z = _f32(_f32(-_f32(dot2d + d) * inv) - _f32(inv * -d))
         return Vec3(offset.x, offset.y, z)
 
+    def snap_to_plane_double(self, offset: Vec3) -> Vec3:
+        """SnapToPlane in double precision, where d cancels: z = -dot2d(offset, n) / n.z."""
+        n = self.normal
+        if abs(n.z) <= EPSILON:
+            return offset
+        return Vec3(offset.x, offset.y, -(offset.x * n.x + offset.y * n.y) / n.z)
+
     def height_at(self, x: float, y: float) -> float | None:
         """z of the plane above (x, y), or None for a (near-)vertical plane."""
         n = self.normal

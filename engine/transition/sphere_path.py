@@ -73,6 +73,7 @@ class SpherePath:
         "neg_collision_normal",
         "neg_poly_hit",
         "placement_allows_sliding",
+        "single_precision",
     )
 
     def __init__(self) -> None:
@@ -120,6 +121,8 @@ class SpherePath:
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
         self.placement_allows_sliding = True
+        #: keep the check position and sphere caches in single precision (settings)
+        self.single_precision = True
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
     def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
@@ -158,6 +161,12 @@ class SpherePath:
         ox = offset.x
         oy = offset.y
         oz = offset.z
+        if not self.single_precision:
+            for sphere in self.global_sphere:
+                sphere.center = sphere.center + offset
+            self.global_low_point = self.global_low_point + offset
+            self.check_pos = self.check_pos.with_origin(o + offset)
+            return
         for sphere in self.global_sphere:
             c = sphere.center
             sphere.center = Vec3(to_single(c.x + ox), to_single(c.y + oy), to_single(c.z + oz))
@@ -199,21 +208,26 @@ class SpherePath:
         assert pos is not None
         frame = pos.frame
         for i in range(self.num_sphere):
-            self.global_curr_center[i].center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
+            center = frame.local_to_global(self.local_sphere[i].center)
+            self.global_curr_center[i].center = vec_f32(center) if self.single_precision else center
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
+        single = self.single_precision
         if offset is not None:
             for s in self.global_sphere:
-                s.center = vec_f32(s.center + offset)
-            self.global_low_point = vec_f32(self.global_low_point + offset)
+                s.center = vec_f32(s.center + offset) if single else s.center + offset
+            low = self.global_low_point + offset
+            self.global_low_point = vec_f32(low) if single else low
             return
         frame = self.check_pos.frame
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             g.radius = self.local_sphere[i].radius
-            g.center = vec_f32(frame.local_to_global(self.local_sphere[i].center))
-        self.global_low_point = vec_f32(frame.local_to_global(self.local_low_point))
+            center = frame.local_to_global(self.local_sphere[i].center)
+            g.center = vec_f32(center) if single else center
+        low = frame.local_to_global(self.local_low_point)
+        self.global_low_point = vec_f32(low) if single else low
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),

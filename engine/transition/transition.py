@@ -61,6 +61,7 @@ class Transition:
         self.settings = settings
         self.object_info = ObjectInfo()
         self.sphere_path = SpherePath()
+        self.sphere_path.single_precision = settings.single_precision
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)
         self.cell_array = CellArray(world)
 
@@ -112,10 +113,12 @@ class Transition:
         assert path.end_pos is not None
         offset = path.begin_pos.get_offset(path.end_pos)
         dist = offset.length()
-        step = dist / path.local_sphere[0].radius
+        step = dist / (path.local_sphere[0].radius * self.settings.step_length)
         if not self.object_info.state & OI.IS_VIEWER:
             if step > 1.0:
                 num_steps = math.ceil(step)
+                if not self.settings.single_precision:
+                    return offset, offset * (1.0 / num_steps), num_steps
                 # offset * (1f / n) in single precision, as the client splits it
                 return offset, scale_f32(offset, f32(1.0 / num_steps)), num_steps
             if offset.x != 0.0 or offset.y != 0.0 or offset.z != 0.0:
@@ -205,6 +208,8 @@ class Transition:
         rounds to a different float32 height often enough to decide the next
         EPSILON test differently.
         """
+        if not self.settings.single_precision:
+            return self._adjust_offset_double(offset)
         ci = self.collision_info
         check_slide = False
         sn = ci.sliding_normal
@@ -244,6 +249,46 @@ class Transition:
         if dist >= f32(g.radius - EPSILON):
             return offset
         z_dist = f32(f32(g.radius - dist) / n.z)
+        if g.radius > abs(z_dist):
+            path.add_offset_to_check_pos(Vec3(0.0, 0.0, z_dist))
+        return offset
+
+    def _adjust_offset_double(self, offset: Vec3) -> Vec3:
+        """AdjustOffset in double precision (settings.single_precision off)."""
+        ci = self.collision_info
+        check_slide = False
+        sliding_angle = offset.dot(ci.sliding_normal)
+        if ci.sliding_normal_valid:
+            if sliding_angle < 0.0:
+                check_slide = True
+            else:
+                ci.sliding_normal_valid = False
+
+        if not ci.contact_plane_valid:
+            if check_slide:
+                offset = offset - ci.sliding_normal * sliding_angle
+            return offset
+
+        plane = ci.contact_plane
+        collision_angle = offset.dot(plane.normal)
+        if check_slide:
+            crease = plane.normal.cross(ci.sliding_normal).normalized_or_none()
+            offset = ZERO if crease is None else crease * crease.dot(offset)
+        elif collision_angle <= 0.0:
+            offset = offset - plane.normal * collision_angle
+        else:
+            offset = plane.snap_to_plane_double(offset)
+
+        if ci.contact_plane_cell_id == 0 or ci.contact_plane_is_water:
+            return offset
+
+        path = self.sphere_path
+        g = path.global_sphere[0]
+        block_offset = get_block_offset(path.check_pos.cell_id, ci.contact_plane_cell_id)
+        dist = (g.center - block_offset).dot(plane.normal) + plane.d
+        if dist >= g.radius - EPSILON:
+            return offset
+        z_dist = (g.radius - dist) / plane.normal.z
         if g.radius > abs(z_dist):
             path.add_offset_to_check_pos(Vec3(0.0, 0.0, z_dist))
         return offset

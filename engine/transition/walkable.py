@@ -60,11 +60,15 @@ def validate_walkable(
     # EPSILON band, so the float64 value can fall on the other side of it.
     c = check_sphere.center
     low_z = c.z - check_sphere.radius
-    if c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth > _CLEAR:
+    dist = c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth
+    if not t.settings.single_precision:
+        pass
+    elif dist > _CLEAR:
         return TransitionState.OK  # far above the band: float32 rounding cannot matter
-    dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
-    if water_depth != 0.0:
-        dist = f32(dist + f32(water_depth))
+    else:
+        dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
+        if water_depth != 0.0:
+            dist = f32(dist + f32(water_depth))
     if dist >= -EPSILON:
         if dist > EPSILON:
             return TransitionState.OK
@@ -78,7 +82,7 @@ def validate_walkable(
 
     if path.check_walkable:
         return TransitionState.COLLIDED
-    z_dist = f32(dist / normal.z)
+    z_dist = f32(dist / normal.z) if t.settings.single_precision else dist / normal.z
     if path.step_down or not state & OI.ON_WALKABLE or is_valid_walkable(normal):
         ci.set_contact_plane(plane, is_water)
         ci.contact_plane_cell_id = cell_id

@@ -211,11 +211,12 @@ class Mover:
         assert path.curr_pos is not None
         # what the object keeps, it keeps in the client's single precision
         cur = path.curr_pos
-        self.position = Position(cur.cell_id, cur.frame.with_origin(vec_f32(cur.frame.origin)))
+        single = t.settings.single_precision
+        self.position = Position(cur.cell_id, cur.frame.with_origin(vec_f32(cur.frame.origin)) if single else cur.frame)
         self.cell = path.curr_cell
 
         self.contact_plane_cell_id = ci.contact_plane_cell_id
-        self.contact_plane = plane_f32(ci.contact_plane)
+        self.contact_plane = plane_f32(ci.contact_plane) if single else ci.contact_plane
         if ci.contact_plane_valid:
             self.transient |= TS.CONTACT
         else:
@@ -234,7 +235,7 @@ class Mover:
             self.transient &= ~TS.ON_WALKABLE
         self.calc_acceleration()
 
-        self.sliding_normal = vec_f32(ci.sliding_normal)
+        self.sliding_normal = vec_f32(ci.sliding_normal) if single else ci.sliding_normal
         if ci.sliding_normal_valid:
             self.transient |= TS.SLIDING
         else:
