@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..geometry import Position, Sphere
+from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import get_block_offset
 from .cell_array import END as _END
 from .cell_array import CellArray
@@ -58,7 +58,8 @@ def find_cell_list(
             for cell in cell_array.cells():
                 if cell is None:
                     continue
-                local_point = center - get_block_offset(cell_id, cell.id)
+                block_offset = get_block_offset(cell_id, cell.id)
+                local_point = center if block_offset is ZERO else center - block_offset
                 if cell.point_in_cell(local_point):
                     found = cell
                     if (cell.id & 0xFFFF) >= 0x100:

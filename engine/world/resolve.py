@@ -70,19 +70,20 @@ def move_result(mover: Mover, ok: bool, state: str, t: Transition | None) -> Mov
         for obj in ci.collide_object:
             collide_objects.append(_object_id(obj))
     contact = bool(ts & TS.CONTACT)
-    # the plane is reported whenever the object is in contact
+    # the plane is reported whenever the object is in contact; positional
+    # arguments in MoveResult's field order (a keyword call costs more here)
     return MoveResult(
-        ok=ok,
-        position=mover.position,
-        transition_state=state,
-        contact=contact,
-        on_walkable=bool(ts & TS.ON_WALKABLE),
-        contact_plane=mover.contact_plane if contact else None,
-        contact_plane_cell=mover.contact_plane_cell_id if contact else None,
-        collision_normal=collision_normal,
-        sliding_normal=mover.sliding_normal if ts & TS.SLIDING else None,
-        water_contact=bool(ts & TS.WATER_CONTACT),
-        frames_stationary_fall=frames_stationary_fall,
-        transient_state=transient_names(ts),
-        collide_objects=collide_objects,
+        ok,
+        mover.position,
+        state,
+        contact,
+        bool(ts & TS.ON_WALKABLE),
+        mover.contact_plane if contact else None,
+        mover.contact_plane_cell_id if contact else None,
+        collision_normal,
+        mover.sliding_normal if ts & TS.SLIDING else None,
+        bool(ts & TS.WATER_CONTACT),
+        frames_stationary_fall,
+        transient_names(ts),
+        collide_objects,
     )
