@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any, Final, Iterator
 
+from .obj_cell import ObjCell
+
 __all__ = ["CellArray", "END"]
 
 #: What `live_entry` returns past the last entry (a cell may itself be None).
@@ -29,7 +31,7 @@ class CellArray:
         #: the outdoor cells under this search's spheres are in (skip_repeat_outside)
         self.outside_searched = False
         self.load_cells = False
-        self._slots: list[tuple[int, Any] | None] = []
+        self._slots: list[tuple[int, ObjCell | None] | None] = []
         self._index: dict[int, int] = {}
         self._free: list[int] = []
 
@@ -45,7 +47,7 @@ class CellArray:
         self.added_outside = False
         self.outside_searched = False
 
-    def add_cell(self, cell_id: int, cell: Any) -> None:
+    def add_cell(self, cell_id: int, cell: ObjCell | None) -> None:
         if cell_id in self._index:
             return
         if self._free:
@@ -71,22 +73,30 @@ class CellArray:
 
     def live_entry(self, i: int) -> Any:
         """The cell of the i-th live entry in iteration order, or END."""
+        if i >= len(self._index):
+            return END
+        return self.live_cell(i)
+
+    def live_cell(self, i: int) -> ObjCell | None:
+        """The cell of the i-th live entry in iteration order (i < len(self))."""
         slots = self._slots
         if not self._free:
-            return slots[i][1] if i < len(slots) else END  # type: ignore[index]
+            entry = slots[i]
+            assert entry is not None
+            return entry[1]
         for e in slots:
             if e is not None:
                 if i == 0:
                     return e[1]
                 i -= 1
-        return END
+        raise IndexError(i)
 
-    def cells(self) -> list[Any]:
+    def cells(self) -> list[ObjCell | None]:
         """The cells in iteration order (a snapshot: safe to mutate while looping)."""
         return [e[1] for e in self._slots if e is not None]
 
     def ids(self) -> list[int]:
         return [e[0] for e in self._slots if e is not None]
 
-    def __iter__(self) -> Iterator[Any]:
+    def __iter__(self) -> Iterator[ObjCell | None]:
         return iter(self.cells())

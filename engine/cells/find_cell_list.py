@@ -6,7 +6,6 @@ from typing import Any
 
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import get_block_offset
-from .cell_array import END as _END
 from .cell_array import CellArray
 from .land_cell import add_all_outside_cells
 
@@ -45,10 +44,8 @@ def find_cell_list(
         # Cells appended while we walk are visited too: the client indexes the
         # i-th live entry of a growing map on every turn.
         i = 0
-        while True:
-            cell = cell_array.live_entry(i)
-            if cell is _END:
-                break
+        while i < len(cell_array):
+            cell = cell_array.live_cell(i)
             if cell is not None:
                 cell.find_transit_cells(position, num_sphere, spheres, cell_array, path)
             i += 1
