@@ -10,7 +10,9 @@ landblocks always queues its moves (a move may need a hand-over, which
 waits on another instance while serving hand-overs sent to this one).
 Health, stats and the landblock list are answered straight from the
 callback (they read snapshots and counters), so they work even when the
-move queue is full.
+move queue is full. A long request (a big batch, a landblock load) is
+always queued, so the callback thread goes back to taking requests (they
+queue behind it, and a shutdown still answers them).
 """
 
 from __future__ import annotations
@@ -60,8 +62,10 @@ class NodeOptions:
     inline: bool = True
     #: the largest batch run in a callback (~10 ms of the interpreted engine); larger ones are queued
     inline_max_moves: int = 128
-    #: zenoh callbacks on Zenoh's own threads (no hop to a Python thread per callback)
-    direct_callbacks: bool = True
+    #: zenoh-python's unstable `indirect=False`: callbacks on Zenoh's own network threads instead of a Python
+    #: thread per queryable. Measured no faster here (docs/performance.md), and a long callback would stall
+    #: Zenoh's network thread, so off by default
+    direct_callbacks: bool = False
 
     @property
     def keys(self) -> Keys:
@@ -151,7 +155,7 @@ class ServiceNode:
 
     def _submit(self, job: Callable[[], None], small: bool) -> bool:
         """Run `job` now when it is `small` and the engine is idle, else queue it; False when refused
-        (queue full or closed). A long job is queued so Zenoh's thread is not held up by it."""
+        (queue full or closed). A long job is queued so the callback thread is not held up by it."""
         if small and self._inline and self.queue.idle and not self.queue.closed and self._engine_lock.acquire(blocking=False):
             try:
                 run_now = self.queue.idle  # nothing was queued meanwhile: nothing to overtake
