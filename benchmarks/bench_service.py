@@ -4,10 +4,7 @@
   `Client.move` / `Client.move_many` against `python -m service`);
 - the floor: a bare Zenoh echo queryable in its own process, queried with a
   payload of the same size the same way (peer mode, loopback TCP), measured
-  in the same run, interleaved block by block with the service round trips.
-  Its callback runs on Zenoh's own thread, as the service's do (`echo`); a
-  second echo queryable uses zenoh-python's default callback, handed to a
-  Python thread of its own (`echo_default`), for comparison;
+  in the same run, interleaved block by block with the service round trips;
 - throughput with 1, 2 and 4 client processes (single moves and batches of
   100), and the service process's CPU time per move (from /proc).
 
@@ -32,7 +29,6 @@ from . import common
 from .common import log, summary
 
 ECHO_KEY = "acphys-bench/echo"
-ECHO_DEFAULT_KEY = "acphys-bench/echo-default"
 START_TIMEOUT = 30.0
 
 
@@ -106,20 +102,11 @@ def echo_main(port: int) -> None:
     def handler(query: Any) -> None:
         payload = query.payload
         query.reply(query.key_expr, payload.to_bytes() if payload is not None else b"")
-        query.drop()  # the final message now, as the service sends it
 
-    def default_handler(query: Any) -> None:  # the plainest echo: the final goes when the query is freed
-        payload = query.payload
-        query.reply(query.key_expr, payload.to_bytes() if payload is not None else b"")
-
-    # like the service: the callback runs on Zenoh's thread (no hand-off to a Python thread)
-    q = session.declare_queryable(ECHO_KEY, zenoh.handlers.Callback(handler, indirect=False))
-    # zenoh-python's default: each callback handed to a Python thread of the queryable's own
-    q_default = session.declare_queryable(ECHO_DEFAULT_KEY, default_handler)
+    q = session.declare_queryable(ECHO_KEY, handler)
     print("echo ready", flush=True)
     stop.wait()
     q.undeclare()
-    q_default.undeclare()
     session.close()
 
 
@@ -215,7 +202,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     from clients import Client, Move
     from service.zconfig import make_config
 
-    samples: dict[str, list[float]] = {"echo": [], "echo_default": [], "move": [], "batch10": [], "batch100": []}
+    samples: dict[str, list[float]] = {"echo": [], "move": [], "batch10": [], "batch100": []}
     clock = time.perf_counter
     with Client([endpoint], timeout=30.0) as c:
         mid = c.register(_walker(), start_position(0)).id
@@ -224,18 +211,16 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
         probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
         try:
-            for _ in range(50):  # warm every route
+            for _ in range(50):  # warm both routes
                 list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
-                list(echo.get(ECHO_DEFAULT_KEY, payload=probe, timeout=10.0))
                 c.move(mid, offset=(0.0, 0.0, 0.0))
             sign = 1.0
             for r in range(rounds):
-                for key, name in ((ECHO_KEY, "echo"), (ECHO_DEFAULT_KEY, "echo_default")):
-                    for _ in range(block):
-                        t0 = clock()
-                        replies = list(echo.get(key, payload=probe, timeout=10.0))
-                        samples[name].append(clock() - t0)
-                        assert replies and replies[0].ok is not None
+                for _ in range(block):
+                    t0 = clock()
+                    replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
+                    samples["echo"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
                 for _ in range(block):
                     t0 = clock()
                     c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
@@ -254,14 +239,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     out = {k: summary(v, 1e6) for k, v in samples.items()}
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
-    out["ratio_move_to_echo_default"] = out["move"]["median"] / out["echo_default"]["median"]
     out["service_engine_ms"] = stats.get("engine_ms")
     out["service_latency_ms"] = stats.get("latency_ms")
     out["probe_bytes"] = len(probe)
-    for k in ("echo", "echo_default", "move", "batch10", "batch100"):
-        log(f"service: round trip {k:12s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
-    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} "
-        f"(/ echo with zenoh-python's default callbacks: {out['ratio_move_to_echo_default']:.2f})")
+    for k in ("echo", "move", "batch10", "batch100"):
+        log(f"service: round trip {k:9s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
+    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f}")
     return out
 
 

@@ -151,9 +151,8 @@ def plot_service(svc: dict[str, Any]) -> str | None:
         return None
     lat = svc["latency"]
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
-    keys = [k for k in ("echo", "echo_default", "move", "batch10", "batch100") if k in lat]
-    labels = [{"echo": "bare zenoh echo", "echo_default": "echo, default callback", "move": "1 move",
-               "batch10": "batch of 10", "batch100": "batch of 100"}[k] for k in keys]
+    keys = ["echo", "move", "batch10", "batch100"]
+    labels = ["bare zenoh echo", "1 move", "batch of 10", "batch of 100"]
     xs = range(len(keys))
     a1.bar([x - 0.2 for x in xs], [lat[k]["median"] for k in keys], 0.4, label="median")
     a1.bar([x + 0.2 for x in xs], [lat[k]["p99"] for k in keys], 0.4, label="p99", alpha=0.6)
@@ -249,10 +248,8 @@ def _summary(results: dict[str, Any]) -> list[str]:
         extra = (f"; compiled engine: {cl['move']['median']:.0f} µs vs {cl['echo']['median']:.0f} µs, "
                  f"{cl['ratio_move_to_echo']:.2f}x") if cl else ""
         best_ratio = min(ratio, cl["ratio_move_to_echo"]) if cl else ratio
-        dflt = (f" (vs the echo with zenoh-python's default callback, {lat['echo_default']['median']:.0f} µs: "
-                f"{lat['ratio_move_to_echo_default']:.2f}x)") if "echo_default" in lat else ""
         out.append(f"| service round trip of one move ≤ 1.2x bare Zenoh echo | {lat['move']['median']:.0f} µs vs "
-                   f"{lat['echo']['median']:.0f} µs echo: {ratio:.2f}x{dflt}{extra} | {'met' if best_ratio <= 1.2 else 'missed'} |")
+                   f"{lat['echo']['median']:.0f} µs echo: {ratio:.2f}x{extra} | {'met' if best_ratio <= 1.2 else 'missed'} |")
         rows_all = list(svc["throughput"]) + list(comp.get("throughput", []) if cl else [])
         best = max((r for r in rows_all if r["batch"] > 1), key=lambda r: r["moves_per_s"], default=None)
         if best:
@@ -317,9 +314,8 @@ def _limits(results: dict[str, Any]) -> list[str]:
         best = max((r for r in svc["throughput"] if r["batch"] > 1), key=lambda r: r["moves_per_s"], default=None)
         txt = (f"- Service round trip: {lat['move']['median']:.0f} µs = the bare echo ({lat['echo']['median']:.0f} µs) "
                f"+ the engine ({_f(eng_us, 0)} µs, the service's own median) + {over:.0f} µs of client library and "
-               "service work (msgpack and the State map on both sides, the State's publication, the reply). "
-               "The move runs in Zenoh's callback when the engine is idle, with no thread hand-off, as the echo "
-               "answers. Meeting 1.2x the echo leaves "
+               "service dispatch (msgpack and the State map on both sides, the request queue and the hand-off to "
+               "the engine thread). Meeting 1.2x the echo leaves "
                f"{0.2 * lat['echo']['median']:.0f} µs for all of it, the engine included.")
         out.append(txt)
         if best and best.get("service_cpu_us_per_move"):
@@ -336,10 +332,9 @@ def _limits(results: dict[str, Any]) -> list[str]:
                         "service but the engine is now the larger part of a move's cost.")
             out.append(f"- Service throughput: one service process spends {cpu:.0f} µs of CPU per move in batches "
                        f"of {best['batch']}, so it cannot serve more than ~{1e6 / cpu:,.0f} moves/s however many "
-                       "clients send (the engine runs on one thread at a time; Python's GIL serialises the rest); "
-                       "50,000 moves/s needs at most 20 µs per move, decoding and encoding included, or several "
-                       "instances owning different landblocks. The client processes share the machine's cores "
-                       "with the service here." + ctxt)
+                       "clients send (the engine runs on one thread; Python's GIL serialises the rest); 50,000 "
+                       "moves/s needs at most 20 µs per move, decoding and encoding included, or several "
+                       "instances owning different landblocks." + ctxt)
     err = results.get("error")
     if err and err["settings"]:
         base = err["settings"][0]["name"]
@@ -554,22 +549,15 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
     out += [("`python -m service` on a flat 3x3-landblock scene, `clients.Client` in this process; the floor is a bare "
             "Zenoh queryable in its own process answering with the request's bytes "
             f"({lat['probe_bytes']} bytes, the size of a one-move request), queried the same way in the same run, "
-            "interleaved block by block with the service round trips. Peer mode, TCP on 127.0.0.1, multicast scouting off. "
-            "The echo's callback runs on Zenoh's own thread, as the service's callbacks do; the second echo uses "
-            "zenoh-python's default callback, handed to a Python thread of its own."), "",
+            "interleaved block by block with the service round trips. Peer mode, TCP on 127.0.0.1, multicast scouting off."), "",
             "| round trip | n | median µs | p99 µs | median µs per move |", "|---|---:|---:|---:|---:|"]
-    for k, label, per in (("echo", "bare Zenoh echo", 1), ("echo_default", "echo, zenoh-python's default callback", 1),
-                          ("move", "one move", 1), ("batch10", "batch of 10 moves", 10),
+    for k, label, per in (("echo", "bare Zenoh echo", 1), ("move", "one move", 1), ("batch10", "batch of 10 moves", 10),
                           ("batch100", "batch of 100 moves", 100)):
-        if k not in lat:
-            continue
         s = lat[k]
         out.append(f"| {label} | {s['n']} | {s['median']:.0f} | {s['p99']:.0f} | {s['median'] / per:.0f} |")
     eng_ms = lat.get("service_engine_ms") or {}
-    dflt = (f"; against the echo with the default callback {lat['ratio_move_to_echo_default']:.2f}x"
-            if "ratio_move_to_echo_default" in lat else "")
     out += ["", (f"One move / echo: **{lat['ratio_move_to_echo']:.2f}x** at the median "
-            f"({lat['ratio_move_to_echo_p99']:.2f}x at p99{dflt}). Inside the service the engine took "
+            f"({lat['ratio_move_to_echo_p99']:.2f}x at p99). Inside the service the engine took "
             f"{_f(_nan(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
             ("Throughput: each client process registers its own mover and sends requests back to back for a fixed time; "
             "service CPU time per move is the service process's user+system time (from /proc) over the moves served."), "",
@@ -583,14 +571,11 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
         out += ["", ("The same benchmark again in the same run, the service importing the mypyc-compiled engine copy "
                      "(benchmarks/out/compiled):"), "",
                 "| round trip | median µs | p99 µs |", "|---|---:|---:|"]
-        for k, label in (("echo", "bare Zenoh echo"), ("echo_default", "echo, zenoh-python's default callback"),
-                         ("move", "one move"), ("batch10", "batch of 10 moves"), ("batch100", "batch of 100 moves")):
-            if k in cl:
-                out.append(f"| {label} | {cl[k]['median']:.0f} | {cl[k]['p99']:.0f} |")
+        for k, label in (("echo", "bare Zenoh echo"), ("move", "one move"), ("batch10", "batch of 10 moves"),
+                         ("batch100", "batch of 100 moves")):
+            out.append(f"| {label} | {cl[k]['median']:.0f} | {cl[k]['p99']:.0f} |")
         ce = _nan((cl.get("service_engine_ms") or {}).get("p50")) * 1000.0
-        cdflt = (f" ({cl['ratio_move_to_echo_default']:.2f}x the echo with the default callback)"
-                 if "ratio_move_to_echo_default" in cl else "")
-        out += ["", f"One move / echo: **{cl['ratio_move_to_echo']:.2f}x**{cdflt}; engine {_f(ce, 0)} µs per move inside the service.", "",
+        out += ["", f"One move / echo: **{cl['ratio_move_to_echo']:.2f}x**; engine {_f(ce, 0)} µs per move inside the service.", "",
                 "| client processes | moves per request | moves/s | service CPU µs per move | errors |",
                 "|---:|---:|---:|---:|---:|"]
         for r in comp["throughput"]:
