@@ -247,7 +247,7 @@ def handling_main(moves: int) -> None:
         mid = core.register(parse_register({"v": 1, "mover": encode_mover_spec(_walker()),
                                             "position": encode_position(start)}))["state"]["id"]
         key = node.keys.move(start.landblock)
-        handler = node._query_handler("move")
+        handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
         payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
         for i in range(200):
             handler(_StandInQuery(key, payloads[i % 2]))
@@ -326,7 +326,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
             echo.close()
         (stats,) = c.stats()
         c.remove(mid)
-    out = {k: summary(v, 1e6) for k, v in samples.items()}
+    out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items()}
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
     out["service_engine_ms"] = stats.get("engine_ms")
