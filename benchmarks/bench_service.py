@@ -6,7 +6,12 @@
   payload of the same size the same way (peer mode, loopback TCP), measured
   in the same run, interleaved block by block with the service round trips;
 - throughput with 1, 2 and 4 client processes (single moves and batches of
-  100), and the service process's CPU time per move (from /proc).
+  100), and the service process's CPU time per move (from /proc);
+- the service's own handling of one move without the network (its query
+  callback called with a stand-in query, in a child process), back to back
+  and with idle gaps between moves as in a round trip: on this machine the
+  same code runs several times slower after the CPU has been idle or busy
+  with other processes, which the round trips pay and the echo hardly does.
 
 Everything listens on 127.0.0.1 on free ports; every process is stopped at
 the end, every loop ends after a fixed count or a fixed time.
@@ -194,6 +199,91 @@ def throughput(endpoint: str, service: Child, processes: int, batch: int, second
     return row
 
 
+# -- the service's own handling, without the network ---------------------------------------------------
+class _Payload:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class _StandInQuery:
+    """What the service's query callback uses of a zenoh.Query."""
+
+    def __init__(self, key: str, payload: bytes) -> None:
+        self.key_expr = key
+        self.payload = _Payload(payload)
+        self.replies = 0
+
+    def reply(self, _key: Any, _payload: bytes) -> None:
+        self.replies += 1
+
+    def reply_err(self, payload: bytes) -> None:
+        raise AssertionError(f"error reply: {payload!r}")
+
+    def drop(self) -> None:
+        pass
+
+
+def handling_main(moves: int) -> None:
+    """Time the service's move callback with stand-in queries: back to back, then with idle gaps."""
+    import msgpack
+
+    from clients import Move
+    from service.codec import encode_mover_spec, encode_position
+    from service.node import NodeOptions, ServiceNode
+    from service.requests import parse_register
+    from service.world_source import open_world
+    from service.zconfig import make_config
+
+    node = ServiceNode(open_world(scene=str(scene_file())), make_config(listen=[f"tcp/127.0.0.1:{free_port()}"]),
+                       NodeOptions())
+    node.start()
+    try:
+        core = node.core
+        assert core is not None
+        start = start_position(0)
+        mid = core.register(parse_register({"v": 1, "mover": encode_mover_spec(_walker()),
+                                            "position": encode_position(start)}))["state"]["id"]
+        key = node.keys.move(start.landblock)
+        handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
+        payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
+        for i in range(200):
+            handler(_StandInQuery(key, payloads[i % 2]))
+        out: dict[str, Any] = {}
+        for gap in (0.0, 0.0004, 0.002):
+            engine0 = len(node.stats.engine_time._samples)
+            times = []
+            for i in range(moves):
+                if gap:
+                    time.sleep(gap)
+                q = _StandInQuery(key, payloads[i % 2])
+                t0 = time.perf_counter()
+                handler(q)
+                times.append(time.perf_counter() - t0)
+                assert q.replies == 1
+            engine = list(node.stats.engine_time._samples)[engine0:]
+            out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
+    finally:
+        node.shutdown()
+    print("HANDLING " + json.dumps(out), flush=True)
+
+
+def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
+    p = subprocess.run([sys.executable, "-m", "benchmarks.bench_service", "handling", str(moves)],
+                       cwd=engine_root or common.ROOT, env=child_env(engine_root), capture_output=True, text=True,
+                       timeout=300)
+    lines = [ln for ln in p.stdout.splitlines() if ln.startswith("HANDLING ")]
+    if p.returncode != 0 or not lines:
+        raise RuntimeError(f"handling run failed ({p.returncode}):\n{p.stderr[-2000:]}")
+    out: dict[str, Any] = json.loads(lines[-1][9:])
+    for k, v in out.items():
+        log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
+            f"(engine {v['engine']['median']:5.0f} µs)")
+    return out
+
+
 # -- latency --------------------------------------------------------------------------------------
 def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[str, Any]:
     import msgpack
@@ -236,7 +326,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
             echo.close()
         (stats,) = c.stats()
         c.remove(mid)
-    out = {k: summary(v, 1e6) for k, v in samples.items()}
+    out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items()}
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
     out["service_engine_ms"] = stats.get("engine_ms")
@@ -262,6 +352,7 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
     try:
         echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
         lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100)
+        lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
         rows = []
         for batch in (1, 100):
@@ -278,6 +369,8 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
 if __name__ == "__main__":
     if sys.argv[1] == "echo":
         echo_main(int(sys.argv[2]))
+    elif sys.argv[1] == "handling":
+        handling_main(int(sys.argv[2]))
     elif sys.argv[1] == "worker":
         worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]))
     else:

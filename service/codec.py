@@ -8,6 +8,7 @@ naming the field; encoders trust their input.
 
 from __future__ import annotations
 
+from math import isfinite
 from typing import Any
 
 from engine.geometry import Plane, Position, Quat, Vec3
@@ -26,6 +27,8 @@ from .validate import (
     field_path,
     get_field,
     opt_field,
+    plain_floats3,
+    plain_unit_quat,
 )
 from .wire import ErrorKind
 
@@ -39,6 +42,7 @@ __all__ = [
     "encode_mover_spec",
     "encode_state",
     "decode_state",
+    "read_state",
     "MAX_SPHERES",
 ]
 
@@ -187,19 +191,23 @@ def encode_state(
     mover_id: int, seq: int, r: MoveResult, collide_ids: list[int], tag: int | str | None = None
 ) -> dict[str, Any]:
     """The State map: what a move resolved to, as published and replied."""
+    # written out (no helper calls): this runs once per move
+    pos = r.position
+    o, q = pos.frame.origin, pos.frame.orientation
+    cp, cn, sn = r.contact_plane, r.collision_normal, r.sliding_normal
     out: dict[str, Any] = {
         "id": mover_id,
         "seq": seq,
         "ok": r.ok,
-        "position": encode_position(r.position),
-        "landblock": r.position.landblock,
+        "position": {"cell": pos.cell_id, "origin": [o.x, o.y, o.z], "orientation": [q.w, q.x, q.y, q.z]},
+        "landblock": (pos.cell_id >> 16) & 0xFFFF,
         "transition_state": r.transition_state,
         "contact": r.contact,
         "on_walkable": r.on_walkable,
-        "contact_plane": encode_plane(r.contact_plane),
+        "contact_plane": None if cp is None else {"normal": [cp.normal.x, cp.normal.y, cp.normal.z], "d": cp.d},
         "contact_plane_cell": r.contact_plane_cell,
-        "collision_normal": encode_vec(r.collision_normal),
-        "sliding_normal": encode_vec(r.sliding_normal),
+        "collision_normal": None if cn is None else [cn.x, cn.y, cn.z],
+        "sliding_normal": None if sn is None else [sn.x, sn.y, sn.z],
         "water_contact": r.water_contact,
         "frames_stationary_fall": r.frames_stationary_fall,
         "transient_state": list(r.transient_state),
@@ -218,8 +226,67 @@ def _opt_int(v: Any) -> int | None:
     return None if v is None else int(v)
 
 
+def _plain_vec(v: Any) -> Vec3 | None:
+    t = plain_floats3(v)
+    return None if t is None else Vec3(*t)
+
+
+def _plain_state(m: Any) -> tuple[int, int, int | str | None, MoveResult] | None:
+    """`decode_state` for a State as this service writes it, without the per-field readers; None when
+    anything is off (then the full reader decides and names the field)."""
+    if type(m) is not dict:
+        return None
+    mover_id, seq, pos = m.get("id"), m.get("seq"), m.get("position")
+    if type(mover_id) is not int or type(seq) is not int or type(pos) is not dict or len(pos) != 3:
+        return None
+    cell, origin, raw_q = pos.get("cell"), plain_floats3(pos.get("origin")), pos.get("orientation")
+    if type(cell) is not int or not (0 <= mover_id < 1 << 64 and 0 <= seq < 1 << 64 and 0 <= cell < 1 << 32):
+        return None
+    q = plain_unit_quat(raw_q)
+    if origin is None or q is None:
+        return None
+    ok, contact, walk, ts = m.get("ok"), m.get("contact"), m.get("on_walkable"), m.get("transition_state")
+    if type(ok) is not bool or type(contact) is not bool or type(walk) is not bool or type(ts) is not str:
+        return None
+    plane: Plane | None = None
+    cp = m.get("contact_plane")
+    if cp is not None:
+        if type(cp) is not dict or len(cp) != 2:
+            return None
+        n, d = plain_floats3(cp.get("normal")), cp.get("d")
+        if n is None or type(d) is not float or not isfinite(d):
+            return None
+        nx, ny, nz = n
+        if abs((nx * nx + ny * ny + nz * nz) ** 0.5 - 1.0) > 1e-3:
+            return None
+        plane = Plane(Vec3(nx, ny, nz), d)
+    cpc = m.get("contact_plane_cell")
+    if cpc is not None and (type(cpc) is not int or not 0 <= cpc < 1 << 32):
+        return None
+    raw_cn, raw_sn = m.get("collision_normal"), m.get("sliding_normal")
+    cn, sn = _plain_vec(raw_cn), _plain_vec(raw_sn)
+    if (cn is None and raw_cn is not None) or (sn is None and raw_sn is not None):
+        return None
+    fsf, trans, coll = m.get("frames_stationary_fall"), m.get("transient_state"), m.get("collide_objects")
+    if (fsf is not None and type(fsf) is not int) or type(trans) is not list or type(coll) is not list:
+        return None
+    if not all(type(t) is str for t in trans) or not all(type(i) is int for i in coll):
+        return None
+    result = MoveResult(
+        ok, Position.at(cell, Vec3(*origin), Quat(*q)), ts, contact, walk,
+        plane, cpc, cn, sn, bool(m.get("water_contact")), fsf, trans, coll,
+    )
+    return mover_id, seq, m.get("tag"), result
+
+
 def decode_state(value: Any, path: str = "state") -> tuple[int, int, int | str | None, MoveResult]:
     """A State map back to (id, seq, tag, MoveResult): the client's side."""
+    plain = _plain_state(value)
+    return plain if plain is not None else read_state(value, path)
+
+
+def read_state(value: Any, path: str = "state") -> tuple[int, int, int | str | None, MoveResult]:
+    """`decode_state` through the per-field readers: what any sender may write, and errors naming the field."""
     m = as_map(value, path)
     plane_raw = opt_field(m, "contact_plane")
     cpc = opt_field(m, "contact_plane_cell")

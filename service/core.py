@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import logging
 import random
-import time
+from time import monotonic, perf_counter
 from dataclasses import dataclass, replace
 from typing import Any, Protocol
+
+import msgpack
 
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec, MoveResult
@@ -36,7 +38,9 @@ _TRANSIENT = ("Contact", "OnWalkable")
 class BusPort(Protocol):
     """What the core needs from the bus (service.node implements it)."""
 
-    def publish_state(self, mover_id: int, state: dict[str, Any]) -> None: ...
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
+        """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
+        ...
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
 
@@ -84,11 +88,13 @@ class ServiceCore:
         self.engine_cache: dict[str, Any] = {}
         self._cache_read_at = 0.0
         self._refresh()
+        # the core runs on one thread at a time (the engine thread, or a callback holding the engine lock)
+        self._packer = msgpack.Packer(use_bin_type=True)
 
     def _refresh(self) -> None:
         self.loaded = tuple(sorted(self.world.loaded_landblocks()))
         self.engine_cache = self.cache_stats()
-        self._cache_read_at = time.monotonic()
+        self._cache_read_at = monotonic()
 
     # -- helpers ------------------------------------------------------------
     def _record(self, mover_id: int, path: str | None = None) -> MoverRecord:
@@ -149,7 +155,7 @@ class ServiceCore:
                         sliding_normal=req.sliding_normal, water_contact=req.water_contact)
         state = self._state(rec)
         self._refresh()  # a dat world loads the start landblock on demand
-        self.bus.publish_state(rec.id, state)
+        self.bus.publish_state(rec.id, self._packer.pack(state))
         return {"state": state}
 
     def update(self, mover_id: int, spec: MoverSpec) -> dict[str, Any]:
@@ -190,36 +196,52 @@ class ServiceCore:
                 log.exception("engine failed on move of %X", rec.id)
             raise err from None
 
-    def move_one(self, item: MoveItem, received: float) -> dict[str, Any]:
-        """Apply one move; returns its State (published too) or raises."""
-        rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
-        t0 = time.perf_counter()
+    def _move(self, item: MoveItem) -> tuple[bytes, float]:
+        """Apply one move and publish its State: the State packed, and the engine's time."""
+        rec = self.movers.get(item.id)
+        if rec is None:
+            rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
+        t0 = perf_counter()
         result = self._apply(rec, item)
-        t1 = time.perf_counter()
+        engine = perf_counter() - t0
         prev, prev_seq = rec.last, rec.seq
         rec.last, rec.seq = result, rec.seq + 1
-        state = self._state(rec, item.tag)
-        lb = result.position.landblock
+        packed = self._packer.pack(self._state(rec, item.tag))
+        lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
             self._hand_over(rec, prev, prev_seq, lb)
-        now = time.monotonic()
-        self.stats.move_done(now - received, t1 - t0)
-        if now - self._cache_read_at > 1.0:
-            self._refresh()
-        self.bus.publish_state(rec.id, state)
-        return state
+        self.bus.publish_state(rec.id, packed)
+        return packed, engine
 
-    def moves(self, batch: MoveBatch, received: float) -> list[dict[str, Any] | ItemError]:
-        """Every item in order; an item's failure is its own result only."""
-        out: list[dict[str, Any] | ItemError] = []
+    def _done(self, latency: list[float], engine: list[float]) -> None:
+        self.stats.moves_done(latency, engine)
+        if monotonic() - self._cache_read_at > 1.0:
+            self._refresh()
+
+    def move_one(self, item: MoveItem, received: float) -> bytes:
+        """Apply one move; its State packed (published too), or raises."""
+        packed, engine = self._move(item)
+        self._done([monotonic() - received], [engine])
+        return packed
+
+    def moves(self, batch: MoveBatch, received: float) -> list[bytes | ItemError]:
+        """Every item in order, each a packed State or its error; an item's failure is its own result only."""
+        out: list[bytes | ItemError] = []
+        latency: list[float] = []
+        engine: list[float] = []
         for item in batch.items:
             if isinstance(item, ItemError):
                 out.append(item)
                 continue
             try:
-                out.append(self.move_one(item, received))
+                packed, t = self._move(item)
             except ProtocolError as e:
                 out.append(ItemError(e, item.id, item.tag))
+                continue
+            out.append(packed)
+            latency.append(monotonic() - received)
+            engine.append(t)
+        self._done(latency, engine)
         return out
 
     def push(self, batch: MoveBatch, raw_items: list[Any], received: float) -> None:

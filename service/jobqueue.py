@@ -28,6 +28,7 @@ class JobQueue:
         self._priority: deque[Job] = deque()
         self._cond = threading.Condition()
         self._closed = False
+        self._unfinished = 0  # jobs queued and not yet done (see `task_done`)
 
     def __len__(self) -> int:
         with self._cond:
@@ -39,12 +40,14 @@ class JobQueue:
             if self._closed or len(self._normal) >= self.capacity:
                 return False
             self._normal.append(job)
+            self._unfinished += 1
             self._cond.notify()
             return True
 
     def put_priority(self, job: Job) -> None:
         with self._cond:
             self._priority.append(job)
+            self._unfinished += 1
             self._cond.notify()
 
     def close(self) -> None:
@@ -56,6 +59,16 @@ class JobQueue:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    def task_done(self) -> None:
+        """A job handed out by `get`/`get_priority` has finished."""
+        with self._cond:
+            self._unfinished -= 1
+
+    @property
+    def idle(self) -> bool:
+        """Every job ever queued has finished (so work done now cannot overtake a queued job)."""
+        return self._unfinished == 0
 
     def get(self, timeout: float | None = None) -> Job | None:
         """Next job, priority lane first; None on timeout or when closed and empty."""

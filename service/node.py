@@ -1,9 +1,18 @@
 """ServiceNode: the service on the Zenoh bus.
 
-Zenoh callbacks only decode and queue; the engine thread does the engine
-work and sends the replies. Health, stats and the landblock list are
-answered straight from the callback (they read snapshots and counters), so
-they work even when the move queue is full.
+Zenoh callbacks decode a request; the engine work then runs either right
+there, when the engine is idle and nothing is queued (no thread hand-off:
+the common case of a lightly loaded instance), or on the engine thread,
+through the bounded queue. One lock serialises the engine, and a request
+runs in the callback only when every queued job has finished, so requests
+are still applied in arrival order. An instance that owns only some
+landblocks always queues its moves (a move may need a hand-over, which
+waits on another instance while serving hand-overs sent to this one).
+Health, stats and the landblock list are answered straight from the
+callback (they read snapshots and counters), so they work even when the
+move queue is full. A long request (a big batch, a landblock load) is
+always queued, so the callback thread goes back to taking requests (they
+queue behind it, and a shutdown still answers them).
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ import zenoh
 
 from .core import ServiceCore
 from .errors import ProtocolError
+from .frames import pack, results_message, state_message
 from .jobqueue import JobQueue
 from .ownership import Ownership
 from .requests import (
@@ -37,9 +47,8 @@ __all__ = ["NodeOptions", "ServiceNode"]
 
 log = logging.getLogger("acphys.service")
 
-
-def pack(content: dict[str, Any]) -> bytes:
-    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+#: Most state keys kept as parsed key expressions (one per mover seen lately).
+_KEY_CACHE = 100_000
 
 
 @dataclass(slots=True)
@@ -49,6 +58,14 @@ class NodeOptions:
     queue_capacity: int = 1024  # requests waiting for the engine before `busy`
     handover_timeout: float = 2.0  # seconds to wait for a hand-over's answer
     publish_states: bool = True
+    #: run a request in the Zenoh callback when the engine is idle (see the module's docstring)
+    inline: bool = True
+    #: the largest batch run in a callback (~10 ms of the interpreted engine); larger ones are queued
+    inline_max_moves: int = 128
+    #: zenoh-python's unstable `indirect=False`: callbacks on Zenoh's own network threads instead of a Python
+    #: thread per queryable. Measured no faster here (docs/performance.md), and a long callback would stall
+    #: Zenoh's network thread, so off by default
+    direct_callbacks: bool = False
 
     @property
     def keys(self) -> Keys:
@@ -70,6 +87,9 @@ class ServiceNode:
         self._declared: list[Any] = []
         self._thread: threading.Thread | None = None
         self._draining = False
+        self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
+        self._inline = self.options.inline and self.options.ownership.everything
+        self._state_keys: dict[int, zenoh.KeyExpr] = {}
 
     # -- lifecycle ------------------------------------------------------------
     def start(self) -> None:
@@ -83,11 +103,11 @@ class ServiceNode:
         s = self.session
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
-                self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._query_handler(op)))
-            self._declared.append(s.declare_subscriber(self.keys.push(part), self._on_push))
-        self._declared.append(s.declare_queryable(self.keys.health, self._on_health))
-        self._declared.append(s.declare_queryable(self.keys.stats, self._on_stats))
-        self._declared.append(s.declare_queryable(self.keys.landblocks, self._on_landblocks))
+                self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
+            self._declared.append(s.declare_subscriber(self.keys.push(part), self._callback(self._on_push)))
+        self._declared.append(s.declare_queryable(self.keys.health, self._callback(self._on_health)))
+        self._declared.append(s.declare_queryable(self.keys.stats, self._callback(self._on_stats)))
+        self._declared.append(s.declare_queryable(self.keys.landblocks, self._callback(self._on_landblocks)))
         log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
 
     @property
@@ -106,28 +126,56 @@ class ServiceNode:
         self.queue.close()
         if self._thread is not None:
             self._thread.join(timeout)
+        if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
+            self._engine_lock.release()
         if self.session is not None:
             self.session.close()
             self.session = None
+
+    def _callback(self, fn: Callable[[Any], None]) -> Any:
+        return zenoh.handlers.Callback(fn, indirect=not self.options.direct_callbacks)
 
     def _engine_loop(self) -> None:
         while True:
             job = self.queue.get()
             if job is None:
                 return
-            self._run_job(job)
+            with self._engine_lock:
+                self._run_job(job)
 
     def _run_job(self, job: Callable[[], None]) -> None:
+        """Run a job taken from the queue (the caller holds the engine lock)."""
         try:
             job()
         except Exception:  # a job must never take the engine thread down
             log.exception("engine job failed")
             self.stats.error(ErrorKind.INTERNAL)
+        finally:
+            self.queue.task_done()
+
+    def _submit(self, job: Callable[[], None], small: bool) -> bool:
+        """Run `job` now when it is `small` and the engine is idle, else queue it; False when refused
+        (queue full or closed). A long job is queued so the callback thread is not held up by it."""
+        if small and self._inline and self.queue.idle and not self.queue.closed and self._engine_lock.acquire(blocking=False):
+            try:
+                run_now = self.queue.idle  # nothing was queued meanwhile: nothing to overtake
+                if run_now:
+                    try:
+                        job()
+                    except Exception:  # never let it reach zenoh's thread
+                        log.exception("engine job failed")
+                        self.stats.error(ErrorKind.INTERNAL)
+            finally:
+                self._engine_lock.release()
+            if run_now:
+                return True
+        return self.queue.offer(job)
 
     # -- replies ----------------------------------------------------------------
-    def _reply_ok(self, query: zenoh.Query, content: dict[str, Any]) -> None:
+    def _reply_ok(self, query: zenoh.Query, content: dict[str, Any] | bytes) -> None:
+        """Reply with `content` (a map, or a message already packed)."""
         try:
-            query.reply(query.key_expr, pack(content))
+            query.reply(query.key_expr, content if isinstance(content, bytes) else pack(content))
         finally:
             query.drop()
 
@@ -169,7 +217,7 @@ class ServiceNode:
             try:
                 lb = self._key_lb(str(query.key_expr), op)
                 msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
-                work = self._prepare(op, lb, msg, received)
+                work, small = self._prepare(op, lb, msg, received)
             except ProtocolError as e:
                 self._reply_err(query, e)
                 return
@@ -193,13 +241,24 @@ class ServiceNode:
             if op == "handover":
                 # never refused, and served even while this instance waits on its own hand-over
                 self.queue.put_priority(job)
-            elif not self.queue.offer(job):
+            elif not self._submit(job, small):
                 self._refuse(query)
 
         return handler
 
-    def _prepare(self, op: str, lb: int | None, msg: dict[str, Any], received: float) -> Callable[[], dict[str, Any]]:
-        """Decode on the callback thread; the returned closure runs on the engine thread."""
+    def _prepare(self, op: str, lb: int | None, msg: dict[str, Any],
+                 received: float) -> tuple[Callable[[], dict[str, Any] | bytes], bool]:
+        """Decode on the callback thread. The closure returned runs with the engine lock held; the flag
+        says whether it is short enough to run in the callback."""
+        work = self._work(op, lb, msg, received)
+        if op == "move":
+            batch = msg.get("moves")  # a list when given (parsed above), else one move
+            return work, batch is None or len(batch) <= self.options.inline_max_moves
+        # load and unload may read a landblock from disk: queued
+        return work, op in ("register", "update", "remove", "get")
+
+    def _work(self, op: str, lb: int | None, msg: dict[str, Any],
+              received: float) -> Callable[[], dict[str, Any] | bytes]:
         core = self.core
         assert core is not None
         if op == "move":
@@ -207,14 +266,18 @@ class ServiceNode:
             if batch.single:
                 item = batch.items[0]
                 assert not isinstance(item, ItemError)
-                return lambda: {"state": core.move_one(item, received)}
+                return lambda: state_message(core.move_one(item, received))
 
-            def run_batch() -> dict[str, Any]:
+            def run_batch() -> bytes:
                 results = core.moves(batch, received)
+                entries: list[bytes] = []
                 for r in results:
                     if isinstance(r, ItemError):
                         self.stats.error(r.error.kind)
-                return {"results": [r.to_wire() if isinstance(r, ItemError) else r for r in results]}
+                        entries.append(msgpack.packb(r.to_wire(), use_bin_type=True))
+                    else:
+                        entries.append(r)
+                return results_message(entries)
 
             return run_batch
         if op == "register":
@@ -236,8 +299,8 @@ class ServiceNode:
             assert lb is not None
             return lambda: core.unload(lb)
         if op == "handover":
-            req = parse_handover(msg)
-            return lambda: core.handover_in(req)
+            handover = parse_handover(msg)
+            return lambda: core.handover_in(handover)
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 
     # -- fire-and-forget ---------------------------------------------------------
@@ -258,7 +321,7 @@ class ServiceNode:
         raw = [msg["move"]] if batch.single else list(msg["moves"])
         core = self.core
         assert core is not None
-        if not self.queue.offer(lambda: core.push(batch, raw, received)):
+        if not self._submit(lambda: core.push(batch, raw, received), len(raw) <= self.options.inline_max_moves):
             kind = ErrorKind.SHUTTING_DOWN if self.queue.closed else ErrorKind.BUSY
             for item in batch.items:
                 self.stats.error(kind)
@@ -309,9 +372,15 @@ class ServiceNode:
         if self.session is not None:
             self.session.put(key, pack(content))
 
-    def publish_state(self, mover_id: int, state: dict[str, Any]) -> None:
-        if self.options.publish_states:
-            self._put(self.keys.state(mover_id), {"state": state})
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
+        if not self.options.publish_states or self.session is None:
+            return
+        key = self._state_keys.get(mover_id)
+        if key is None:  # parsing the key expression costs more than the put itself
+            if len(self._state_keys) >= _KEY_CACHE:
+                self._state_keys.clear()
+            key = self._state_keys[mover_id] = zenoh.KeyExpr(self.keys.state(mover_id))
+        self.session.put(key, state_message(packed_state))
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
@@ -340,16 +409,19 @@ class ServiceNode:
         while not done.is_set() and time.monotonic() < deadline:
             job = self.queue.get_priority(timeout=max(0.0, deadline - time.monotonic()))
             if job is not None:
-                self._run_job(job)
+                self._run_job(job)  # on the engine thread, which holds the engine lock
         for r in replies:
             if r.ok is not None:
                 return dict(msgpack.unpackb(r.ok.payload.to_bytes(), raw=False))
         for r in replies:
+            if r.err is None:
+                continue
+            raw = r.err.payload.to_bytes()
             try:
-                err = msgpack.unpackb(r.err.payload.to_bytes(), raw=False)["error"]
+                err = msgpack.unpackb(raw, raw=False)["error"]
                 raise ProtocolError(err.get("kind", ErrorKind.INTERNAL), err.get("message", ""))
             except ProtocolError:
                 raise
             except Exception:
-                raise ProtocolError(ErrorKind.NO_OWNER, r.err.payload.to_bytes().decode("utf-8", "replace")) from None
+                raise ProtocolError(ErrorKind.NO_OWNER, raw.decode("utf-8", "replace")) from None
         raise ProtocolError(ErrorKind.NO_OWNER, "no instance owns that landblock")

@@ -17,7 +17,20 @@ from engine.world.types import MoverSpec
 
 from .codec import decode_mover_spec, decode_plane, decode_position
 from .errors import ProtocolError
-from .validate import as_bool, as_float, as_list, as_map, as_quat, as_uint, as_vec3, field_path, get_field, opt_field
+from .validate import (
+    as_bool,
+    as_float,
+    as_list,
+    as_map,
+    as_quat,
+    as_uint,
+    as_vec3,
+    field_path,
+    get_field,
+    opt_field,
+    plain_floats3,
+    plain_unit_quat,
+)
 from .wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 
 __all__ = [
@@ -139,7 +152,63 @@ def _parse_target(value: Any, path: str) -> Target:
     )
 
 
+def _plain_vec(v: Any) -> Vec3 | None:
+    t = plain_floats3(v)
+    return None if t is None else Vec3(*t)
+
+
+def _plain_move(m: Any, path: str) -> MoveItem | None:
+    """The common shapes of a move, read without the per-field readers: an `offset` or a `to` with
+    floats, an optional tag and velocity, no other key. None when the move is anything else, or
+    anything is off; the full reader (`parse_move_item`) then decides, so every error and its message
+    come from one place."""
+    if type(m) is not dict:
+        return None
+    mid = m.get("id")
+    if type(mid) is not int or mid < 0 or mid >= 1 << 64:
+        return None
+    tag = m.get("tag")
+    if tag is not None and not ((type(tag) is int and -(1 << 63) <= tag < 1 << 64)
+                                or (type(tag) is str and len(tag) <= MAX_TAG_LEN)):
+        return None
+    # every key is a known one (so all are strings and nothing is ignored silently)
+    if len(m) != 2 + ("tag" in m) + ("velocity" in m):
+        return None
+    item = MoveItem(mid, tag, path)
+    vel = m.get("velocity")
+    if vel is not None:
+        item.velocity = _plain_vec(vel)
+        if item.velocity is None:
+            return None
+    off = m.get("offset")
+    if off is not None:
+        item.offset = _plain_vec(off)
+        return item if item.offset is not None else None
+    to = m.get("to")
+    if type(to) is not dict or len(to) != 1 + ("cell" in to) + ("orientation" in to):
+        return None
+    origin = _plain_vec(to.get("origin"))
+    cell = to.get("cell")
+    if origin is None or (cell is not None and (type(cell) is not int or cell < 0 or cell >= 1 << 32)):
+        return None
+    q = to.get("orientation")
+    quat = None
+    if q is not None:
+        t = plain_unit_quat(q)
+        if t is None:
+            return None
+        quat = Quat(*t)
+    item.to = Target(cell, origin, quat)
+    return item
+
+
 def parse_move_item(value: Any, path: str) -> MoveItem:
+    plain = _plain_move(value, path)
+    return plain if plain is not None else read_move_item(value, path)
+
+
+def read_move_item(value: Any, path: str) -> MoveItem:
+    """A move through the per-field readers: any shape, and the error that names the field."""
     m = as_map(value, path)
     item = MoveItem(
         id=as_uint(get_field(m, "id", path), field_path(path, "id")),

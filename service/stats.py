@@ -22,6 +22,10 @@ class LatencyWindow:
         self._samples.append(seconds)
         self.count += 1
 
+    def extend(self, seconds: list[float]) -> None:
+        self._samples.extend(seconds)
+        self.count += len(seconds)
+
     def summary_ms(self) -> dict[str, float | int]:
         data = sorted(self._samples)
         out: dict[str, float | int] = {"count": self.count, "window": len(data)}
@@ -65,10 +69,14 @@ class ServiceStats:
             self.errors[kind] += 1
 
     def move_done(self, latency: float, engine: float) -> None:
+        self.moves_done([latency], [engine])
+
+    def moves_done(self, latency: list[float], engine: list[float]) -> None:
+        """Moves resolved: each one's latency and time in the engine (one lock for a whole batch)."""
         with self._lock:
-            self.moves += 1
-            self.latency.add(latency)
-            self.engine_time.add(engine)
+            self.moves += len(engine)
+            self.latency.extend(latency)
+            self.engine_time.extend(engine)
 
     def bump(self, counter: str, key: str) -> None:
         with self._lock:

@@ -96,6 +96,34 @@ def test_shutdown_answers_every_queued_request() -> None:
         svc.kill()
 
 
+def test_a_request_run_in_the_callback_never_overtakes_a_queued_one() -> None:
+    # batches too long to run in Zenoh's callback are queued; the single move sent right after them
+    # would run in the callback if the engine were idle, but must wait for both (the mover's order)
+    with ServiceProcess() as svc:
+        session = raw_session(svc.endpoint)
+        try:
+            with Client(session=session) as c:
+                c.wait_ready()
+                mover = _register(c)
+                col = Collector()
+                seq = 0
+                for r in range(3):
+                    for k in range(2):
+                        col.send(session, 3 * r + k, "acphys/lb/A9B4/move", _batch(mover, 600))
+                    one = msgpack.packb({"v": 1, "move": {"id": mover, "offset": [0.001, 0.0, 0.0], "tag": r}})
+                    col.send(session, 3 * r + 2, "acphys/lb/A9B4/move", one)
+                    assert wait_until(lambda: len(col.finished) == 3 * r + 3, timeout=60.0)
+                    for k in range(2):
+                        [(ok, batch)] = col.replies[3 * r + k]
+                        seq += 600
+                        assert ok and batch["results"][-1]["seq"] == seq
+                    [(ok, single)] = col.replies[3 * r + 2]
+                    seq += 1
+                    assert ok and single["state"]["seq"] == seq and single["state"]["tag"] == r
+        finally:
+            session.close()
+
+
 def test_full_queue_pushes_back_and_answers_everyone() -> None:
     with ServiceProcess(extra=["--queue", "2"]) as svc:
         session = raw_session(svc.endpoint)

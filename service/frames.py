@@ -1,0 +1,46 @@
+"""Whole messages from States packed once.
+
+A move's State is packed once (msgpack) and the same bytes go into its
+publication (`{"v", "state"}`) and into the reply, single (`{"v", "state"}`)
+or batch (`{"v", "results": [...]}`): the messages are put together from
+bytes instead of packing the State again. The bytes are exactly what
+`msgpack.packb({"v": 1, ...})` gives for the same maps.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgpack
+
+from .wire import PROTOCOL_VERSION
+
+__all__ = ["pack", "state_message", "results_message", "array_header"]
+
+_V = msgpack.packb("v") + msgpack.packb(PROTOCOL_VERSION)
+_STATE_HEAD = b"\x82" + _V + msgpack.packb("state")
+_RESULTS_HEAD = b"\x82" + _V + msgpack.packb("results")
+
+
+def pack(content: dict[str, Any]) -> bytes:
+    """A message: `content` with `"v"` first."""
+    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+
+
+def state_message(packed_state: bytes) -> bytes:
+    """`{"v": 1, "state": State}` from the packed State."""
+    return _STATE_HEAD + packed_state
+
+
+def array_header(n: int) -> bytes:
+    """The msgpack header of an array of `n` items."""
+    if n < 16:
+        return bytes((0x90 | n,))
+    if n < 1 << 16:
+        return b"\xdc" + n.to_bytes(2, "big")
+    return b"\xdd" + n.to_bytes(4, "big")
+
+
+def results_message(packed_entries: list[bytes]) -> bytes:
+    """`{"v": 1, "results": [...]}` from the packed entries."""
+    return _RESULTS_HEAD + array_header(len(packed_entries)) + b"".join(packed_entries)
