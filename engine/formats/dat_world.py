@@ -411,5 +411,5 @@ def open_dat_world(
         raise
     world = World(settings=settings, loader=source)
     source.attach(world)
-    world.dat_source = source  # type: ignore[attr-defined]
+    world.dat_source = source
     return world

@@ -40,6 +40,8 @@ class World:
         self._next_mover_id = 1
         self._loader = loader
         self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
+        #: the DatLandblockSource of a World opened on dat files, else None
+        self.dat_source: Any = None
 
     @property
     def settings(self) -> EngineSettings:
@@ -83,6 +85,20 @@ class World:
 
     def loaded_landblocks(self) -> list[int]:
         return sorted(self.landblocks)
+
+    @classmethod
+    def from_scene_dict(cls, data: Any, settings: EngineSettings = RETAIL) -> World:
+        """A World from an acphys-scene/1 dict (engine.formats.scene)."""
+        from ..formats.scene import world_from_scene_dict
+
+        return world_from_scene_dict(data, settings=settings)
+
+    @classmethod
+    def open_dat_dir(cls, path: Any = None, settings: EngineSettings = RETAIL, cache_size: int = 64) -> World:
+        """A World on a client's dat directory, landblocks loaded on demand (engine.formats.dat_world)."""
+        from ..formats.dat_world import open_dat_world
+
+        return open_dat_world(path, settings=settings, cache_size=cache_size)
 
     def get_landcell(self, cell_id: int) -> Any:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
@@ -232,19 +248,3 @@ def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
         creature=creature,
         cyl_spheres=list(spec.cyl_spheres),
     )
-
-
-def _from_scene_dict(cls: type[World], data: Any, settings: EngineSettings = RETAIL) -> World:
-    from ..formats.scene import world_from_scene_dict
-
-    return world_from_scene_dict(data, settings=settings)
-
-
-def _open_dat_dir(cls: type[World], path: Any = None, settings: EngineSettings = RETAIL, cache_size: int = 64) -> World:
-    from ..formats.dat_world import open_dat_world
-
-    return open_dat_world(path, settings=settings, cache_size=cache_size)
-
-
-World.from_scene_dict = classmethod(_from_scene_dict)  # type: ignore[attr-defined]
-World.open_dat_dir = classmethod(_open_dat_dir)  # type: ignore[attr-defined]
