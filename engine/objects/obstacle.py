@@ -21,6 +21,7 @@ from ..geometry import ZERO, Frame, Position, Sphere, Vec3
 from ..geometry.landdefs import get_block_offset
 from ..transition.state import OI, InsertType, TransitionState
 from .cylsphere_collision import CylSphere
+from .gfx_obj import PhysicsPart
 from .sphere_collision import intersects_sphere
 
 if TYPE_CHECKING:
@@ -103,9 +104,12 @@ class ObstaclePart:
         bc = bound.center
         for i in range(path.num_sphere):
             ls = path.local_space_sphere[i]
-            d = bc - ls.center
+            lc = ls.center
+            dx = bc.x - lc.x
+            dy = bc.y - lc.y
+            dz = bc.z - lc.z
             radsum = bound.radius + ls.radius
-            if d.length_sq() - radsum * radsum < EPSILON:
+            if dx * dx + dy * dy + dz * dz - radsum * radsum < EPSILON:
                 if path.insert_type == InsertType.INITIAL_PLACEMENT:
                     return bsp.placement_insert(transition)
                 return bsp.find_collisions(transition, scale_z)
@@ -383,7 +387,9 @@ def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
         if obstacle.has_physics_bsp:
             positions = obstacle.part_positions()
             for i, part in enumerate(obstacle.parts):
-                if isinstance(part, ObstaclePart):
+                if isinstance(part, PhysicsPart):  # a scene object's part: a native call
+                    result = part.find_obj_collisions(transition)
+                elif isinstance(part, ObstaclePart):
                     result = part.find_obj_collisions_at(transition, positions[i])
                 else:
                     result = part.find_obj_collisions(transition)
