@@ -314,21 +314,23 @@ class BSPNode:
         plane, which every sphere straddles: with leaves, the best answer is
         PARTIALLY_INSIDE, as in the reference.)
         """
+        # Walked as a loop: a straddled plane turns a later ENTIRELY_INSIDE
+        # into PARTIALLY_INSIDE, and OUTSIDE anywhere down the chain wins.
         c = sphere.center
-        dist = self._nx * c.x + self._ny * c.y + self._nz * c.z + self._d
+        cx, cy, cz = c.x, c.y, c.z
         check_rad = sphere.radius + CELL_BSP_EPSILON
-        if dist <= -check_rad:
-            return BoundingType.OUTSIDE
-        pos = self.pos_node
-        if dist >= check_rad:
-            if pos is not None:
-                return pos.sphere_intersects_cell_bsp(sphere)
-            return BoundingType.ENTIRELY_INSIDE
-        if pos is not None:
-            if pos.sphere_intersects_cell_bsp(sphere) != BoundingType.OUTSIDE:
-                return BoundingType.PARTIALLY_INSIDE
-            return BoundingType.OUTSIDE
-        return BoundingType.PARTIALLY_INSIDE
+        straddled = False
+        node: BSPNode = self
+        while True:
+            dist = node._nx * cx + node._ny * cy + node._nz * cz + node._d
+            if dist <= -check_rad:
+                return BoundingType.OUTSIDE
+            if not dist >= check_rad:
+                straddled = True
+            pos = node.pos_node
+            if pos is None:
+                return BoundingType.PARTIALLY_INSIDE if straddled else BoundingType.ENTIRELY_INSIDE
+            node = pos
 
     def box_intersects_cell_bsp(self, box: BBox) -> bool:
         """False when some plane of the positive chain has the whole box

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..geometry import Position, Sphere
 from ..transition.state import OI, TransitionState
+from .env_cell import EnvCell
 
 if TYPE_CHECKING:
     from ..objects.gfx_obj import PhysicsPart
@@ -59,5 +60,7 @@ class BuildingObj:
         world = cell_array.world
         for portal in self.portals:
             other = world.get_landcell(block | portal.other_cell_id)
-            if other is not None:
+            if isinstance(other, EnvCell):  # the usual case, called natively
+                other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)
+            elif other is not None:
                 other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)

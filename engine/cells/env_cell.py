@@ -116,28 +116,40 @@ class EnvCell(ObjCell):
         check_outside = False
         frame = self.pos.frame
         polygons = self.cell_struct.polygons
+        count = min(num_sphere, len(spheres))
+        # the spheres' centres in this cell's frame, computed once (for the portals to
+        # the outside and to cells that are not loaded)
+        local_centers: list[Vec3] | None = None
         for portal in self.portals:
             plane = polygons[portal.polygon_id].plane
             if portal.other_cell_id == OUTSIDE_CELL:
-                for sphere in spheres[:num_sphere]:
-                    rad = sphere.radius + EPSILON
-                    dist = plane.distance(frame.global_to_local(sphere.center))
+                if local_centers is None:
+                    local_centers = [frame.global_to_local(spheres[i].center) for i in range(count)]
+                for i in range(count):
+                    rad = spheres[i].radius + EPSILON
+                    dist = plane.distance(local_centers[i])
                     if -rad < dist < rad:
                         check_outside = True
                         break
                 continue
-            other = self.get_visible(portal.other_cell_id)
+            other = self.visible_cells.get(portal.other_cell_id)
             if other is not None:
-                for sphere in spheres[:num_sphere]:
-                    local = Sphere(other.pos.frame.global_to_local(sphere.center), sphere.radius)
-                    if other.cell_struct.sphere_intersects_cell(local) != BoundingType.OUTSIDE:
+                other_frame = other.pos.frame
+                other_struct = other.cell_struct
+                for i in range(count):
+                    sphere = spheres[i]
+                    local = Sphere(other_frame.global_to_local(sphere.center), sphere.radius)
+                    if other_struct.sphere_intersects_cell(local) != BoundingType.OUTSIDE:
                         cell_array.add_cell(other.id, other)
                         break
             else:
-                for sphere in spheres[:num_sphere]:
-                    rad = sphere.radius + EPSILON
-                    dist = plane.distance(frame.global_to_local(sphere.center))
-                    if (dist > -rad and portal.portal_side) or (dist < rad and not portal.portal_side):
+                if local_centers is None:
+                    local_centers = [frame.global_to_local(spheres[i].center) for i in range(count)]
+                portal_side = portal.portal_side
+                for i in range(count):
+                    rad = spheres[i].radius + EPSILON
+                    dist = plane.distance(local_centers[i])
+                    if (dist > -rad and portal_side) or (dist < rad and not portal_side):
                         # a neighbour that is not loaded: the client records the id with no cell
                         cell_array.add_cell((self.id & 0xFFFF0000) | portal.other_cell_id, None)
                         break
@@ -152,7 +164,8 @@ class EnvCell(ObjCell):
         if portal_id == 0xFFFF:
             return
         frame = self.pos.frame
-        for sphere in spheres[:num_sphere]:
+        for i in range(min(num_sphere, len(spheres))):
+            sphere = spheres[i]
             local = Sphere(frame.global_to_local(sphere.center), sphere.radius)
             if self.cell_struct.sphere_intersects_cell(local) == BoundingType.OUTSIDE:
                 continue

@@ -9,6 +9,7 @@ from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
 from ..transition.state import InsertType, TransitionState
 
 if TYPE_CHECKING:
+    from ..objects.obstacle import Obstacle
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
@@ -32,7 +33,7 @@ class ObjCell:
         self.pos = pos
         self.water_type = WaterType.NOT_WATER
         self.landblock: Any = None
-        self.shadow_objects: list[Any] = []
+        self.shadow_objects: list[Obstacle] = []
         #: Optional hook: an entry restriction (housing barrier, PK zone) that
         #: may refuse a mover. None means anyone may enter.
         self.restriction: EntryRestriction = None

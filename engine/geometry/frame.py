@@ -10,12 +10,10 @@ orientation, which nearly every outdoor mover has.
 from __future__ import annotations
 
 from ..constants import EPSILON
-from .quaternion import IDENTITY, Quat
+from .quaternion import IDENTITY, Mat3, Quat
 from .vec3 import Vec3
 
 __all__ = ["Frame"]
-
-_Matrix = tuple[float, float, float, float, float, float, float, float, float]
 
 
 class Frame:
@@ -23,7 +21,7 @@ class Frame:
 
     origin: Vec3
     orientation: Quat
-    _m: _Matrix | None
+    _m: Mat3 | None
 
     def __init__(self, origin: Vec3, orientation: Quat = IDENTITY) -> None:
         self.origin = origin
@@ -44,10 +42,11 @@ class Frame:
         m = self._m
         if m is None:
             return v
+        x, y, z = v.x, v.y, v.z
         return Vec3(
-            m[0] * v.x + m[1] * v.y + m[2] * v.z,
-            m[3] * v.x + m[4] * v.y + m[5] * v.z,
-            m[6] * v.x + m[7] * v.y + m[8] * v.z,
+            m.m0 * x + m.m1 * y + m.m2 * z,
+            m.m3 * x + m.m4 * y + m.m5 * z,
+            m.m6 * x + m.m7 * y + m.m8 * z,
         )
 
     def global_to_local_vec(self, v: Vec3) -> Vec3:
@@ -55,17 +54,40 @@ class Frame:
         if m is None:
             return v
         # the transpose of a rotation is its inverse
+        x, y, z = v.x, v.y, v.z
         return Vec3(
-            m[0] * v.x + m[3] * v.y + m[6] * v.z,
-            m[1] * v.x + m[4] * v.y + m[7] * v.z,
-            m[2] * v.x + m[5] * v.y + m[8] * v.z,
+            m.m0 * x + m.m3 * y + m.m6 * z,
+            m.m1 * x + m.m4 * y + m.m7 * z,
+            m.m2 * x + m.m5 * y + m.m8 * z,
         )
 
     def local_to_global(self, p: Vec3) -> Vec3:
-        return self.origin + self.local_to_global_vec(p)
+        """origin + local_to_global_vec(p), without the intermediate vector."""
+        o = self.origin
+        m = self._m
+        if m is None:
+            return Vec3(o.x + p.x, o.y + p.y, o.z + p.z)
+        x, y, z = p.x, p.y, p.z
+        return Vec3(
+            o.x + (m.m0 * x + m.m1 * y + m.m2 * z),
+            o.y + (m.m3 * x + m.m4 * y + m.m5 * z),
+            o.z + (m.m6 * x + m.m7 * y + m.m8 * z),
+        )
 
     def global_to_local(self, p: Vec3) -> Vec3:
-        return self.global_to_local_vec(p - self.origin)
+        """global_to_local_vec(p - origin), without the intermediate vector."""
+        o = self.origin
+        x = p.x - o.x
+        y = p.y - o.y
+        z = p.z - o.z
+        m = self._m
+        if m is None:
+            return Vec3(x, y, z)
+        return Vec3(
+            m.m0 * x + m.m3 * y + m.m6 * z,
+            m.m1 * x + m.m4 * y + m.m7 * z,
+            m.m2 * x + m.m5 * y + m.m8 * z,
+        )
 
     def combine(self, child: Frame, scale: Vec3 | None = None) -> Frame:
         """The frame of `child` (given in self's space) in self's parent space."""

@@ -128,10 +128,39 @@ class Ray:
         return f"Ray({self.point!r}, {self.dir!r}, {self.length!r})"
 
 
-# One edge's cached data: (start x, y, z, edge x, y, z, in-plane normal x, y, z,
-# |in-plane normal|^2, |edge|^2). The edge runs from the previous vertex to the
-# current one; the first edge starts at the last vertex.
-_Edge = tuple[float, float, float, float, float, float, float, float, float, float, float]
+class PolyEdge:
+    """One edge's cached data, as native floats: the start vertex (lx, ly, lz),
+    the edge vector (ex, ey, ez), the in-plane edge normal k = n x e (kx, ky,
+    kz), |k|^2 (kk) and |e|^2 (ee). The edge runs from the previous vertex to
+    the current one; the first edge starts at the last vertex."""
+
+    __slots__ = ("lx", "ly", "lz", "ex", "ey", "ez", "kx", "ky", "kz", "kk", "ee")
+
+    lx: float
+    ly: float
+    lz: float
+    ex: float
+    ey: float
+    ez: float
+    kx: float
+    ky: float
+    kz: float
+    kk: float
+    ee: float
+
+    def __init__(self, lx: float, ly: float, lz: float, ex: float, ey: float, ez: float,
+                 kx: float, ky: float, kz: float, kk: float, ee: float) -> None:
+        self.lx = lx
+        self.ly = ly
+        self.lz = lz
+        self.ex = ex
+        self.ey = ey
+        self.ez = ez
+        self.kx = kx
+        self.ky = ky
+        self.kz = kz
+        self.kk = kk
+        self.ee = ee
 
 
 class Polygon:
@@ -173,9 +202,8 @@ class Polygon:
     _ny: float
     _nz: float
     _d: float
-    #: per edge: last vertex (x, y, z), edge vector (x, y, z), inward edge normal
-    #: k = n x e (x, y, z), |k|^2, |e|^2
-    _edges: tuple[tuple[float, float, float, float, float, float, float, float, float, float, float], ...]
+    #: per edge: last vertex, edge vector, inward edge normal k = n x e, |k|^2, |e|^2
+    _edges: tuple[PolyEdge, ...]
 
     def __init__(
         self,
@@ -213,7 +241,7 @@ class Polygon:
         self.plane = plane = Plane.from_points(verts)
         nx, ny, nz = plane.normal.x, plane.normal.y, plane.normal.z
         self._nx, self._ny, self._nz, self._d = nx, ny, nz, plane.d
-        edges: list[_Edge] = []
+        edges: list[PolyEdge] = []
         last = verts[n - 1]
         for v in verts:
             ex, ey, ez = v.x - last.x, v.y - last.y, v.z - last.z
@@ -222,7 +250,7 @@ class Polygon:
             ky = nz * ex - nx * ez
             kz = nx * ey - ny * ex
             edges.append(
-                (
+                PolyEdge(
                     last.x,
                     last.y,
                     last.z,
@@ -257,12 +285,29 @@ class Polygon:
         if hit is not None:
             hit.contact_point = Vec3(px, py, pz)
         edges = self._edges
-        for lx, ly, lz, _ex, _ey, _ez, kx, ky, kz, _kk, _ee in edges:
+        for edge in edges:
+            lx = edge.lx
+            ly = edge.ly
+            lz = edge.lz
+            kx = edge.kx
+            ky = edge.ky
+            kz = edge.kz
             if (px - lx) * kx + (py - ly) * ky + (pz - lz) * kz >= 0.0:
                 continue
             # The projected center is outside this edge: the sphere still
             # touches the polygon if it reaches an edge segment or a vertex.
-            for lx, ly, lz, ex, ey, ez, kx, ky, kz, kk, ee in edges:
+            for edge in edges:
+                lx = edge.lx
+                ly = edge.ly
+                lz = edge.lz
+                ex = edge.ex
+                ey = edge.ey
+                ez = edge.ez
+                kx = edge.kx
+                ky = edge.ky
+                kz = edge.kz
+                kk = edge.kk
+                ee = edge.ee
                 dx = px - lx
                 dy = py - ly
                 dz = pz - lz
@@ -313,7 +358,18 @@ class Polygon:
         py = c.y - ny * dp_pos
         pz = c.z - nz * dp_pos
         contact = Vec3(px, py, pz)
-        for lx, ly, lz, ex, ey, ez, kx, ky, kz, kk, ee in self._edges:
+        for edge in self._edges:
+            lx = edge.lx
+            ly = edge.ly
+            lz = edge.lz
+            ex = edge.ex
+            ey = edge.ey
+            ez = edge.ez
+            kx = edge.kx
+            ky = edge.ky
+            kz = edge.kz
+            kk = edge.kk
+            ee = edge.ee
             dx = px - lx
             dy = py - ly
             dz = pz - lz
@@ -405,7 +461,18 @@ class Polygon:
         radsum = sphere.radius * sphere.radius
         if small:
             radsum *= 0.25
-        for lx, ly, lz, ex, ey, ez, kx, ky, kz, kk, ee in self._edges:
+        for edge in self._edges:
+            lx = edge.lx
+            ly = edge.ly
+            lz = edge.lz
+            ex = edge.ex
+            ey = edge.ey
+            ez = edge.ez
+            kx = edge.kx
+            ky = edge.ky
+            kz = edge.kz
+            kk = edge.kk
+            ee = edge.ee
             dx = px - lx
             dy = py - ly
             dz = pz - lz
@@ -445,7 +512,14 @@ class Polygon:
         px = c.x - up.x * angle
         py = c.y - up.y * angle
         pz = c.z - up.z * angle
-        for lx, ly, lz, _ex, _ey, _ez, kx, ky, kz, kk, _ee in self._edges:
+        for edge in self._edges:
+            lx = edge.lx
+            ly = edge.ly
+            lz = edge.lz
+            kx = edge.kx
+            ky = edge.ky
+            kz = edge.kz
+            kk = edge.kk
             if (px - lx) * kx + (py - ly) * ky + (pz - lz) * kz < 0.0:
                 inv = 1.0 / math.sqrt(kk)
                 return Vec3(kx * inv, ky * inv, kz * inv)
@@ -500,7 +574,13 @@ class Polygon:
         """`point` (on the plane) is inside or on every edge
         (CPolygon::point_in_polygon)."""
         px, py, pz = point.x, point.y, point.z
-        for lx, ly, lz, _ex, _ey, _ez, kx, ky, kz, _kk, _ee in self._edges:
+        for edge in self._edges:
+            lx = edge.lx
+            ly = edge.ly
+            lz = edge.lz
+            kx = edge.kx
+            ky = edge.ky
+            kz = edge.kz
             if kx * (px - lx) + ky * (py - ly) + kz * (pz - lz) < 0.0:
                 return False
         return True

@@ -63,8 +63,35 @@ class Position:
         return get_block_offset(self.cell_id, other.cell_id) + other.frame.local_to_global(point)
 
     def local_to_local(self, other: Position, point: Vec3) -> Vec3:
-        """A point given in other's local frame, in self's local frame."""
-        return self.frame.global_to_local(self.local_to_global_from(other, point))
+        """A point given in other's local frame, in self's local frame
+        (global_to_local of local_to_global_from, the same operations in the
+        same order, on floats)."""
+        off = get_block_offset(self.cell_id, other.cell_id)
+        of = other.frame
+        oo = of.origin
+        om = of._m
+        px, py, pz = point.x, point.y, point.z
+        if om is None:
+            gx = off.x + (oo.x + px)
+            gy = off.y + (oo.y + py)
+            gz = off.z + (oo.z + pz)
+        else:
+            gx = off.x + (oo.x + (om.m0 * px + om.m1 * py + om.m2 * pz))
+            gy = off.y + (oo.y + (om.m3 * px + om.m4 * py + om.m5 * pz))
+            gz = off.z + (oo.z + (om.m6 * px + om.m7 * py + om.m8 * pz))
+        sf = self.frame
+        so = sf.origin
+        x = gx - so.x
+        y = gy - so.y
+        z = gz - so.z
+        m = sf._m
+        if m is None:
+            return Vec3(x, y, z)
+        return Vec3(
+            m.m0 * x + m.m3 * y + m.m6 * z,
+            m.m1 * x + m.m4 * y + m.m7 * z,
+            m.m2 * x + m.m5 * y + m.m8 * z,
+        )
 
     def local_to_global_vec(self, v: Vec3) -> Vec3:
         return self.frame.local_to_global_vec(v)

@@ -8,9 +8,33 @@ from typing import Final
 from ..constants import EPSILON
 from .vec3 import Vec3
 
-__all__ = ["Quat", "IDENTITY"]
+__all__ = ["Quat", "IDENTITY", "Mat3"]
 
 _Matrix = tuple[float, float, float, float, float, float, float, float, float]
+
+
+class Mat3:
+    """A row-major 3x3 rotation matrix kept as nine native floats (m0..m8,
+    the entries of `Quat.rotation_matrix` in order), so compiled transforms
+    read them without unboxing tuple items."""
+
+    __slots__ = ("m0", "m1", "m2", "m3", "m4", "m5", "m6", "m7", "m8")
+
+    m0: float
+    m1: float
+    m2: float
+    m3: float
+    m4: float
+    m5: float
+    m6: float
+    m7: float
+    m8: float
+
+    def __init__(self, m: _Matrix) -> None:
+        self.m0, self.m1, self.m2, self.m3, self.m4, self.m5, self.m6, self.m7, self.m8 = m
+
+    def as_tuple(self) -> _Matrix:
+        return (self.m0, self.m1, self.m2, self.m3, self.m4, self.m5, self.m6, self.m7, self.m8)
 
 
 class Quat:
@@ -22,7 +46,7 @@ class Quat:
     x: float
     y: float
     z: float
-    _m: _Matrix | None
+    _m: Mat3 | None
     _m_known: bool
 
     def __init__(self, w: float = 1.0, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> None:
@@ -33,10 +57,10 @@ class Quat:
         self._m = None
         self._m_known = False
 
-    def cached_matrix(self) -> _Matrix | None:
+    def cached_matrix(self) -> Mat3 | None:
         """The rotation matrix, computed once; None for the identity (no work to do)."""
         if not self._m_known:
-            self._m = None if self.is_identity() else self.rotation_matrix()
+            self._m = None if self.is_identity() else Mat3(self.rotation_matrix())
             self._m_known = True
         return self._m
 

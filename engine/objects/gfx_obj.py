@@ -47,10 +47,14 @@ class GfxObj:
         if bsp is None or sphere is None:
             return TransitionState.OK
         path = transition.sphere_path
+        sc = sphere.center
         for local in path.local_space_sphere:
-            offset = sphere.center - local.center
+            lc = local.center
+            ox = sc.x - lc.x
+            oy = sc.y - lc.y
+            oz = sc.z - lc.z
             radsum = sphere.radius + local.radius
-            if offset.length_sq() - radsum * radsum < EPSILON:
+            if ox * ox + oy * oy + oz * oz - radsum * radsum < EPSILON:
                 if path.insert_type == InsertType.INITIAL_PLACEMENT:
                     return bsp.placement_insert(transition)
                 return bsp.find_collisions(transition, scale_z)

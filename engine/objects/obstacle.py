@@ -21,6 +21,7 @@ from ..geometry import ZERO, Frame, Position, Sphere, Vec3
 from ..geometry.landdefs import get_block_offset
 from ..transition.state import OI, InsertType, TransitionState
 from .cylsphere_collision import CylSphere
+from .gfx_obj import PhysicsPart
 from .sphere_collision import intersects_sphere
 
 if TYPE_CHECKING:
@@ -103,9 +104,12 @@ class ObstaclePart:
         bc = bound.center
         for i in range(path.num_sphere):
             ls = path.local_space_sphere[i]
-            d = bc - ls.center
+            lc = ls.center
+            dx = bc.x - lc.x
+            dy = bc.y - lc.y
+            dz = bc.z - lc.z
             radsum = bound.radius + ls.radius
-            if d.length_sq() - radsum * radsum < EPSILON:
+            if dx * dx + dy * dy + dz * dz - radsum * radsum < EPSILON:
                 if path.insert_type == InsertType.INITIAL_PLACEMENT:
                     return bsp.placement_insert(transition)
                 return bsp.find_collisions(transition, scale_z)
@@ -152,9 +156,11 @@ class Obstacle:
         "is_impenetrable",
         "owner",
         "_has_physics_bsp",
-        "_part_cache_key",
+        "_part_cache_pos",
+        "_part_cache_scale",
         "_part_positions",
-        "_sphere_cache_key",
+        "_sphere_cache_pos",
+        "_sphere_cache_scale",
         "_placed_spheres",
     )
 
@@ -199,9 +205,11 @@ class Obstacle:
         self.is_impenetrable = is_impenetrable
         self.owner = owner
         self._has_physics_bsp = any(_part_has_bsp(p) for p in self.parts)
-        self._part_cache_key: Any = None
+        self._part_cache_pos: Position | None = None
+        self._part_cache_scale = 0.0
         self._part_positions: list[Any] = []
-        self._sphere_cache_key: Any = None
+        self._sphere_cache_pos: Position | None = None
+        self._sphere_cache_scale = 0.0
         self._placed_spheres: list[Sphere] = []
 
     def __repr__(self) -> str:
@@ -227,25 +235,26 @@ class Obstacle:
 
     def part_positions(self) -> list[Any]:
         """Each part's Position at the obstacle's current position."""
-        key = (self.position, self.scale)
-        if self._part_cache_key != key:
+        # kept while the same Position object and scale stand (Positions are immutable)
+        if self._part_cache_pos is not self.position or self._part_cache_scale != self.scale:
             self._part_positions = [
                 p.position(self.position, self.scale) if isinstance(p, ObstaclePart) else getattr(p, "pos", None)
                 for p in self.parts
             ]
-            self._part_cache_key = key
+            self._part_cache_pos = self.position
+            self._part_cache_scale = self.scale
         return self._part_positions
 
     def placed_spheres(self) -> list[Sphere]:
         """The spheres scaled and placed by `position`, in its landblock's
         frame (the part of Sphere.IntersectsSphere(Position, scale) that does
         not depend on the mover; kept until the obstacle moves)."""
-        key = (self.position, self.scale)
-        if self._sphere_cache_key != key:
+        if self._sphere_cache_pos is not self.position or self._sphere_cache_scale != self.scale:
             frame = self.position.frame
             scale = self.scale
             self._placed_spheres = [Sphere(frame.local_to_global(s.center * scale), s.radius * scale) for s in self.spheres]
-            self._sphere_cache_key = key
+            self._sphere_cache_pos = self.position
+            self._sphere_cache_scale = self.scale
         return self._placed_spheres
 
     def find_obj_collisions(self, transition: Transition) -> int:
@@ -308,7 +317,7 @@ def _part_has_bsp(part: Any) -> bool:
     return getattr(getattr(part, "gfx_obj", None), "physics_bsp", None) is not None
 
 
-def missile_ignore(oi: ObjectInfo, obstacle: Any) -> bool:
+def missile_ignore(oi: ObjectInfo, obstacle: Obstacle) -> bool:
     """Does the mover pass through this obstacle because one of them is a
     missile? (ObjectInfo.MissileIgnore, the reference's two-way form)
 
@@ -332,7 +341,7 @@ def missile_ignore(oi: ObjectInfo, obstacle: Any) -> bool:
     return False
 
 
-def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
+def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
     """Collide the path with one obstacle (PhysicsObj.FindObjCollisions).
 
     - ethereal + ignore-collisions obstacles, and creatures seen by a viewer
@@ -378,7 +387,9 @@ def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
         if obstacle.has_physics_bsp:
             positions = obstacle.part_positions()
             for i, part in enumerate(obstacle.parts):
-                if isinstance(part, ObstaclePart):
+                if isinstance(part, PhysicsPart):  # a scene object's part: a native call
+                    result = part.find_obj_collisions(transition)
+                elif isinstance(part, ObstaclePart):
                     result = part.find_obj_collisions_at(transition, positions[i])
                 else:
                     result = part.find_obj_collisions(transition)
@@ -405,7 +416,7 @@ def find_obj_collisions(obstacle: Any, transition: Transition) -> int:
     return _OK
 
 
-def _respond(obstacle: Any, transition: Transition, result: int, ethereal: bool, is_creature: bool) -> int:
+def _respond(obstacle: Obstacle, transition: Transition, result: int, ethereal: bool, is_creature: bool) -> int:
     """Record the collision (PhysicsObj.FindObjCollisions_Inner).
 
     Outside step-down: a static obstacle only marks an environment collision

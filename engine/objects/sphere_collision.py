@@ -97,34 +97,42 @@ def intersects_sphere(obstacle_sphere: Sphere, transition: Transition, is_creatu
     center = obstacle_sphere.center
     glob_sphere = path.global_sphere[0]
     gc = glob_sphere.center
-    disp = Vec3(gc.x - center.x, gc.y - center.y, gc.z - center.z)
-    two = path.num_sphere > 1
-    glob_sphere_1 = None
-    disp_1 = disp
-    if two:
-        glob_sphere_1 = path.global_sphere[1]
-        disp_1 = glob_sphere_1.center - center
-
+    # the foot sphere's offset from the obstacle (the reference's disp), made a
+    # vector only on the branches that pass it on
+    dx = gc.x - center.x
+    dy = gc.y - center.y
+    dz = gc.z - center.z
     radsum = glob_sphere.radius + obstacle_sphere.radius - EPSILON
     rs2 = radsum * radsum
-    hit0 = disp.x * disp.x + disp.y * disp.y + disp.z * disp.z <= rs2
+    hit0 = dx * dx + dy * dy + dz * dz <= rs2
+    # the head sphere's overlap (collides_with_sphere(head - center, radsum)), on floats
+    two = path.num_sphere > 1
+    glob_sphere_1 = None
+    hit1 = False
+    if two:
+        glob_sphere_1 = path.global_sphere[1]
+        hc = glob_sphere_1.center
+        hx = hc.x - center.x
+        hy = hc.y - center.y
+        hz = hc.z - center.z
+        hit1 = hx * hx + hy * hy + hz * hz <= rs2
 
     if path.obstruction_ethereal or path.insert_type == _PLACEMENT:
         if hit0:
             return _COLLIDED
-        if two and collides_with_sphere(disp_1, radsum):
+        if hit1:
             return _COLLIDED
         return _OK
 
     if path.step_down:
         if is_creature:
             return _OK
-        return step_sphere_down(center, obstacle_sphere.radius, transition, glob_sphere, disp, radsum)
+        return step_sphere_down(center, obstacle_sphere.radius, transition, glob_sphere, Vec3(dx, dy, dz), radsum)
 
     if path.check_walkable:
         if hit0:
             return _COLLIDED
-        if two and collides_with_sphere(disp_1, radsum):
+        if hit1:
             return _COLLIDED
         return _OK
 
@@ -132,8 +140,8 @@ def intersects_sphere(obstacle_sphere: Sphere, transition: Transition, is_creatu
         state = transition.object_info.state
         if state & _CONTACT_OR_WALKABLE:
             if hit0:
-                return step_sphere_up(center, transition, disp, radsum)
-            if two and collides_with_sphere(disp_1, radsum):
+                return step_sphere_up(center, transition, Vec3(dx, dy, dz), radsum)
+            if hit1:
                 return slide_sphere_toward(center, transition, glob_sphere_1, 1)  # type: ignore[arg-type]
             return _OK
         if state & OI.PATH_CLIPPED:
@@ -142,18 +150,19 @@ def intersects_sphere(obstacle_sphere: Sphere, transition: Transition, is_creatu
         else:
             if hit0:
                 return land_on_sphere(center, transition)
-            if two and collides_with_sphere(disp_1, radsum):
+            if hit1:
                 return collide_with_point(center, transition, glob_sphere_1, radsum, 1)  # type: ignore[arg-type]
         return _OK
 
     if is_creature:
         return _OK
     # (with one sphere the reference goes on to the solve even without overlap)
-    if not hit0 and two and not collides_with_sphere(disp_1, radsum):
+    if not hit0 and two and not hit1:
         return _OK
 
     # Where along the step (from the current centre back toward it) does the
     # foot sphere first touch the obstacle?
+    disp = Vec3(dx, dy, dz)
     block_offset = path.get_curr_pos_check_pos_block_offset()
     movement = path.global_curr_center[0].center - gc - block_offset
     radsum += EPSILON

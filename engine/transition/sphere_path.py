@@ -238,15 +238,22 @@ class SpherePath:
         assert curr is not None
         for i in range(self.num_sphere):
             local = self.local_sphere[i]
-            self.local_space_curr_center[i].center = pos.local_to_local(curr, local.center) * inv
+            curr_center = pos.local_to_local(curr, local.center)
+            check_center = pos.local_to_local(check, local.center)
+            if inv != 1.0:  # (x * 1.0 is x exactly: unscaled cells and parts skip the copies)
+                curr_center = curr_center * inv
+                check_center = check_center * inv
+            self.local_space_curr_center[i].center = curr_center
             ls = self.local_space_sphere[i]
             ls.radius = local.radius * inv
-            ls.center = pos.local_to_local(check, local.center) * inv
+            ls.center = check_center
         self.local_space_pos = pos
         z = pos.global_to_local_vec(UNIT_Z)
         self.local_space_z = z
         s0 = self.local_space_sphere[0]
-        self.local_space_low_point = s0.center - z * s0.radius
+        c = s0.center
+        r = s0.radius
+        self.local_space_low_point = Vec3(c.x - z.x * r, c.y - z.y * r, c.z - z.z * r)
 
     # -- walkable bookkeeping -----------------------------------------------
     def check_walkables(self) -> bool:
