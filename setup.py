@@ -17,8 +17,8 @@ from setuptools import setup
 # are not hot, and they use dynamic features mypyc does not compile).
 HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
-# The world's per-move part: the mover, its shadows, the cell lookup and the move itself.
-WORLD_HOT = ("mover", "transient", "landscape", "landblock", "shadows", "resolve")
+# The world's per-move part: the mover, its shadows and the move itself.
+WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve")
 
 
 def hot_modules() -> list[str]:

@@ -8,6 +8,7 @@ from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import get_block_offset
 from .cell_array import CellArray
 from .land_cell import add_all_outside_cells
+from .landscape import Landscape
 
 __all__ = ["find_cell_list"]
 
@@ -30,7 +31,12 @@ def find_cell_list(
     world = cell_array.world
     cell_array.reset_count()
     cell_id = position.cell_id
-    visible_cell = world.get_landcell(cell_id) if cell_id else None
+    if not cell_id:
+        visible_cell = None
+    elif isinstance(world, Landscape):
+        visible_cell = world.get_landcell(cell_id)  # natively, for the World's own
+    else:
+        visible_cell = world.get_landcell(cell_id)
 
     if (cell_id & 0xFFFF) >= 0x100:
         if path is not None:

@@ -11,6 +11,7 @@ from ..geometry.landdefs import adjust_to_outside, cell_in_range, get_block_offs
 from ..terrain.triangle import TerrainTriangle
 from ..terrain.water import WaterType
 from ..transition.state import OI, TransitionState
+from .landscape import Landscape
 from .obj_cell import ObjCell
 
 if TYPE_CHECKING:
@@ -109,10 +110,11 @@ class LandCell(ObjCell):
             self.building.find_building_transit_cells(position, num_sphere, spheres, cell_array, path)
 
 
-def _add_outside_cell(world: Any, cell_array: CellArray, x: int, y: int) -> None:
+def _add_outside_cell(world: Any, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
     if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
         cell_id = outdoor_cell_id_at_lcoord(x, y)
-        cell = world.get_landcell(cell_id)
+        # the World's own Landscape is called natively; anything else by name
+        cell = landscape.get_landcell(cell_id) if landscape is not None else world.get_landcell(cell_id)
         if cell is not None:
             cell_array.add_cell(cell_id, cell)
 
@@ -128,19 +130,19 @@ def add_all_outside_cells(
     """
     if cell_array.added_outside or cell_array.outside_searched:
         return
+    landscape = world if isinstance(world, Landscape) else None
     cell_id = position.cell_id
     if num_sphere == 0:
         cell_id, _ = adjust_to_outside(cell_id, position.frame.origin)
         if cell_id:
             x, y = _lcoord(cell_id)
-            _add_outside_cell(world, cell_array, x, y)
+            _add_outside_cell(world, landscape, cell_array, x, y)
         return
     if not cell_in_range(cell_id & 0xFFFF):
         return
     block_x = ((cell_id >> 24) & 0xFF) << 3
     block_y = ((cell_id >> 16) & 0xFF) << 3
-    floor = math.floor
-    settings = getattr(world, "settings", None)
+    settings = landscape.settings if landscape is not None else getattr(world, "settings", None)
     dedupe = settings is None or settings.skip_repeat_spheres
     # the same spheres add the same cells again later in this search
     cell_array.outside_searched = settings is None or settings.skip_repeat_outside
@@ -158,8 +160,8 @@ def add_all_outside_cells(
             cx = 0.0
         if -EPSILON < cy < EPSILON:
             cy = 0.0
-        fx = floor(cx / CELL_LENGTH)
-        fy = floor(cy / CELL_LENGTH)
+        fx = math.floor(cx / CELL_LENGTH)
+        fy = math.floor(cy / CELL_LENGTH)
         x = block_x + fx
         y = block_y + fy
         if x < 0 or y < 0 or x >= LAND_LENGTH or y >= LAND_LENGTH:
@@ -168,29 +170,29 @@ def add_all_outside_cells(
             px = cx - fx * CELL_LENGTH
             py = cy - fy * CELL_LENGTH
         else:  # re-homed into the neighbouring landblock first, as the client does
-            cx -= floor(cx / BLOCK_LENGTH) * BLOCK_LENGTH
-            cy -= floor(cy / BLOCK_LENGTH) * BLOCK_LENGTH
-            px = cx - floor(cx / CELL_LENGTH) * CELL_LENGTH
-            py = cy - floor(cy / CELL_LENGTH) * CELL_LENGTH
+            cx -= math.floor(cx / BLOCK_LENGTH) * BLOCK_LENGTH
+            cy -= math.floor(cy / BLOCK_LENGTH) * BLOCK_LENGTH
+            px = cx - math.floor(cx / CELL_LENGTH) * CELL_LENGTH
+            py = cy - math.floor(cy / CELL_LENGTH) * CELL_LENGTH
         min_rad = sphere.radius
         max_rad = CELL_LENGTH - min_rad
-        _add_outside_cell(world, cell_array, x, y)
+        _add_outside_cell(world, landscape, cell_array, x, y)
         if px > max_rad:
-            _add_outside_cell(world, cell_array, x + 1, y)
+            _add_outside_cell(world, landscape, cell_array, x + 1, y)
             if py > max_rad:
-                _add_outside_cell(world, cell_array, x + 1, y + 1)
+                _add_outside_cell(world, landscape, cell_array, x + 1, y + 1)
             if py < min_rad:
-                _add_outside_cell(world, cell_array, x + 1, y - 1)
+                _add_outside_cell(world, landscape, cell_array, x + 1, y - 1)
         if px < min_rad:
-            _add_outside_cell(world, cell_array, x - 1, y)
+            _add_outside_cell(world, landscape, cell_array, x - 1, y)
             if py > max_rad:
-                _add_outside_cell(world, cell_array, x - 1, y + 1)
+                _add_outside_cell(world, landscape, cell_array, x - 1, y + 1)
             if py < min_rad:
-                _add_outside_cell(world, cell_array, x - 1, y - 1)
+                _add_outside_cell(world, landscape, cell_array, x - 1, y - 1)
         if py > max_rad:
-            _add_outside_cell(world, cell_array, x, y + 1)
+            _add_outside_cell(world, landscape, cell_array, x, y + 1)
         if py < min_rad:
-            _add_outside_cell(world, cell_array, x, y - 1)
+            _add_outside_cell(world, landscape, cell_array, x, y - 1)
 
 
 def _lcoord(cell_id: int) -> tuple[int, int]:

@@ -14,7 +14,7 @@ from typing import Any
 from ..geometry.position import Position
 from ..geometry.vec3 import Vec3
 from ..transition.transition import Transition
-from .landscape import Landscape
+from ..cells.landscape import Landscape
 from .mover import Mover
 from .shadows import reshadow
 from .transient import TS, transient_names

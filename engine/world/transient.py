@@ -31,6 +31,12 @@ _NAMES: Final = (
 )
 
 
+_NAMES_BY_BITS: Final[dict[int, list[str]]] = {}
+
+
 def transient_names(bits: int) -> list[str]:
-    """The flag names the formats use, in the client's bit order."""
-    return [name for name, bit in _NAMES if bits & bit]
+    """The flag names the formats use, in the client's bit order (a new list)."""
+    names = _NAMES_BY_BITS.get(bits)
+    if names is None:
+        names = _NAMES_BY_BITS[bits] = [name for name, bit in _NAMES if bits & bit]
+    return list(names)

@@ -17,7 +17,7 @@ from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from .landblock import Landblock
-from .landscape import Landscape
+from ..cells.landscape import Landscape
 from . import shadows
 from .mover import Mover
 from .resolve import move_mover, move_result
