@@ -18,7 +18,7 @@ import msgpack
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec, MoveResult
 
-from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec
+from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec, pack_state
 from .engine_errors import to_protocol_error
 from .errors import ProtocolError
 from .ownership import Ownership
@@ -40,6 +40,10 @@ class BusPort(Protocol):
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
+        ...
+
+    def states_watched(self) -> bool:
+        """Whether anyone subscribes to a state key now (else publishing States can be skipped)."""
         ...
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
@@ -108,9 +112,12 @@ class ServiceCore:
             )
         raise ProtocolError(ErrorKind.UNKNOWN_MOVER, f"no mover {mover_id:X} here", path)
 
+    def _collide_ids(self, r: MoveResult) -> list[int]:
+        """The wire ids of the movers a result touched (the engine's ids translated)."""
+        return [self._by_engine[e] for e in r.collide_objects if e in self._by_engine] if r.collide_objects else []
+
     def _state(self, rec: MoverRecord, tag: int | str | None = None) -> dict[str, Any]:
-        ids = [self._by_engine[e] for e in rec.last.collide_objects if e in self._by_engine]
-        return encode_state(rec.id, rec.seq, rec.last, ids, tag)
+        return encode_state(rec.id, rec.seq, rec.last, self._collide_ids(rec.last), tag)
 
     def _add(self, mover_id: int, spec: MoverSpec, position: Position, plane: Plane | None, plane_cell: int | None,
              seq: int = 0, sliding_normal: Vec3 | None = None, water_contact: bool = False) -> MoverRecord:
@@ -196,8 +203,8 @@ class ServiceCore:
                 log.exception("engine failed on move of %X", rec.id)
             raise err from None
 
-    def _move(self, item: MoveItem) -> tuple[bytes, float]:
-        """Apply one move and publish its State: the State packed, and the engine's time."""
+    def _move(self, item: MoveItem, publish: bool) -> tuple[bytes, float]:
+        """Apply one move and, when `publish`, publish its State: the State packed, and the engine's time."""
         rec = self.movers.get(item.id)
         if rec is None:
             rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
@@ -206,11 +213,12 @@ class ServiceCore:
         engine = perf_counter() - t0
         prev, prev_seq = rec.last, rec.seq
         rec.last, rec.seq = result, rec.seq + 1
-        packed = self._packer.pack(self._state(rec, item.tag))
+        packed = pack_state(rec.id, rec.seq, result, self._collide_ids(result), item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
             self._hand_over(rec, prev, prev_seq, lb)
-        self.bus.publish_state(rec.id, packed)
+        if publish:
+            self.bus.publish_state(rec.id, packed)
         return packed, engine
 
     def _done(self, latency: list[float], engine: list[float]) -> None:
@@ -218,9 +226,9 @@ class ServiceCore:
         if monotonic() - self._cache_read_at > 1.0:
             self._refresh()
 
-    def move_one(self, item: MoveItem, received: float) -> bytes:
-        """Apply one move; its State packed (published too), or raises."""
-        packed, engine = self._move(item)
+    def move_one(self, item: MoveItem, received: float, publish: bool | None = None) -> bytes:
+        """Apply one move; its State packed (published too when anyone subscribes), or raises."""
+        packed, engine = self._move(item, self.bus.states_watched() if publish is None else publish)
         self._done([monotonic() - received], [engine])
         return packed
 
@@ -229,12 +237,14 @@ class ServiceCore:
         out: list[bytes | ItemError] = []
         latency: list[float] = []
         engine: list[float] = []
+        # asked once per request: a subscriber declared before the request was sent is seen here
+        publish = self.bus.states_watched()
         for item in batch.items:
             if isinstance(item, ItemError):
                 out.append(item)
                 continue
             try:
-                packed, t = self._move(item)
+                packed, t = self._move(item, publish)
             except ProtocolError as e:
                 out.append(ItemError(e, item.id, item.tag))
                 continue
@@ -246,6 +256,7 @@ class ServiceCore:
 
     def push(self, batch: MoveBatch, raw_items: list[Any], received: float) -> None:
         """Fire-and-forget: states are published; errors go to the object's error key."""
+        publish = self.bus.states_watched()
         for item, raw in zip(batch.items, raw_items):
             if isinstance(item, ItemError):
                 self.stats.error(item.error.kind)
@@ -257,7 +268,7 @@ class ServiceCore:
                 self.bus.forward_push(fwd, raw)
                 continue
             try:
-                self.move_one(item, received)
+                self.move_one(item, received, publish)
             except ProtocolError as e:
                 self.stats.error(e.kind)
                 self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire())

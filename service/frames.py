@@ -3,8 +3,8 @@
 A move's State is packed once (msgpack) and the same bytes go into its
 publication (`{"v", "state"}`) and into the reply, single (`{"v", "state"}`)
 or batch (`{"v", "results": [...]}`): the messages are put together from
-bytes instead of packing the State again. The bytes are exactly what
-`msgpack.packb({"v": 1, ...})` gives for the same maps.
+bytes instead of packing the State again. Given the State's bytes, the
+message's bytes are exactly what `msgpack.packb({"v": 1, ...})` gives.
 """
 
 from __future__ import annotations

@@ -58,6 +58,9 @@ class NodeOptions:
     queue_capacity: int = 1024  # requests waiting for the engine before `busy`
     handover_timeout: float = 2.0  # seconds to wait for a hand-over's answer
     publish_states: bool = True
+    #: publish a move's State only while some subscriber's key expression meets `P/obj/*/state` (Zenoh's
+    #: matching status, read once per request); False publishes every State whoever listens
+    skip_unwatched_states: bool = True
     #: run a request in the Zenoh callback when the engine is idle (see the module's docstring)
     inline: bool = True
     #: the largest batch run in a callback (~10 ms of the interpreted engine); larger ones are queued
@@ -90,6 +93,7 @@ class ServiceNode:
         self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
         self._inline = self.options.inline and self.options.ownership.everything
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
+        self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
 
     # -- lifecycle ------------------------------------------------------------
     def start(self) -> None:
@@ -101,6 +105,9 @@ class ServiceNode:
         self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
         self._thread.start()
         s = self.session
+        if self.options.skip_unwatched_states:
+            # kept until the queued requests are answered at shutdown (they ask it)
+            self._state_watch = s.declare_publisher(self.keys.state("*"))
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
@@ -128,6 +135,12 @@ class ServiceNode:
             self._thread.join(timeout)
         if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
             self._engine_lock.release()
+        watch, self._state_watch = self._state_watch, None
+        if watch is not None:
+            try:
+                watch.undeclare()
+            except Exception:  # already gone with the session
+                pass
         if self.session is not None:
             self.session.close()
             self.session = None
@@ -371,6 +384,18 @@ class ServiceNode:
     def _put(self, key: str, content: dict[str, Any]) -> None:
         if self.session is not None:
             self.session.put(key, pack(content))
+
+    def states_watched(self) -> bool:
+        if not self.options.publish_states or self.session is None:
+            return False
+        watch = self._state_watch
+        if watch is None:
+            return True
+        try:
+            # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
+            return bool(watch.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         if not self.options.publish_states or self.session is None:
