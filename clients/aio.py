@@ -43,6 +43,10 @@ class AsyncClient:
     async def move_many(self, moves: Sequence[Move], timeout: float | None = None) -> list[MoverState | AcphysError]:
         return await self._run(self.sync.move_many, moves, timeout)
 
+    async def move_many_maps(self, moves: Sequence[Move],
+                             timeout: float | None = None) -> list[dict[str, Any] | AcphysError]:
+        return await self._run(self.sync.move_many_maps, moves, timeout)
+
     async def remove(self, mover_id: int) -> None:
         await self._run(self.sync.remove, mover_id)
 

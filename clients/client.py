@@ -264,7 +264,26 @@ class Client:
 
         Returns one entry per move, in order: its State, or the error for that move alone.
         """
-        results: list[MoverState | AcphysError | None] = [None] * len(moves)
+        out: list[MoverState | AcphysError] = []
+        for entry in self._move_many(moves, timeout):
+            if isinstance(entry, AcphysError):
+                out.append(entry)
+                continue
+            r = item_result(entry)
+            out.append(self._learn(r) if isinstance(r, MoverState) else r)
+        return out
+
+    def move_many_maps(self, moves: Sequence[Move], timeout: float | None = None) -> list[dict[str, Any] | AcphysError]:
+        """`move_many` without building objects: each move's entry as the service sent it (a State map,
+        or `{"id", "tag"?, "error"}`: docs/protocol.md, Move reply), or an AcphysError when its request
+        failed. For callers that read a few fields, or pass the states on: decoding every State into a
+        MoverState costs the client more CPU than the service spends packing it. The entries are not
+        validated; the client only learns each mover's landblock from them (to route its next request)."""
+        return self._move_many(moves, timeout)
+
+    def _move_many(self, moves: Sequence[Move], timeout: float | None) -> list[dict[str, Any] | AcphysError]:
+        """Send the batch grouped by landblock, follow redirects; the raw entries in the moves' order."""
+        results: list[dict[str, Any] | AcphysError | None] = [None] * len(moves)
         pending = list(range(len(moves)))
         for attempt in range(_MAX_REDIRECTS + 1):
             groups: dict[int, list[int]] = {}
@@ -290,15 +309,25 @@ class Client:
                     for i in idx:
                         results[i] = err
                     continue
+                where = self._where
                 for i, entry in zip(idx, entries):
-                    r = item_result(entry)
-                    target = r.details.get("landblock") if isinstance(r, ServiceError) else None
-                    if isinstance(r, ServiceError) and r.kind in _REDIRECTS and isinstance(target, int) \
+                    if type(entry) is not dict:
+                        results[i] = ServiceError(ErrorKind.MALFORMED, f"unreadable entry in reply: {entry!r:.80}")
+                        continue
+                    err_map = entry.get("error")
+                    if err_map is None:
+                        mid, elb = entry.get("id"), entry.get("landblock")
+                        if type(mid) is int and type(elb) is int:
+                            where[mid] = elb
+                        results[i] = entry
+                        continue
+                    target = err_map.get("landblock") if isinstance(err_map, dict) else None
+                    if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
                             and attempt < _MAX_REDIRECTS:
-                        self._where[moves[i].id] = target
+                        where[moves[i].id] = target
                         retry.append(i)
                         continue
-                    results[i] = self._learn(r) if isinstance(r, MoverState) else r
+                    results[i] = entry
             if not retry:
                 break
             pending = sorted(retry)
