@@ -12,7 +12,9 @@
   `Client.move_many_maps` (the reply's msgpack decoded into maps; the
   client reads each entry's error/landblock fields, nothing more); and,
   since the service skips publishing States nobody subscribes to, again
-  with a subscriber process on every state key (it counts what arrives);
+  with a subscriber process on every state key and on `P/states` (it
+  counts what arrives), the batches sent with `"publish": "each"` (one
+  publication per move, the default) or `"batch"` (one per request);
 - the service's own handling of one move without the network (its query
   callback called with a stand-in query, in a child process), back to back
   and with idle gaps between moves as in a round trip: on this machine the
@@ -153,7 +155,8 @@ CLIENT_MODES = {
 }
 
 
-def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float, mode: str = "objects") -> None:
+def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float, mode: str = "objects",
+                publish: str = "each") -> None:
     """Register a mover, wait for `start_at` (time.time()), then move it back and
     forth for `seconds` in requests of `batch` moves; print a JSON report (with this
     process's CPU time per move over the timed loop)."""
@@ -173,10 +176,10 @@ def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds:
             else:
                 ms = [Move(mid, offset=(0.2 * (sign if k % 2 else -sign), 0.0, 0.0)) for k in range(batch)]
                 if mode == "maps":
-                    entries = c.move_many_maps(ms)
+                    entries = c.move_many_maps(ms, publish=publish)
                     errors += sum(1 for e in entries if not isinstance(e, dict) or "error" in e)
                 else:
-                    res = c.move_many(ms)
+                    res = c.move_many(ms, publish=publish)
                     errors += sum(1 for r in res if not hasattr(r, "seq"))
             sign = -sign
             moves += batch
@@ -189,9 +192,11 @@ def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds:
 
 
 def watcher_main(endpoint: str) -> None:
-    """Subscribe to every mover's state key and count the samples until SIGINT; print the count."""
+    """Subscribe to every mover's state key and to P/states, count the States that arrive until SIGINT
+    (a P/states message's from its array header); print the count."""
     import zenoh
 
+    from service.frames import states_message
     from service.wire import Keys
     from service.zconfig import make_config
 
@@ -203,22 +208,31 @@ def watcher_main(endpoint: str) -> None:
     def on_sample(_sample: Any) -> None:
         count[0] += 1
 
+    head = len(states_message([])) - 1  # {"v": 1, "states": [ ... up to the array header
+
+    def on_states(sample: Any) -> None:
+        data = sample.payload.to_bytes()
+        h = data[head]
+        count[0] += h & 0x0F if h & 0xF0 == 0x90 else int.from_bytes(data[head + 1:head + 3], "big")
+
     session = zenoh.open(make_config(connect=[endpoint]))
-    sub = session.declare_subscriber(Keys("acphys").state("*"), on_sample)
+    keys = Keys("acphys")
+    subs = [session.declare_subscriber(keys.state("*"), on_sample), session.declare_subscriber(keys.states, on_states)]
     print("watcher ready", flush=True)
     stop.wait()
-    sub.undeclare()
+    for sub in subs:
+        sub.undeclare()
     session.close()
     print(f"WATCHED {count[0]}", flush=True)
 
 
 def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float,
-               mode: str = "objects", watched: bool = False) -> dict[str, Any]:
+               mode: str = "objects", watched: bool = False, publish: str = "each") -> dict[str, Any]:
     watcher = Child([sys.executable, "-m", "benchmarks.bench_service", "watcher", endpoint], "watcher ready") \
         if watched else None
     start_at = time.time() + 2.5  # every worker has registered by then (and the watcher's subscription is known)
     procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_service", "worker", endpoint, str(i), str(batch),
-                               repr(start_at), repr(seconds), mode],
+                               repr(start_at), repr(seconds), mode, publish],
                               cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for i in range(processes)]
     time.sleep(max(0.0, start_at - time.time()))
@@ -249,24 +263,28 @@ def throughput(endpoint: str, service: Child, processes: int, batch: int, second
     moves = sum(r["moves"] for r in reports)
     wall = max(r["seconds"] for r in reports)
     row = {"processes": processes, "batch": batch, "client": mode if batch > 1 else "objects", "watched": watched,
+           "publish": publish if batch > 1 else "each",
            "moves": moves, "seconds": wall, "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
            "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None,
            "client_cpu_us_per_move": sum(r["cpu_seconds"] for r in reports) / moves * 1e6 if moves else None,
            "states_received": received}
-    log(f"service: {processes} proc x batch {batch:3d} ({row['client']}{', state subscriber' if watched else ''}): "
+    log(f"service: {processes} proc x batch {batch:3d} ({row['client']}, publish {row['publish']}"
+        f"{', state subscriber' if watched else ''}): "
         f"{row['moves_per_s']:9.0f} moves/s, service CPU {row['service_cpu_us_per_move']:.0f} µs/move, "
         f"client CPU {row['client_cpu_us_per_move']:.0f} µs/move"
         + (f", {received} states received" if watched else ""))
     return row
 
 
-#: the throughput runs: (client processes, moves per request, client mode, a state subscriber present)
+#: the throughput runs: (client processes, moves per request, client mode, a state subscriber present,
+#: the requests' `publish`)
 THROUGHPUT_RUNS = [
-    *((n, 1, "objects", False) for n in (1, 2, 4)),
-    *((n, 100, "objects", False) for n in (1, 2, 4)),
-    *((n, 100, "maps", False) for n in (1, 2, 4)),
-    (2, 100, "objects", True),
-    (2, 100, "maps", True),
+    *((n, 1, "objects", False, "each") for n in (1, 2, 4)),
+    *((n, 100, "objects", False, "each") for n in (1, 2, 4)),
+    *((n, 100, "maps", False, "each") for n in (1, 2, 4)),
+    (2, 100, "objects", True, "each"),
+    (2, 100, "maps", True, "each"),
+    (2, 100, "maps", True, "batch"),
 ]
 
 
@@ -425,8 +443,8 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
         lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100)
         lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
-        rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched)
-                for procs, batch, mode, watched in THROUGHPUT_RUNS]
+        rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched, publish)
+                for procs, batch, mode, watched, publish in THROUGHPUT_RUNS]
     finally:
         service.stop()
         if echo is not None:
@@ -441,7 +459,8 @@ if __name__ == "__main__":
     elif sys.argv[1] == "handling":
         handling_main(int(sys.argv[2]))
     elif sys.argv[1] == "worker":
-        worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]), sys.argv[7])
+        worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]), sys.argv[7],
+                    sys.argv[8])
     elif sys.argv[1] == "watcher":
         watcher_main(sys.argv[2])
     else:

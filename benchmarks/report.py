@@ -552,19 +552,23 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
 def _client_label(r: dict[str, Any]) -> str:
     mode = r.get("client", "objects")
     what = "replies decoded to MoverState objects" if mode == "objects" else "replies read as maps (lean client)"
-    return what + ("; a subscriber receiving every State" if r.get("watched") else "; no State subscriber")
+    if not r.get("watched"):
+        return what + "; no State subscriber"
+    return what + ("; a subscriber receiving every State, one publication per request (publish: batch)"
+                   if r.get("publish") == "batch" else "; a subscriber receiving every State, one publication per move")
 
 
 def _throughput_table(rows: list[dict[str, Any]]) -> list[str]:
-    out = ["| client processes | moves per request | client reads replies as | State subscriber | moves/s "
+    out = ["| client processes | moves per request | client reads replies as | State subscriber | publish | moves/s "
            "| service CPU µs per move | client CPU µs per move | errors |",
-           "|---:|---:|---|---|---:|---:|---:|---:|"]
+           "|---:|---:|---|---|---|---:|---:|---:|---:|"]
     for r in rows:
         sub = "no"
         if r.get("watched"):
             sub = f"yes ({r['states_received']:,} received)" if r.get("states_received") is not None else "yes"
         mode = r.get("client", "objects")
         out.append(f"| {r['processes']} | {r['batch']} | {'MoverState' if mode == 'objects' else 'maps'} | {sub} "
+                   f"| {r.get('publish', 'each')} "
                    f"| {r['moves_per_s']:,.0f} | {_f(r['service_cpu_us_per_move'], 0)} "
                    f"| {_f(r.get('client_cpu_us_per_move'), 0)} | {r['errors']} |")
     return out
@@ -578,7 +582,9 @@ _THROUGHPUT_TEXT = (
     "error entries and learns each mover's landblock, nothing more). The service publishes a move's State only "
     "while someone subscribes to a state key (docs/protocol.md, State publication): the rows without a State "
     "subscriber have nobody subscribed, so no State is published; the rows with one run a subscriber process on "
-    "every state key, which receives (and counts) every State.")
+    "every state key and on `P/states`, which receives (and counts) every State. `publish`: the requests' field, "
+    "`each` (the default: one publication per move on its mover's key) or `batch` (one message per request on "
+    "`P/states`).")
 
 
 def _handling(lat: dict[str, Any]) -> list[str]:

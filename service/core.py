@@ -46,6 +46,14 @@ class BusPort(Protocol):
         """Whether anyone subscribes to a state key now (else publishing States can be skipped)."""
         ...
 
+    def batch_watched(self) -> bool:
+        """Whether anyone subscribes to P/states now."""
+        ...
+
+    def publish_batch(self, packed_states: list[bytes]) -> None:
+        """Publish one request's States as one message on P/states."""
+        ...
+
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
 
     def forward_push(self, lb: int, item: dict[str, Any]) -> None: ...
@@ -226,10 +234,21 @@ class ServiceCore:
         if monotonic() - self._cache_read_at > 1.0:
             self._refresh()
 
-    def move_one(self, item: MoveItem, received: float, publish: bool | None = None) -> bytes:
-        """Apply one move; its State packed (published too when anyone subscribes), or raises."""
-        packed, engine = self._move(item, self.bus.states_watched() if publish is None else publish)
+    def _publishing(self, batch_mode: bool) -> tuple[bool, bool]:
+        """(publish each State on its mover's key, collect them for one P/states message), asked once per
+        request: a subscriber declared before the request was sent is seen here."""
+        if batch_mode:
+            return False, self.bus.batch_watched()
+        return self.bus.states_watched(), False
+
+    def move_one(self, item: MoveItem, received: float, publish: bool | None = None, batch_mode: bool = False) -> bytes:
+        """Apply one move; its State packed (published too when anyone subscribes), or raises. `publish`
+        given: whether to publish on the mover's key (the caller asked); else asked here."""
+        each, collect = (publish, False) if publish is not None else self._publishing(batch_mode)
+        packed, engine = self._move(item, each)
         self._done([monotonic() - received], [engine])
+        if collect:
+            self.bus.publish_batch([packed])
         return packed
 
     def moves(self, batch: MoveBatch, received: float) -> list[bytes | ItemError]:
@@ -237,14 +256,13 @@ class ServiceCore:
         out: list[bytes | ItemError] = []
         latency: list[float] = []
         engine: list[float] = []
-        # asked once per request: a subscriber declared before the request was sent is seen here
-        publish = self.bus.states_watched()
+        each, collect = self._publishing(batch.publish_batch)
         for item in batch.items:
             if isinstance(item, ItemError):
                 out.append(item)
                 continue
             try:
-                packed, t = self._move(item, publish)
+                packed, t = self._move(item, each)
             except ProtocolError as e:
                 out.append(ItemError(e, item.id, item.tag))
                 continue
@@ -252,11 +270,14 @@ class ServiceCore:
             latency.append(monotonic() - received)
             engine.append(t)
         self._done(latency, engine)
+        if collect and engine:
+            self.bus.publish_batch([r for r in out if isinstance(r, bytes)])
         return out
 
     def push(self, batch: MoveBatch, raw_items: list[Any], received: float) -> None:
         """Fire-and-forget: states are published; errors go to the object's error key."""
-        publish = self.bus.states_watched()
+        each, collect = self._publishing(batch.publish_batch)
+        collected: list[bytes] = []
         for item, raw in zip(batch.items, raw_items):
             if isinstance(item, ItemError):
                 self.stats.error(item.error.kind)
@@ -268,10 +289,15 @@ class ServiceCore:
                 self.bus.forward_push(fwd, raw)
                 continue
             try:
-                self.move_one(item, received, publish)
+                packed = self.move_one(item, received, each)
             except ProtocolError as e:
                 self.stats.error(e.kind)
                 self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire())
+                continue
+            if collect:
+                collected.append(packed)
+        if collected:
+            self.bus.publish_batch(collected)
 
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:

@@ -28,10 +28,11 @@ import zenoh
 
 from .core import ServiceCore
 from .errors import ProtocolError
-from .frames import pack, results_message, state_message
+from .frames import pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
 from .ownership import Ownership
 from .requests import (
+    PUBLISH_MODES,
     ItemError,
     decode_envelope,
     parse_handover,
@@ -94,6 +95,7 @@ class ServiceNode:
         self._inline = self.options.inline and self.options.ownership.everything
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
         self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
+        self._batch_pub: Any = None  # the publisher on P/states
 
     # -- lifecycle ------------------------------------------------------------
     def start(self) -> None:
@@ -108,6 +110,7 @@ class ServiceNode:
         if self.options.skip_unwatched_states:
             # kept until the queued requests are answered at shutdown (they ask it)
             self._state_watch = s.declare_publisher(self.keys.state("*"))
+        self._batch_pub = s.declare_publisher(self.keys.states)
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
@@ -135,12 +138,13 @@ class ServiceNode:
             self._thread.join(timeout)
         if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
             self._engine_lock.release()
-        watch, self._state_watch = self._state_watch, None
-        if watch is not None:
-            try:
-                watch.undeclare()
-            except Exception:  # already gone with the session
-                pass
+        for pub in (self._state_watch, self._batch_pub):
+            if pub is not None:
+                try:
+                    pub.undeclare()
+                except Exception:  # already gone with the session
+                    pass
+        self._state_watch = self._batch_pub = None
         if self.session is not None:
             self.session.close()
             self.session = None
@@ -279,7 +283,7 @@ class ServiceNode:
             if batch.single:
                 item = batch.items[0]
                 assert not isinstance(item, ItemError)
-                return lambda: state_message(core.move_one(item, received))
+                return lambda: state_message(core.move_one(item, received, batch_mode=batch.publish_batch))
 
             def run_batch() -> bytes:
                 results = core.moves(batch, received)
@@ -350,6 +354,7 @@ class ServiceNode:
             "instance": self.instance,
             "status": "draining" if self._draining else "ok",
             "protocol": PROTOCOL_VERSION,
+            "publish": list(PUBLISH_MODES),
             "uptime_s": time.monotonic() - self.stats.started,
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
@@ -396,6 +401,22 @@ class ServiceNode:
             return bool(watch.matching_status.matching)
         except Exception:  # the publisher is gone (shutting down): publish as without it
             return True
+
+    def batch_watched(self) -> bool:
+        pub = self._batch_pub
+        if not self.options.publish_states or self.session is None or pub is None:
+            return False
+        if not self.options.skip_unwatched_states:
+            return True
+        try:
+            return bool(pub.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def publish_batch(self, packed_states: list[bytes]) -> None:
+        pub = self._batch_pub
+        if pub is not None:
+            pub.put(states_message(packed_states))
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         if not self.options.publish_states or self.session is None:

@@ -159,6 +159,34 @@ def test_states_are_published_in_order(client: Client) -> None:
     client.remove(st.id)
 
 
+def test_batch_publication_through_the_client(client: Client) -> None:
+    cell, x, y = global_to_cell(110.0, 70.0)
+    st = client.register(human(), Position.at(cell, Vec3(x, y, 60.0)))
+    got: list[list[MoverState]] = []
+    lock = threading.Lock()
+
+    def on_batch(states: list[MoverState]) -> None:
+        with lock:
+            got.append(states)
+
+    with client.subscribe_batches(on_batch):
+        deadline_ok = False
+        for _ in range(50):  # until the subscription is live
+            client.move_many([Move(st.id, offset=(0.0, 0.0, 0.0))], publish="batch")
+            if wait_until(lambda: bool(got), timeout=0.2):
+                deadline_ok = True
+                break
+        assert deadline_ok
+        with lock:
+            got.clear()
+        results = client.move_many([Move(st.id, offset=(0.1, 0.0, 0.0), tag=k) for k in range(5)], publish="batch")
+        assert wait_until(lambda: bool(got), timeout=5.0)
+    assert len(got) == 1
+    assert [(s.seq, s.tag) for s in got[0]] == [(r.seq, r.tag) for r in results if isinstance(r, MoverState)]
+    assert [s.tag for s in got[0]] == list(range(5))
+    client.remove(st.id)
+
+
 def test_mover_lifecycle(client: Client) -> None:
     cell, x, y = global_to_cell(120.0, 120.0)
     pos = Position.at(cell, Vec3(x, y, 60.0))
