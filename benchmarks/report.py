@@ -340,11 +340,25 @@ def _limits(results: dict[str, Any]) -> list[str]:
                 ctxt = (f" With the compiled engine the service spends {cc:.0f} µs of CPU per move (the engine "
                         f"itself {_f(ceng, 0)} µs of it), a ceiling of ~{1e6 / cc:,.0f} moves/s; everything in the "
                         "service but the engine is now the larger part of a move's cost.")
+            both = ""
+            rows_all = list(svc["throughput"]) + list(comp.get("throughput", []))
+            top = max((r for r in rows_all if r["batch"] > 1 and r.get("client_cpu_us_per_move")),
+                      key=lambda r: r["moves_per_s"], default=None)
+            if top:
+                total = top["service_cpu_us_per_move"] + top["client_cpu_us_per_move"]
+                cpus = (svc.get("meta", {}).get("machine", {}) or {}).get("cpus") or 2
+                both = (f" In the fastest batched run ({top['moves_per_s']:,.0f} moves/s, {_client_label(top)}) a move "
+                        f"cost {top['service_cpu_us_per_move']:.0f} µs of service CPU and "
+                        f"{top['client_cpu_us_per_move']:.0f} µs of client CPU, {total:.0f} µs in all: on {cpus} CPUs "
+                        f"that is at most ~{cpus * 1e6 / total:,.0f} moves/s with the machine to ourselves, and it "
+                        "is shared with other work (see the load average above). Several instances owning "
+                        "different landblocks (`--own`) would add service cores on a bigger machine; on this one "
+                        "they would compete for the same CPUs as the clients, so they are not measured here.")
             out.append(f"- Service throughput: one service process spends {cpu:.0f} µs of CPU per move in batches "
                        f"of {best['batch']}, so it cannot serve more than ~{1e6 / cpu:,.0f} moves/s however many "
                        "clients send (the engine runs on one thread; Python's GIL serialises the rest); 50,000 "
                        "moves/s needs at most 20 µs per move, decoding and encoding included, or several "
-                       "instances owning different landblocks." + ctxt)
+                       "instances owning different landblocks." + ctxt + both)
     err = results.get("error")
     if err and err["settings"]:
         base = err["settings"][0]["name"]
