@@ -56,7 +56,9 @@ class BusPort(Protocol):
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
 
-    def forward_push(self, lb: int, item: dict[str, Any]) -> None: ...
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
+        """Put a fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
+        ...
 
     def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
         """Send a mover to `lb`'s owner; its reply map, or ProtocolError."""
@@ -286,7 +288,7 @@ class ServiceCore:
             fwd = self._forwarded.get(item.id)
             if item.id not in self.movers and fwd is not None:
                 # keep the mover's order: everything sent here after the hand-over follows it
-                self.bus.forward_push(fwd, raw)
+                self.bus.forward_push(fwd, raw, batch.publish_batch)
                 continue
             try:
                 packed = self.move_one(item, received, each)

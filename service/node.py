@@ -432,8 +432,8 @@ class ServiceNode:
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
         self._put(key, error)
 
-    def forward_push(self, lb: int, item: dict[str, Any]) -> None:
-        self._put(self.keys.push(lb), {"move": item})
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
+        self._put(self.keys.push(lb), {"move": item, "publish": "batch"} if publish_batch else {"move": item})
 
     def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
         """Ask `lb`'s owner to take a mover; serve arriving hand-overs while waiting."""
