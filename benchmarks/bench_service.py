@@ -6,7 +6,15 @@
   payload of the same size the same way (peer mode, loopback TCP), measured
   in the same run, interleaved block by block with the service round trips;
 - throughput with 1, 2 and 4 client processes (single moves and batches of
-  100), and the service process's CPU time per move (from /proc);
+  100), and the service process's CPU time per move (from /proc), each
+  client's own CPU time per move; batches both with `Client.move_many`
+  (every reply entry decoded into a MoverState) and with the lean
+  `Client.move_many_maps` (the reply's msgpack decoded into maps; the
+  client reads each entry's error/landblock fields, nothing more); and,
+  since the service skips publishing States nobody subscribes to, again
+  with a subscriber process on every state key and on `P/states` (it
+  counts what arrives), the batches sent with `"publish": "each"` (one
+  publication per move, the default) or `"batch"` (one per request);
 - the service's own handling of one move without the network (its query
   callback called with a stand-in query, in a child process), back to back
   and with idle gaps between moves as in a round trip: on this machine the
@@ -141,15 +149,24 @@ def _walker() -> Any:
 
 
 # -- throughput workers (own processes) -------------------------------------------------------------
-def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float) -> None:
+CLIENT_MODES = {
+    "objects": "Client.move_many: every entry decoded into a MoverState",
+    "maps": "Client.move_many_maps: entries as decoded msgpack maps; errors counted, landblocks learned",
+}
+
+
+def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float, mode: str = "objects",
+                publish: str = "each") -> None:
     """Register a mover, wait for `start_at` (time.time()), then move it back and
-    forth for `seconds` in requests of `batch` moves; print a JSON report."""
+    forth for `seconds` in requests of `batch` moves; print a JSON report (with this
+    process's CPU time per move over the timed loop)."""
     from clients import Client, Move
 
     with Client([endpoint], timeout=30.0) as c:
         mid = c.register(_walker(), start_position(index + 10)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         time.sleep(max(0.0, start_at - time.time()))
+        cpu0 = time.process_time()
         end = time.monotonic() + seconds
         moves = requests = errors = 0
         sign = 1.0
@@ -157,46 +174,118 @@ def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds:
             if batch == 1:
                 c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
             else:
-                res = c.move_many([Move(mid, offset=(0.2 * (sign if k % 2 else -sign), 0.0, 0.0)) for k in range(batch)])
-                errors += sum(1 for r in res if not hasattr(r, "seq"))
+                ms = [Move(mid, offset=(0.2 * (sign if k % 2 else -sign), 0.0, 0.0)) for k in range(batch)]
+                if mode == "maps":
+                    entries = c.move_many_maps(ms, publish=publish)
+                    errors += sum(1 for e in entries if not isinstance(e, dict) or "error" in e)
+                else:
+                    res = c.move_many(ms, publish=publish)
+                    errors += sum(1 for r in res if not hasattr(r, "seq"))
             sign = -sign
             moves += batch
             requests += 1
         elapsed = seconds + (time.monotonic() - end)
+        cpu = time.process_time() - cpu0
         c.remove(mid)
     print("RESULT " + json.dumps({"index": index, "moves": moves, "requests": requests, "errors": errors,
-                                   "seconds": elapsed}), flush=True)
+                                   "seconds": elapsed, "cpu_seconds": cpu}), flush=True)
 
 
-def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float) -> dict[str, Any]:
-    start_at = time.time() + 2.5  # every worker has registered by then
+def watcher_main(endpoint: str) -> None:
+    """Subscribe to every mover's state key and to P/states, count the States that arrive until SIGINT
+    (a P/states message's from its array header); print the count."""
+    import zenoh
+
+    from service.frames import states_message
+    from service.wire import Keys
+    from service.zconfig import make_config
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    count = [0]
+
+    def on_sample(_sample: Any) -> None:
+        count[0] += 1
+
+    head = len(states_message([])) - 1  # {"v": 1, "states": [ ... up to the array header
+
+    def on_states(sample: Any) -> None:
+        data = sample.payload.to_bytes()
+        h = data[head]
+        count[0] += h & 0x0F if h & 0xF0 == 0x90 else int.from_bytes(data[head + 1:head + 3], "big")
+
+    session = zenoh.open(make_config(connect=[endpoint]))
+    keys = Keys("acphys")
+    subs = [session.declare_subscriber(keys.state("*"), on_sample), session.declare_subscriber(keys.states, on_states)]
+    print("watcher ready", flush=True)
+    stop.wait()
+    for sub in subs:
+        sub.undeclare()
+    session.close()
+    print(f"WATCHED {count[0]}", flush=True)
+
+
+def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float,
+               mode: str = "objects", watched: bool = False, publish: str = "each") -> dict[str, Any]:
+    watcher = Child([sys.executable, "-m", "benchmarks.bench_service", "watcher", endpoint], "watcher ready") \
+        if watched else None
+    start_at = time.time() + 2.5  # every worker has registered by then (and the watcher's subscription is known)
     procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_service", "worker", endpoint, str(i), str(batch),
-                               repr(start_at), repr(seconds)],
+                               repr(start_at), repr(seconds), mode, publish],
                               cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for i in range(processes)]
     time.sleep(max(0.0, start_at - time.time()))
     cpu0 = service.cpu_seconds()
     reports = []
-    for p in procs:
-        try:
-            out, err = p.communicate(timeout=seconds + 60.0)
-        except subprocess.TimeoutExpired:
-            for q in procs:
-                q.kill()
-            raise
-        lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
-        if p.returncode != 0 or not lines:
-            raise RuntimeError(f"throughput worker failed ({p.returncode}):\n{err[-2000:]}")
-        reports.append(json.loads(lines[-1][7:]))
-    cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
+    try:
+        for p in procs:
+            try:
+                out, err = p.communicate(timeout=seconds + 60.0)
+            except subprocess.TimeoutExpired:
+                for q in procs:
+                    q.kill()
+                raise
+            lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
+            if p.returncode != 0 or not lines:
+                raise RuntimeError(f"throughput worker failed ({p.returncode}):\n{err[-2000:]}")
+            reports.append(json.loads(lines[-1][7:]))
+        cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
+    finally:
+        received = None
+        if watcher is not None:
+            watcher.stop()
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline and not any(ln.startswith("WATCHED ") for ln in watcher.output):
+                time.sleep(0.05)
+            got = [int(ln.split()[1]) for ln in watcher.output if ln.startswith("WATCHED ")]
+            received = got[-1] if got else None
     moves = sum(r["moves"] for r in reports)
     wall = max(r["seconds"] for r in reports)
-    row = {"processes": processes, "batch": batch, "moves": moves, "seconds": wall,
-           "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
-           "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None}
-    log(f"service: {processes} proc x batch {batch:3d}: {row['moves_per_s']:9.0f} moves/s, "
-        f"service CPU {row['service_cpu_us_per_move']:.0f} µs/move")
+    row = {"processes": processes, "batch": batch, "client": mode if batch > 1 else "objects", "watched": watched,
+           "publish": publish if batch > 1 else "each",
+           "moves": moves, "seconds": wall, "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
+           "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None,
+           "client_cpu_us_per_move": sum(r["cpu_seconds"] for r in reports) / moves * 1e6 if moves else None,
+           "states_received": received}
+    log(f"service: {processes} proc x batch {batch:3d} ({row['client']}, publish {row['publish']}"
+        f"{', state subscriber' if watched else ''}): "
+        f"{row['moves_per_s']:9.0f} moves/s, service CPU {row['service_cpu_us_per_move']:.0f} µs/move, "
+        f"client CPU {row['client_cpu_us_per_move']:.0f} µs/move"
+        + (f", {received} states received" if watched else ""))
     return row
+
+
+#: the throughput runs: (client processes, moves per request, client mode, a state subscriber present,
+#: the requests' `publish`)
+THROUGHPUT_RUNS = [
+    *((n, 1, "objects", False, "each") for n in (1, 2, 4)),
+    *((n, 100, "objects", False, "each") for n in (1, 2, 4)),
+    *((n, 100, "maps", False, "each") for n in (1, 2, 4)),
+    (2, 100, "objects", True, "each"),
+    (2, 100, "maps", True, "each"),
+    (2, 100, "maps", True, "batch"),
+]
 
 
 # -- the service's own handling, without the network ---------------------------------------------------
@@ -354,10 +443,8 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
         lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100)
         lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
-        rows = []
-        for batch in (1, 100):
-            for procs in (1, 2, 4):
-                rows.append(throughput(endpoint, service, procs, batch, seconds))
+        rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched, publish)
+                for procs, batch, mode, watched, publish in THROUGHPUT_RUNS]
     finally:
         service.stop()
         if echo is not None:
@@ -372,6 +459,9 @@ if __name__ == "__main__":
     elif sys.argv[1] == "handling":
         handling_main(int(sys.argv[2]))
     elif sys.argv[1] == "worker":
-        worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]))
+        worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]), sys.argv[7],
+                    sys.argv[8])
+    elif sys.argv[1] == "watcher":
+        watcher_main(sys.argv[2])
     else:
         raise SystemExit(f"unknown role {sys.argv[1]!r}")

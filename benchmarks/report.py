@@ -161,10 +161,12 @@ def plot_service(svc: dict[str, Any]) -> str | None:
     a1.set_ylabel("round trip, µs")
     a1.set_title("round trip over loopback")
     a1.legend()
-    thr = svc["throughput"]
-    for batch, off in ((1, -0.2), (100, 0.2)):
-        rs = [r for r in thr if r["batch"] == batch]
-        a2.bar([i + off for i in range(len(rs))], [r["moves_per_s"] for r in rs], 0.4, label=f"{batch} move(s) per request")
+    thr = [r for r in svc["throughput"] if not r.get("watched")]
+    groups = [(1, "objects", "1 move per request"), (100, "objects", "batches of 100, replies decoded to objects"),
+              (100, "maps", "batches of 100, replies read as maps")]
+    for k, (batch, mode, label) in enumerate(groups):
+        rs = [r for r in thr if r["batch"] == batch and r.get("client", "objects") == mode]
+        a2.bar([i + (k - 1) * 0.27 for i in range(len(rs))], [r["moves_per_s"] for r in rs], 0.27, label=label)
     procs = [r["processes"] for r in thr if r["batch"] == 1]
     a2.set_xticks(list(range(len(procs))), [f"{p} client process(es)" for p in procs])
     a2.axhline(50000, color="red", linestyle="dashed", label="target: 50,000 moves/s batched")
@@ -254,7 +256,7 @@ def _summary(results: dict[str, Any]) -> list[str]:
         best = max((r for r in rows_all if r["batch"] > 1), key=lambda r: r["moves_per_s"], default=None)
         if best:
             out.append(f"| batched throughput ≥ 50,000 moves/s | {best['moves_per_s']:,.0f} moves/s "
-                       f"({best['processes']} process(es), batches of {best['batch']}"
+                       f"({best['processes']} process(es), batches of {best['batch']}, {_client_label(best)}"
                        f"{', compiled engine' if cl and best in comp.get('throughput', []) else ''}) "
                        f"| {_verdict(50000.0, best['moves_per_s'])} |")
     elif svc:
@@ -314,7 +316,7 @@ def _limits(results: dict[str, Any]) -> list[str]:
         best = max((r for r in svc["throughput"] if r["batch"] > 1), key=lambda r: r["moves_per_s"], default=None)
         txt = (f"- Service round trip: {lat['move']['median']:.0f} µs = the bare echo ({lat['echo']['median']:.0f} µs) "
                f"+ the engine ({_f(eng_us, 0)} µs, the service's own median) + {over:.0f} µs of client library and "
-               "service work (msgpack and the State map on both sides, the State's publication, the reply; the "
+               "service work (msgpack and the State on both sides, the reply; no State is published, nobody subscribes; the "
                "move runs in the query's callback when the engine is idle, with no hand-off to another thread). "
                f"Meeting 1.2x the echo leaves {0.2 * lat['echo']['median']:.0f} µs for all of it, the engine included.")
         hd = lat.get("handling_us") or {}
@@ -338,11 +340,25 @@ def _limits(results: dict[str, Any]) -> list[str]:
                 ctxt = (f" With the compiled engine the service spends {cc:.0f} µs of CPU per move (the engine "
                         f"itself {_f(ceng, 0)} µs of it), a ceiling of ~{1e6 / cc:,.0f} moves/s; everything in the "
                         "service but the engine is now the larger part of a move's cost.")
+            both = ""
+            rows_all = list(svc["throughput"]) + list(comp.get("throughput", []))
+            top = max((r for r in rows_all if r["batch"] > 1 and r.get("client_cpu_us_per_move")),
+                      key=lambda r: r["moves_per_s"], default=None)
+            if top:
+                total = top["service_cpu_us_per_move"] + top["client_cpu_us_per_move"]
+                cpus = (svc.get("meta", {}).get("machine", {}) or {}).get("cpus") or 2
+                both = (f" In the fastest batched run ({top['moves_per_s']:,.0f} moves/s, {_client_label(top)}) a move "
+                        f"cost {top['service_cpu_us_per_move']:.0f} µs of service CPU and "
+                        f"{top['client_cpu_us_per_move']:.0f} µs of client CPU, {total:.0f} µs in all: on {cpus} CPUs "
+                        f"that is at most ~{cpus * 1e6 / total:,.0f} moves/s with the machine to ourselves, and it "
+                        "is shared with other work (see the load average above). Several instances owning "
+                        "different landblocks (`--own`) would add service cores on a bigger machine; on this one "
+                        "they would compete for the same CPUs as the clients, so they are not measured here.")
             out.append(f"- Service throughput: one service process spends {cpu:.0f} µs of CPU per move in batches "
                        f"of {best['batch']}, so it cannot serve more than ~{1e6 / cpu:,.0f} moves/s however many "
                        "clients send (the engine runs on one thread; Python's GIL serialises the rest); 50,000 "
                        "moves/s needs at most 20 µs per move, decoding and encoding included, or several "
-                       "instances owning different landblocks." + ctxt)
+                       "instances owning different landblocks." + ctxt + both)
     err = results.get("error")
     if err and err["settings"]:
         base = err["settings"][0]["name"]
@@ -547,6 +563,44 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
     return out + [""]
 
 
+def _client_label(r: dict[str, Any]) -> str:
+    mode = r.get("client", "objects")
+    what = "replies decoded to MoverState objects" if mode == "objects" else "replies read as maps (lean client)"
+    if not r.get("watched"):
+        return what + "; no State subscriber"
+    return what + ("; a subscriber receiving every State, one publication per request (publish: batch)"
+                   if r.get("publish") == "batch" else "; a subscriber receiving every State, one publication per move")
+
+
+def _throughput_table(rows: list[dict[str, Any]]) -> list[str]:
+    out = ["| client processes | moves per request | client reads replies as | State subscriber | publish | moves/s "
+           "| service CPU µs per move | client CPU µs per move | errors |",
+           "|---:|---:|---|---|---|---:|---:|---:|---:|"]
+    for r in rows:
+        sub = "no"
+        if r.get("watched"):
+            sub = f"yes ({r['states_received']:,} received)" if r.get("states_received") is not None else "yes"
+        mode = r.get("client", "objects")
+        out.append(f"| {r['processes']} | {r['batch']} | {'MoverState' if mode == 'objects' else 'maps'} | {sub} "
+                   f"| {r.get('publish', 'each')} "
+                   f"| {r['moves_per_s']:,.0f} | {_f(r['service_cpu_us_per_move'], 0)} "
+                   f"| {_f(r.get('client_cpu_us_per_move'), 0)} | {r['errors']} |")
+    return out
+
+
+_THROUGHPUT_TEXT = (
+    "Throughput: each client process registers its own mover and sends requests back to back for a fixed time; "
+    "service CPU time per move is the service process's user+system time (from /proc) over the moves served, "
+    "client CPU the client processes' own. Batches are sent either with `Client.move_many` (every entry decoded "
+    "into a MoverState) or with `Client.move_many_maps` (the reply's msgpack decoded into maps; the client counts "
+    "error entries and learns each mover's landblock, nothing more). The service publishes a move's State only "
+    "while someone subscribes to a state key (docs/protocol.md, State publication): the rows without a State "
+    "subscriber have nobody subscribed, so no State is published; the rows with one run a subscriber process on "
+    "every state key and on `P/states`, which receives (and counts) every State. `publish`: the requests' field, "
+    "`each` (the default: one publication per move on its mover's key) or `batch` (one message per request on "
+    "`P/states`).")
+
+
 def _handling(lat: dict[str, Any]) -> list[str]:
     """The service's handling of one move without the network, back to back and after idle gaps."""
     hd = lat.get("handling_us")
@@ -583,12 +637,7 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
     out += ["", (f"One move / echo: **{lat['ratio_move_to_echo']:.2f}x** at the median "
             f"({lat['ratio_move_to_echo_p99']:.2f}x at p99). Inside the service the engine took "
             f"{_f(_nan(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
-            ("Throughput: each client process registers its own mover and sends requests back to back for a fixed time; "
-            "service CPU time per move is the service process's user+system time (from /proc) over the moves served."), "",
-            "| client processes | moves per request | moves/s | service CPU µs per move | errors |",
-            "|---:|---:|---:|---:|---:|"]
-    for r in svc["throughput"]:
-        out.append(f"| {r['processes']} | {r['batch']} | {r['moves_per_s']:,.0f} | {_f(r['service_cpu_us_per_move'], 0)} | {r['errors']} |")
+            _THROUGHPUT_TEXT, "", *_throughput_table(svc["throughput"])]
     comp = svc.get("compiled")
     if comp and "latency" in comp:
         cl = comp["latency"]
@@ -601,10 +650,7 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
         out += _handling(cl)
         ce = _nan((cl.get("service_engine_ms") or {}).get("p50")) * 1000.0
         out += ["", f"One move / echo: **{cl['ratio_move_to_echo']:.2f}x**; engine {_f(ce, 0)} µs per move inside the service.", "",
-                "| client processes | moves per request | moves/s | service CPU µs per move | errors |",
-                "|---:|---:|---:|---:|---:|"]
-        for r in comp["throughput"]:
-            out.append(f"| {r['processes']} | {r['batch']} | {r['moves_per_s']:,.0f} | {_f(r['service_cpu_us_per_move'], 0)} | {r['errors']} |")
+                *_throughput_table(comp["throughput"])]
     elif comp:
         out += ["", f"The compiled-engine service run failed: {comp.get('failed')}"]
     if plot:

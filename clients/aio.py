@@ -40,8 +40,13 @@ class AsyncClient:
     async def step(self, *args: Any, **kwargs: Any) -> MoverState:
         return await self._run(self.sync.step, *args, **kwargs)
 
-    async def move_many(self, moves: Sequence[Move], timeout: float | None = None) -> list[MoverState | AcphysError]:
-        return await self._run(self.sync.move_many, moves, timeout)
+    async def move_many(self, moves: Sequence[Move], timeout: float | None = None,
+                        publish: str | None = None) -> list[MoverState | AcphysError]:
+        return await self._run(self.sync.move_many, moves, timeout, publish)
+
+    async def move_many_maps(self, moves: Sequence[Move], timeout: float | None = None,
+                             publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
+        return await self._run(self.sync.move_many_maps, moves, timeout, publish)
 
     async def remove(self, mover_id: int) -> None:
         await self._run(self.sync.remove, mover_id)

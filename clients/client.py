@@ -259,12 +259,36 @@ class Client:
         reply = self._lb_request(lb, "move", {"move": move.to_wire()}, move.id, timeout)
         return self._learn(MoverState.from_wire(reply["state"]))
 
-    def move_many(self, moves: Sequence[Move], timeout: float | None = None) -> list[MoverState | AcphysError]:
+    def move_many(self, moves: Sequence[Move], timeout: float | None = None,
+                  publish: str | None = None) -> list[MoverState | AcphysError]:
         """A batch: one request per landblock, each mover's moves in order.
 
         Returns one entry per move, in order: its State, or the error for that move alone.
+        `publish="batch"`: the service publishes each request's States as one message on
+        `P/states` (see `subscribe_batches`) instead of one per mover on its state key.
         """
-        results: list[MoverState | AcphysError | None] = [None] * len(moves)
+        out: list[MoverState | AcphysError] = []
+        for entry in self._move_many(moves, timeout, publish):
+            if isinstance(entry, AcphysError):
+                out.append(entry)
+                continue
+            r = item_result(entry)
+            out.append(self._learn(r) if isinstance(r, MoverState) else r)
+        return out
+
+    def move_many_maps(self, moves: Sequence[Move], timeout: float | None = None,
+                       publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
+        """`move_many` without building objects: each move's entry as the service sent it (a State map,
+        or `{"id", "tag"?, "error"}`: docs/protocol.md, Move reply), or an AcphysError when its request
+        failed. For callers that read a few fields, or pass the states on: decoding every State into a
+        MoverState costs the client more CPU than the service spends packing it. The entries are not
+        validated; the client only learns each mover's landblock from them (to route its next request)."""
+        return self._move_many(moves, timeout, publish)
+
+    def _move_many(self, moves: Sequence[Move], timeout: float | None,
+                   publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
+        """Send the batch grouped by landblock, follow redirects; the raw entries in the moves' order."""
+        results: list[dict[str, Any] | AcphysError | None] = [None] * len(moves)
         pending = list(range(len(moves)))
         for attempt in range(_MAX_REDIRECTS + 1):
             groups: dict[int, list[int]] = {}
@@ -278,8 +302,11 @@ class Client:
                 groups.setdefault(lb, []).append(i)
             retry: list[int] = []
             for lb, idx in groups.items():
+                body: dict[str, Any] = {"moves": [moves[i].to_wire() for i in idx]}
+                if publish is not None:
+                    body["publish"] = publish
                 try:
-                    reply = self._request(self.keys.move(lb), {"moves": [moves[i].to_wire() for i in idx]}, timeout)
+                    reply = self._request(self.keys.move(lb), body, timeout)
                 except AcphysError as e:
                     for i in idx:
                         results[i] = e
@@ -290,22 +317,33 @@ class Client:
                     for i in idx:
                         results[i] = err
                     continue
+                where = self._where
                 for i, entry in zip(idx, entries):
-                    r = item_result(entry)
-                    target = r.details.get("landblock") if isinstance(r, ServiceError) else None
-                    if isinstance(r, ServiceError) and r.kind in _REDIRECTS and isinstance(target, int) \
+                    if type(entry) is not dict:
+                        results[i] = ServiceError(ErrorKind.MALFORMED, f"unreadable entry in reply: {entry!r:.80}")
+                        continue
+                    err_map = entry.get("error")
+                    if err_map is None:
+                        mid, elb = entry.get("id"), entry.get("landblock")
+                        if type(mid) is int and type(elb) is int:
+                            where[mid] = elb
+                        results[i] = entry
+                        continue
+                    target = err_map.get("landblock") if isinstance(err_map, dict) else None
+                    if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
                             and attempt < _MAX_REDIRECTS:
-                        self._where[moves[i].id] = target
+                        where[moves[i].id] = target
                         retry.append(i)
                         continue
-                    results[i] = self._learn(r) if isinstance(r, MoverState) else r
+                    results[i] = entry
             if not retry:
                 break
             pending = sorted(retry)
         return [r if r is not None else AcphysError("no result") for r in results]
 
-    def push(self, moves: Sequence[Move]) -> None:
-        """Fire-and-forget: states arrive on the state keys, errors on the error keys."""
+    def push(self, moves: Sequence[Move], publish: str | None = None) -> None:
+        """Fire-and-forget: states arrive on the state keys (with `publish="batch"`, on `P/states`, one
+        message per request), errors on the error keys."""
         groups: dict[int, list[dict[str, Any]]] = {}
         for m in moves:
             lb = self._push_route.get(m.id)
@@ -313,7 +351,9 @@ class Client:
                 lb = self._push_route[m.id] = self.landblock_of(m.id)
             groups.setdefault(lb, []).append(m.to_wire())
         for lb, items in groups.items():
-            body = {"move": items[0]} if len(items) == 1 else {"moves": items}
+            body: dict[str, Any] = {"move": items[0]} if len(items) == 1 else {"moves": items}
+            if publish is not None:
+                body["publish"] = publish
             self.session.put(self.keys.push(lb), _pack(body))
 
     # -- subscriptions -------------------------------------------------------------------
@@ -331,6 +371,21 @@ class Client:
             callback(st)
 
         return Subscription([self.session.declare_subscriber(key, on_sample)])
+
+    def subscribe_batches(self, callback: Callable[[list[MoverState]], None]) -> Subscription:
+        """Call `callback` with the States of every request sent with `publish="batch"`, one list per request."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            try:
+                states = [MoverState.from_wire(m) for m in _unpack(sample.payload.to_bytes())["states"]]
+            except Exception:
+                log.warning("unreadable states on %s", sample.key_expr)
+                return
+            for st in states:
+                self._learn(st)
+            callback(states)
+
+        return Subscription([self.session.declare_subscriber(self.keys.states, on_sample)])
 
     def subscribe_errors(self, callback: Callable[[int | None, ServiceError], None],
                          mover_id: int | None = None) -> Subscription:

@@ -9,7 +9,10 @@ naming the field; encoders trust their input.
 from __future__ import annotations
 
 from math import isfinite
+from struct import Struct
 from typing import Any
+
+import msgpack
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
@@ -41,6 +44,7 @@ __all__ = [
     "encode_vec",
     "encode_mover_spec",
     "encode_state",
+    "pack_state",
     "decode_state",
     "read_state",
     "MAX_SPHERES",
@@ -216,6 +220,141 @@ def encode_state(
     if tag is not None:
         out["tag"] = tag
     return out
+
+
+# -- the State packed directly (the service's per-move path) --------------------
+def _key(name: str) -> bytes:
+    return bytes(msgpack.packb(name))
+
+
+def _uint(n: int) -> bytes:
+    """A non-negative int as msgpack packs it (the smallest form)."""
+    if n < 0x80:
+        return _BYTE[n]
+    if n < 0x100:
+        return b"\xcc" + _BYTE[n]
+    if n < 0x10000:
+        return b"\xcd" + n.to_bytes(2, "big")
+    if n < 0x100000000:
+        return b"\xce" + n.to_bytes(4, "big")
+    return b"\xcf" + n.to_bytes(8, "big")
+
+
+class _Fixed:
+    """A Struct format whose constant bytes are given with it: `pack` takes only the values."""
+
+    def __init__(self) -> None:
+        self.fmt = ">"
+        self.args: list[bytes] = []
+
+    def const(self, b: bytes) -> _Fixed:
+        self.fmt += f"{len(b)}s"
+        self.args.append(b)
+        return self
+
+    def value(self, code: str) -> _Fixed:
+        self.fmt += code
+        return self
+
+
+_BYTE = [bytes((i,)) for i in range(0x100)]
+_NIL, _TRUE, _FALSE = b"\xc0", b"\xc3", b"\xc2"
+_F64, _U64, _U32, _U16 = b"\xcb", b"\xcf", b"\xce", b"\xcd"
+
+
+def _head(entries: int) -> tuple[Struct, list[bytes]]:
+    """id, seq, ok, position and landblock, up to the transition_state key; ints in fixed widths."""
+    f = (_Fixed().const(b"\xde" + entries.to_bytes(2, "big") + _key("id") + _U64).value("Q")
+         .const(_key("seq") + _U64).value("Q").const(_key("ok")).value("B")
+         .const(_key("position") + b"\x83" + _key("cell") + _U32).value("I")
+         .const(_key("origin") + b"\x93" + _F64).value("d").const(_F64).value("d").const(_F64).value("d")
+         .const(_key("orientation") + b"\x94" + _F64).value("d").const(_F64).value("d").const(_F64).value("d")
+         .const(_F64).value("d")
+         .const(_key("landblock") + _U16).value("H").const(_key("transition_state")))
+    return Struct(f.fmt), f.args
+
+
+_HEAD, _HC = _head(16)
+_HEAD_TAGGED, _HC_TAGGED = _head(17)
+#: contact, on_walkable and the contact_plane key, for each (contact, on_walkable)
+_CONTACT = {(c, w): _key("contact") + (_TRUE if c else _FALSE) + _key("on_walkable") + (_TRUE if w else _FALSE)
+            + _key("contact_plane") for c in (False, True) for w in (False, True)}
+_PF = (_Fixed().const(b"\x82" + _key("normal") + b"\x93" + _F64).value("d").const(_F64).value("d")
+       .const(_F64).value("d").const(_key("d") + _F64).value("d"))
+_PLANE, _PC = Struct(_PF.fmt), _PF.args
+_K_PLANE_CELL, _K_COLLISION, _K_SLIDING = _key("contact_plane_cell"), _key("collision_normal"), _key("sliding_normal")
+_PLANE_CELL = Struct(f">{len(_K_PLANE_CELL) + 1}sI")
+_K_WATER, _K_FSF = _key("water_contact"), _key("frames_stationary_fall")
+_WATER = {w: _K_WATER + (_TRUE if w else _FALSE) + _K_FSF for w in (False, True)}
+_K_TRANSIENT, _K_COLLIDE, _K_TAG = _key("transient_state"), _key("collide_objects"), _key("tag")
+_NO_COLLISIONS = _K_COLLIDE + b"\x90"
+_VEC3 = Struct(">2sd1sd1sd")
+_STRINGS: dict[str, bytes] = {}  # transition state names, packed
+_NAME_LISTS: dict[tuple[str, ...], bytes] = {}  # transient state lists, packed with their key
+
+
+def _str(s: str) -> bytes:
+    b = _STRINGS.get(s)
+    if b is None:
+        b = bytes(msgpack.packb(s))
+        if len(_STRINGS) < 64:  # the names are a handful; anything else is packed each time
+            _STRINGS[s] = b
+    return b
+
+
+def _names(names: list[str]) -> bytes:
+    t = tuple(names)
+    b = _NAME_LISTS.get(t)
+    if b is None:
+        b = _K_TRANSIENT + bytes(msgpack.packb(names))
+        if len(_NAME_LISTS) < 256:
+            _NAME_LISTS[t] = b
+    return b
+
+
+def _vec_bytes(v: Vec3 | None) -> bytes:
+    return _NIL if v is None else _VEC3.pack(b"\x93\xcb", v.x, _F64, v.y, _F64, v.z)
+
+
+def pack_state(mover_id: int, seq: int, r: MoveResult, collide_ids: list[int], tag: int | str | None = None) -> bytes:
+    """`msgpack.packb(encode_state(...))` without building the map: the same map when decoded (floats as
+    float64, as the service always sends them; ids, seq, cell and landblock in fixed-width integers, as
+    msgpack allows), in a few Struct calls instead of a dict and its packing."""
+    pos = r.position
+    o, q = pos.frame.origin, pos.frame.orientation
+    cell = pos.cell_id
+    c = _HC if tag is None else _HC_TAGGED
+    parts = [
+        (_HEAD if tag is None else _HEAD_TAGGED).pack(
+            c[0], mover_id, c[1], seq, c[2], 0xC3 if r.ok else 0xC2, c[3], cell, c[4], o.x, c[5], o.y, c[6], o.z,
+            c[7], q.w, c[8], q.x, c[9], q.y, c[10], q.z, c[11], (cell >> 16) & 0xFFFF, c[12]),
+        _str(r.transition_state),
+        _CONTACT[r.contact, r.on_walkable],
+    ]
+    cp = r.contact_plane
+    if cp is None:
+        parts.append(_NIL)
+    else:
+        n = cp.normal
+        parts.append(_PLANE.pack(_PC[0], n.x, _PC[1], n.y, _PC[2], n.z, _PC[3], cp.d))
+    cpc = r.contact_plane_cell
+    parts.append(_K_PLANE_CELL + _NIL if cpc is None else _PLANE_CELL.pack(_K_PLANE_CELL + _U32, cpc))
+    parts.append(_K_COLLISION)
+    parts.append(_vec_bytes(r.collision_normal))
+    parts.append(_K_SLIDING)
+    parts.append(_vec_bytes(r.sliding_normal))
+    parts.append(_WATER[r.water_contact])
+    fsf = r.frames_stationary_fall
+    parts.append(_NIL if fsf is None else _uint(fsf) if fsf >= 0 else bytes(msgpack.packb(fsf)))
+    parts.append(_names(r.transient_state))
+    if collide_ids:
+        parts.append(_K_COLLIDE + bytes(msgpack.packb(collide_ids)))
+    else:
+        parts.append(_NO_COLLISIONS)
+    if tag is not None:
+        parts.append(_K_TAG)
+        parts.append(bytes(msgpack.packb(tag, use_bin_type=True)))
+    return b"".join(parts)
 
 
 def _vec_or_none(v: Any, path: str) -> Vec3 | None:

@@ -18,7 +18,7 @@ import msgpack
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec, MoveResult
 
-from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec
+from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec, pack_state
 from .engine_errors import to_protocol_error
 from .errors import ProtocolError
 from .ownership import Ownership
@@ -42,9 +42,23 @@ class BusPort(Protocol):
         """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
         ...
 
+    def states_watched(self) -> bool:
+        """Whether anyone subscribes to a state key now (else publishing States can be skipped)."""
+        ...
+
+    def batch_watched(self) -> bool:
+        """Whether anyone subscribes to P/states now."""
+        ...
+
+    def publish_batch(self, packed_states: list[bytes]) -> None:
+        """Publish one request's States as one message on P/states."""
+        ...
+
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
 
-    def forward_push(self, lb: int, item: dict[str, Any]) -> None: ...
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
+        """Put a fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
+        ...
 
     def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
         """Send a mover to `lb`'s owner; its reply map, or ProtocolError."""
@@ -108,9 +122,12 @@ class ServiceCore:
             )
         raise ProtocolError(ErrorKind.UNKNOWN_MOVER, f"no mover {mover_id:X} here", path)
 
+    def _collide_ids(self, r: MoveResult) -> list[int]:
+        """The wire ids of the movers a result touched (the engine's ids translated)."""
+        return [self._by_engine[e] for e in r.collide_objects if e in self._by_engine] if r.collide_objects else []
+
     def _state(self, rec: MoverRecord, tag: int | str | None = None) -> dict[str, Any]:
-        ids = [self._by_engine[e] for e in rec.last.collide_objects if e in self._by_engine]
-        return encode_state(rec.id, rec.seq, rec.last, ids, tag)
+        return encode_state(rec.id, rec.seq, rec.last, self._collide_ids(rec.last), tag)
 
     def _add(self, mover_id: int, spec: MoverSpec, position: Position, plane: Plane | None, plane_cell: int | None,
              seq: int = 0, sliding_normal: Vec3 | None = None, water_contact: bool = False) -> MoverRecord:
@@ -196,8 +213,8 @@ class ServiceCore:
                 log.exception("engine failed on move of %X", rec.id)
             raise err from None
 
-    def _move(self, item: MoveItem) -> tuple[bytes, float]:
-        """Apply one move and publish its State: the State packed, and the engine's time."""
+    def _move(self, item: MoveItem, publish: bool) -> tuple[bytes, float]:
+        """Apply one move and, when `publish`, publish its State: the State packed, and the engine's time."""
         rec = self.movers.get(item.id)
         if rec is None:
             rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
@@ -206,11 +223,12 @@ class ServiceCore:
         engine = perf_counter() - t0
         prev, prev_seq = rec.last, rec.seq
         rec.last, rec.seq = result, rec.seq + 1
-        packed = self._packer.pack(self._state(rec, item.tag))
+        packed = pack_state(rec.id, rec.seq, result, self._collide_ids(result), item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
             self._hand_over(rec, prev, prev_seq, lb)
-        self.bus.publish_state(rec.id, packed)
+        if publish:
+            self.bus.publish_state(rec.id, packed)
         return packed, engine
 
     def _done(self, latency: list[float], engine: list[float]) -> None:
@@ -218,10 +236,21 @@ class ServiceCore:
         if monotonic() - self._cache_read_at > 1.0:
             self._refresh()
 
-    def move_one(self, item: MoveItem, received: float) -> bytes:
-        """Apply one move; its State packed (published too), or raises."""
-        packed, engine = self._move(item)
+    def _publishing(self, batch_mode: bool) -> tuple[bool, bool]:
+        """(publish each State on its mover's key, collect them for one P/states message), asked once per
+        request: a subscriber declared before the request was sent is seen here."""
+        if batch_mode:
+            return False, self.bus.batch_watched()
+        return self.bus.states_watched(), False
+
+    def move_one(self, item: MoveItem, received: float, publish: bool | None = None, batch_mode: bool = False) -> bytes:
+        """Apply one move; its State packed (published too when anyone subscribes), or raises. `publish`
+        given: whether to publish on the mover's key (the caller asked); else asked here."""
+        each, collect = (publish, False) if publish is not None else self._publishing(batch_mode)
+        packed, engine = self._move(item, each)
         self._done([monotonic() - received], [engine])
+        if collect:
+            self.bus.publish_batch([packed])
         return packed
 
     def moves(self, batch: MoveBatch, received: float) -> list[bytes | ItemError]:
@@ -229,12 +258,13 @@ class ServiceCore:
         out: list[bytes | ItemError] = []
         latency: list[float] = []
         engine: list[float] = []
+        each, collect = self._publishing(batch.publish_batch)
         for item in batch.items:
             if isinstance(item, ItemError):
                 out.append(item)
                 continue
             try:
-                packed, t = self._move(item)
+                packed, t = self._move(item, each)
             except ProtocolError as e:
                 out.append(ItemError(e, item.id, item.tag))
                 continue
@@ -242,10 +272,14 @@ class ServiceCore:
             latency.append(monotonic() - received)
             engine.append(t)
         self._done(latency, engine)
+        if collect and engine:
+            self.bus.publish_batch([r for r in out if isinstance(r, bytes)])
         return out
 
     def push(self, batch: MoveBatch, raw_items: list[Any], received: float) -> None:
         """Fire-and-forget: states are published; errors go to the object's error key."""
+        each, collect = self._publishing(batch.publish_batch)
+        collected: list[bytes] = []
         for item, raw in zip(batch.items, raw_items):
             if isinstance(item, ItemError):
                 self.stats.error(item.error.kind)
@@ -254,13 +288,18 @@ class ServiceCore:
             fwd = self._forwarded.get(item.id)
             if item.id not in self.movers and fwd is not None:
                 # keep the mover's order: everything sent here after the hand-over follows it
-                self.bus.forward_push(fwd, raw)
+                self.bus.forward_push(fwd, raw, batch.publish_batch)
                 continue
             try:
-                self.move_one(item, received)
+                packed = self.move_one(item, received, each)
             except ProtocolError as e:
                 self.stats.error(e.kind)
                 self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire())
+                continue
+            if collect:
+                collected.append(packed)
+        if collected:
+            self.bus.publish_batch(collected)
 
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:

@@ -3,8 +3,8 @@
 A move's State is packed once (msgpack) and the same bytes go into its
 publication (`{"v", "state"}`) and into the reply, single (`{"v", "state"}`)
 or batch (`{"v", "results": [...]}`): the messages are put together from
-bytes instead of packing the State again. The bytes are exactly what
-`msgpack.packb({"v": 1, ...})` gives for the same maps.
+bytes instead of packing the State again. Given the State's bytes, the
+message's bytes are exactly what `msgpack.packb({"v": 1, ...})` gives.
 """
 
 from __future__ import annotations
@@ -15,11 +15,12 @@ import msgpack
 
 from .wire import PROTOCOL_VERSION
 
-__all__ = ["pack", "state_message", "results_message", "array_header"]
+__all__ = ["pack", "state_message", "results_message", "states_message", "array_header"]
 
 _V = msgpack.packb("v") + msgpack.packb(PROTOCOL_VERSION)
 _STATE_HEAD = b"\x82" + _V + msgpack.packb("state")
 _RESULTS_HEAD = b"\x82" + _V + msgpack.packb("results")
+_STATES_HEAD = b"\x82" + _V + msgpack.packb("states")
 
 
 def pack(content: dict[str, Any]) -> bytes:
@@ -44,3 +45,8 @@ def array_header(n: int) -> bytes:
 def results_message(packed_entries: list[bytes]) -> bytes:
     """`{"v": 1, "results": [...]}` from the packed entries."""
     return _RESULTS_HEAD + array_header(len(packed_entries)) + b"".join(packed_entries)
+
+
+def states_message(packed_states: list[bytes]) -> bytes:
+    """`{"v": 1, "states": [...]}` from the packed States (one request's, published on `P/states`)."""
+    return _STATES_HEAD + array_header(len(packed_states)) + b"".join(packed_states)

@@ -28,10 +28,11 @@ import zenoh
 
 from .core import ServiceCore
 from .errors import ProtocolError
-from .frames import pack, results_message, state_message
+from .frames import pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
 from .ownership import Ownership
 from .requests import (
+    PUBLISH_MODES,
     ItemError,
     decode_envelope,
     parse_handover,
@@ -58,6 +59,9 @@ class NodeOptions:
     queue_capacity: int = 1024  # requests waiting for the engine before `busy`
     handover_timeout: float = 2.0  # seconds to wait for a hand-over's answer
     publish_states: bool = True
+    #: publish a move's State only while some subscriber's key expression meets `P/obj/*/state` (Zenoh's
+    #: matching status, read once per request); False publishes every State whoever listens
+    skip_unwatched_states: bool = True
     #: run a request in the Zenoh callback when the engine is idle (see the module's docstring)
     inline: bool = True
     #: the largest batch run in a callback (~10 ms of the interpreted engine); larger ones are queued
@@ -90,6 +94,8 @@ class ServiceNode:
         self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
         self._inline = self.options.inline and self.options.ownership.everything
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
+        self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
+        self._batch_pub: Any = None  # the publisher on P/states
 
     # -- lifecycle ------------------------------------------------------------
     def start(self) -> None:
@@ -101,6 +107,10 @@ class ServiceNode:
         self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
         self._thread.start()
         s = self.session
+        if self.options.skip_unwatched_states:
+            # kept until the queued requests are answered at shutdown (they ask it)
+            self._state_watch = s.declare_publisher(self.keys.state("*"))
+        self._batch_pub = s.declare_publisher(self.keys.states)
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
@@ -128,6 +138,13 @@ class ServiceNode:
             self._thread.join(timeout)
         if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
             self._engine_lock.release()
+        for pub in (self._state_watch, self._batch_pub):
+            if pub is not None:
+                try:
+                    pub.undeclare()
+                except Exception:  # already gone with the session
+                    pass
+        self._state_watch = self._batch_pub = None
         if self.session is not None:
             self.session.close()
             self.session = None
@@ -266,7 +283,7 @@ class ServiceNode:
             if batch.single:
                 item = batch.items[0]
                 assert not isinstance(item, ItemError)
-                return lambda: state_message(core.move_one(item, received))
+                return lambda: state_message(core.move_one(item, received, batch_mode=batch.publish_batch))
 
             def run_batch() -> bytes:
                 results = core.moves(batch, received)
@@ -337,6 +354,7 @@ class ServiceNode:
             "instance": self.instance,
             "status": "draining" if self._draining else "ok",
             "protocol": PROTOCOL_VERSION,
+            "publish": list(PUBLISH_MODES),
             "uptime_s": time.monotonic() - self.stats.started,
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
@@ -372,6 +390,34 @@ class ServiceNode:
         if self.session is not None:
             self.session.put(key, pack(content))
 
+    def states_watched(self) -> bool:
+        if not self.options.publish_states or self.session is None:
+            return False
+        watch = self._state_watch
+        if watch is None:
+            return True
+        try:
+            # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
+            return bool(watch.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def batch_watched(self) -> bool:
+        pub = self._batch_pub
+        if not self.options.publish_states or self.session is None or pub is None:
+            return False
+        if not self.options.skip_unwatched_states:
+            return True
+        try:
+            return bool(pub.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def publish_batch(self, packed_states: list[bytes]) -> None:
+        pub = self._batch_pub
+        if pub is not None:
+            pub.put(states_message(packed_states))
+
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         if not self.options.publish_states or self.session is None:
             return
@@ -386,8 +432,8 @@ class ServiceNode:
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
         self._put(key, error)
 
-    def forward_push(self, lb: int, item: dict[str, Any]) -> None:
-        self._put(self.keys.push(lb), {"move": item})
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
+        self._put(self.keys.push(lb), {"move": item, "publish": "batch"} if publish_batch else {"move": item})
 
     def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
         """Ask `lb`'s owner to take a mover; serve arriving hand-overs while waiting."""

@@ -39,6 +39,7 @@ __all__ = [
     "MoveItem",
     "ItemError",
     "MoveBatch",
+    "PUBLISH_MODES",
     "parse_moves",
     "RegisterRequest",
     "parse_register",
@@ -139,6 +140,23 @@ class ItemError:
 class MoveBatch:
     single: bool  # sent as {"move": ...}: reply {"state": ...}, not {"results": [...]}
     items: list[MoveItem | ItemError]
+    #: `"publish": "batch"`: the request's States go out as one message on P/states, not one per mover
+    publish_batch: bool = False
+
+
+PUBLISH_MODES = ("each", "batch")
+
+
+def _parse_publish(msg: dict[str, Any]) -> bool:
+    """The request's `publish` field: True for "batch", False for "each" or absent."""
+    mode = msg.get("publish")
+    if mode is None or mode == "each":
+        return False
+    if mode == "batch":
+        return True
+    if not isinstance(mode, str):
+        raise ProtocolError(ErrorKind.WRONG_TYPE, "publish: expected a string (each or batch)", "publish")
+    raise ProtocolError(ErrorKind.BAD_VALUE, f"publish: {mode[:40]!r} is not one of each, batch", "publish")
 
 
 def _parse_target(value: Any, path: str) -> Target:
@@ -266,10 +284,11 @@ def parse_moves(msg: dict[str, Any]) -> MoveBatch:
             ErrorKind.MISSING_FIELD if not has_one else ErrorKind.BAD_VALUE,
             "give exactly one of move (one move) or moves (a batch)",
         )
+    publish_batch = _parse_publish(msg)
     if has_one:
-        return MoveBatch(True, [parse_move_item(msg["move"], "move")])
+        return MoveBatch(True, [parse_move_item(msg["move"], "move")], publish_batch)
     items = as_list(msg["moves"], "moves", MAX_BATCH)
-    return MoveBatch(False, [_item_or_error(v, field_path("moves", i)) for i, v in enumerate(items)])
+    return MoveBatch(False, [_item_or_error(v, field_path("moves", i)) for i, v in enumerate(items)], publish_batch)
 
 
 @dataclass(slots=True)

@@ -108,6 +108,11 @@ class Keys:
         part = mover_id if isinstance(mover_id, str) else obj_hex(mover_id)
         return f"{self.prefix}/obj/{part}/state"
 
+    @property
+    def states(self) -> str:
+        """Where the States of a request sent with `"publish": "batch"` go, as one message."""
+        return f"{self.prefix}/states"
+
     def obj_error(self, mover_id: int | str) -> str:
         part = mover_id if isinstance(mover_id, str) else obj_hex(mover_id)
         return f"{self.prefix}/obj/{part}/error"

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import MoveResult
-from service.codec import _plain_state, decode_state, encode_state, read_state
+from service.codec import _plain_state, decode_state, encode_state, pack_state, read_state
 from service.errors import ProtocolError
 from service.frames import array_header, results_message, state_message
 from service.jobqueue import JobQueue
@@ -252,6 +252,50 @@ def test_messages_from_packed_states_are_the_plain_encoding() -> None:
         expected = msgpack.packb({"v": 1, "results": [msgpack.unpackb(e) for e in entries]}, use_bin_type=True)
         assert results_message(entries) == expected, n
     assert array_header(15) == b"\x9f" and array_header(16) == b"\xdc\x00\x10"
+
+
+# -- the State packed without its map ----------------------------------------------------------------------
+uint64s = st.sampled_from([0, 1, 127, 128, 255, 256, 65535, 65536, (1 << 32) - 1, 1 << 32, (1 << 64) - 1])
+finite = st.floats(allow_nan=False, allow_infinity=False)
+vec3s = st.builds(Vec3, finite, finite, finite)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    mover_id=uint64s, seq=uint64s, cell=st.integers(0, (1 << 32) - 1), origin=vec3s,
+    quat=st.tuples(finite, finite, finite, finite), ok=st.booleans(), contact=st.booleans(), walk=st.booleans(),
+    water=st.booleans(), ts=st.sampled_from(["OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition", "é" * 40]),
+    plane=st.none() | st.builds(Plane, vec3s, finite), plane_cell=st.none() | st.integers(0, (1 << 32) - 1),
+    cn=st.none() | vec3s, sn=st.none() | vec3s, fsf=st.none() | st.integers(0, 3) | st.integers(-5, 1 << 40),
+    transient=st.lists(st.sampled_from(["Contact", "OnWalkable", "Sliding", "WaterContact", "StationaryFall"]),
+                       max_size=5),
+    ids=st.lists(uint64s, max_size=20),
+    tag=st.none() | st.integers(-(1 << 63), (1 << 64) - 1) | st.text(max_size=256),
+)
+def test_packed_states_decode_to_the_state_map(mover_id: int, seq: int, cell: int, origin: Vec3, quat: Any,
+                                               ok: bool, contact: bool, walk: bool, water: bool, ts: str,
+                                               plane: Plane | None, plane_cell: int | None, cn: Vec3 | None,
+                                               sn: Vec3 | None, fsf: int | None, transient: list[str],
+                                               ids: list[int], tag: Any) -> None:
+    r = MoveResult(ok, Position.at(cell, origin, Quat(*quat)), ts, contact, walk, plane, plane_cell, cn, sn, water,
+                   fsf, transient, [])
+    expected = encode_state(mover_id, seq, r, ids, tag)
+    got = msgpack.unpackb(pack_state(mover_id, seq, r, ids, tag), raw=False)
+    assert got == expected
+    assert list(got) == list(expected)  # the same keys in the same order
+    # every real is sent as float64, whatever its value
+    assert all(type(v) is float for v in got["position"]["origin"] + got["position"]["orientation"])
+
+
+def test_packed_state_bytes_for_a_known_state() -> None:
+    """Byte by byte for one State: fixed-width ints (cf/ce/cd) are valid msgpack for the same values."""
+    r = _result(contact_plane=None, contact_plane_cell=None, collision_normal=None, sliding_normal=None,
+                frames_stationary_fall=None, transient_state=[], collide_objects=[], water_contact=False)
+    b = pack_state(11, 4, r, [])
+    assert b[:3] == b"\xde\x00\x10"  # a map of 16 entries
+    assert b[3:6] == b"\xa2id" and b[6:15] == b"\xcf" + (11).to_bytes(8, "big")
+    assert msgpack.unpackb(b)["position"]["cell"] == CELL
+    assert pack_state(11, 4, r, [], "t")[:3] == b"\xde\x00\x11"  # 17 with the tag
 
 
 # -- the queue's idle flag (a request runs in a callback only when the queue is idle) ------------------------

@@ -105,6 +105,32 @@ def test_batch_item_errors_stay_with_their_item(client: Client) -> None:
     client.remove(st.id)
 
 
+def test_batch_as_maps_equals_the_objects(client: Client) -> None:
+    """The lean batch call gives the entries the service sent: the same States as `move_many` would build,
+    errors as their maps, in order."""
+    world = demo_world()
+    cell, x, y = global_to_cell(90.0, 60.0)
+    start = start_on_ground(world, cell, x, y)
+    st = client.register(human(), start)
+    mid = world.add_mover(human(), start)
+    script = _script(st.id)
+    batch = script[:20] + [Move(st.id, offset=(float("inf"), 0.0, 0.0), tag="bad")] + script[20:]
+    entries = client.move_many_maps(batch)
+    assert len(entries) == len(batch)
+    seq = 0
+    for m, e in zip(batch, entries):
+        assert isinstance(e, dict), e
+        if m.tag == "bad":
+            assert e["id"] == st.id and e["tag"] == "bad" and e["error"]["kind"] == "non_finite"
+            assert e["error"]["path"] == "moves[20].offset[0]"
+            continue
+        seq += 1
+        assert e["id"] == st.id and e["seq"] == seq and "error" not in e
+        assert comparable(MoverState.from_wire(e)) == comparable(_apply_direct(world, mid, m))
+    assert client.landblock_of(st.id) == entries[-1]["landblock"]  # learned for routing
+    client.remove(st.id)
+
+
 def test_states_are_published_in_order(client: Client) -> None:
     world = demo_world()
     cell, x, y = global_to_cell(100.0, 40.0)
@@ -130,6 +156,34 @@ def test_states_are_published_in_order(client: Client) -> None:
     assert [s.tag for s in got] == list(range(len(moves)))
     for m, s in zip(moves, got):
         assert comparable(s) == comparable(_apply_direct(world, mid, m))
+    client.remove(st.id)
+
+
+def test_batch_publication_through_the_client(client: Client) -> None:
+    cell, x, y = global_to_cell(110.0, 70.0)
+    st = client.register(human(), Position.at(cell, Vec3(x, y, 60.0)))
+    got: list[list[MoverState]] = []
+    lock = threading.Lock()
+
+    def on_batch(states: list[MoverState]) -> None:
+        with lock:
+            got.append(states)
+
+    with client.subscribe_batches(on_batch):
+        deadline_ok = False
+        for _ in range(50):  # until the subscription is live
+            client.move_many([Move(st.id, offset=(0.0, 0.0, 0.0))], publish="batch")
+            if wait_until(lambda: bool(got), timeout=0.2):
+                deadline_ok = True
+                break
+        assert deadline_ok
+        with lock:
+            got.clear()
+        results = client.move_many([Move(st.id, offset=(0.1, 0.0, 0.0), tag=k) for k in range(5)], publish="batch")
+        assert wait_until(lambda: bool(got), timeout=5.0)
+    assert len(got) == 1
+    assert [(s.seq, s.tag) for s in got[0]] == [(r.seq, r.tag) for r in results if isinstance(r, MoverState)]
+    assert [s.tag for s in got[0]] == list(range(5))
     client.remove(st.id)
 
 

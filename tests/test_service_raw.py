@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -137,6 +138,60 @@ def test_fire_and_forget_states_in_order(session: zenoh.Session) -> None:
     assert all(m["v"] == 1 and STATE_FIELDS <= set(m["state"]) for m in states)
     assert [m["state"]["seq"] for m in states] == list(range(base + 1, base + 53))
     assert [m["state"]["tag"] for m in states] == list(range(52))
+
+
+def test_batch_publication(session: zenoh.Session) -> None:
+    """`"publish": "batch"`: one message on P/states per request, the resolved States in order, none on the
+    mover's own key; `"each"` (the default) publishes per mover as before; an unknown value fails the request."""
+    ok, reg = ask(session, f"{P}/lb/A9B4/register",
+                  {"v": 1, "mover": HUMAN, "position": {"cell": CELL, "origin": [36.0, 40.0, 70.0]}})
+    assert ok
+    mover = reg["state"]["id"]
+    batches: list[dict[str, Any]] = []
+    singles: list[dict[str, Any]] = []
+    lock = threading.Lock()
+
+    def on(dest: list[dict[str, Any]]) -> Any:
+        def cb(sample: zenoh.Sample) -> None:
+            with lock:
+                dest.append(msgpack.unpackb(sample.payload.to_bytes()))
+        return cb
+
+    subs = [session.declare_subscriber(f"{P}/states", on(batches)),
+            session.declare_subscriber(f"{P}/obj/{mover:X}/state", on(singles))]
+    try:
+        # until both subscriptions are seen to be live (a zero move published each way)
+        for _ in range(50):
+            ask(session, f"{P}/lb/A9B4/move", {"v": 1, "move": {"id": mover, "offset": [0, 0, 0]}})
+            ask(session, f"{P}/lb/A9B4/move", {"v": 1, "move": {"id": mover, "offset": [0, 0, 0]}, "publish": "batch"})
+            if wait_until(lambda: bool(batches) and bool(singles), timeout=0.2):
+                break
+        time.sleep(0.3)
+        with lock:
+            batches.clear()
+            singles.clear()
+        moves = [{"id": mover, "offset": [0.1, 0, 0], "tag": 0}, {"id": mover, "offset": [math.nan, 0, 0], "tag": 1},
+                 {"id": mover, "offset": [0.1, 0, 0], "tag": 2}]
+        ok, rep = ask(session, f"{P}/lb/A9B4/move", {"v": 1, "moves": moves, "publish": "batch"})
+        assert ok and rep["results"][1]["error"]["kind"] == "non_finite"
+        session.put(f"{P}/lb/A9B4/push", msgpack.packb({"v": 1, "moves": moves[:1], "publish": "batch"}))
+        assert wait_until(lambda: len(batches) >= 2, timeout=5.0)
+        ok, one = ask(session, f"{P}/lb/A9B4/move", {"v": 1, "move": moves[2], "publish": "each"})
+        assert ok and wait_until(lambda: len(singles) >= 1, timeout=5.0)
+        time.sleep(0.3)  # anything else published would have arrived by now
+        ok, bad = ask(session, f"{P}/lb/A9B4/move", {"v": 1, "moves": moves, "publish": "all"})
+        assert not ok and bad["error"]["kind"] == "bad_value" and bad["error"]["path"] == "publish"
+    finally:
+        for sub in subs:
+            sub.undeclare()
+    first, second = batches[:2]
+    assert first["v"] == 1 and set(first) == {"v", "states"}
+    assert first["states"] == [rep["results"][0], rep["results"][2]]  # the resolved moves, in order
+    assert [st["tag"] for st in second["states"]] == [0] and second["states"][0]["seq"] == rep["results"][2]["seq"] + 1
+    assert len(batches) == 2
+    assert singles == [{"v": 1, "state": one["state"]}]  # only the request sent with "each"
+    (health,) = [msgpack.unpackb(r.ok.payload.to_bytes()) for r in session.get(f"{P}/health", timeout=5.0)]
+    assert health["publish"] == ["each", "batch"]
 
 
 def test_per_instance_keys(session: zenoh.Session) -> None:
