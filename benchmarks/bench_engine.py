@@ -49,7 +49,7 @@ def time_calls(gen: Any, n: int, warmup: int, deadline: Deadline) -> list[float]
 
 
 def run_workloads(moves: int, seconds_each: float) -> list[dict[str, Any]]:
-    rows = []
+    rows: list[dict[str, Any]] = []
     for w in WORKLOADS:
         why = w.available()
         if why is not None:

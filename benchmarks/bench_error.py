@@ -265,10 +265,16 @@ def known_divergent() -> list[str]:
     except (OSError, SyntaxError):
         return []
     for node in ast.walk(tree):
-        target = node.targets[0] if isinstance(node, ast.Assign) else getattr(node, "target", None)
-        if isinstance(target, ast.Name) and target.id == "KNOWN_DIVERGENT" and getattr(node, "value", None) is not None:
+        value: ast.expr | None
+        if isinstance(node, ast.Assign):
+            target, value = node.targets[0], node.value
+        elif isinstance(node, ast.AnnAssign):
+            target, value = node.target, node.value
+        else:
+            continue
+        if isinstance(target, ast.Name) and target.id == "KNOWN_DIVERGENT" and value is not None:
             try:
-                return sorted(ast.literal_eval(node.value))
+                return sorted(ast.literal_eval(value))
             except ValueError:
                 return []
     return []

@@ -371,7 +371,8 @@ def _limits(results: dict[str, Any]) -> list[str]:
                    f"than 1e-4 m off and {e0.get('over_1e-3', 0):,} more than 1e-3 m, against the 1 % a p99 of 1e-4 m "
                    f"allows. Traces whose largest error exceeds 1e-4 m: {', '.join(big) if big else 'none'}. "
                    + _known_text(err) + _over_text(err))
-    out.append(_skips_text(err))
+    if err is not None:
+        out.append(_skips_text(err))
     return out + [""]
 
 

@@ -11,6 +11,8 @@ is not timed.
 
 from __future__ import annotations
 
+import functools
+
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -152,7 +154,7 @@ def wl_falling(settings: engine.EngineSettings) -> Iterator[Callable[[], Any]]:
         mid = world.add_mover(AIRBORNE, Position.at(cell_at(LB, 50.0, 50.0), Vec3(50.0, 50.0, 150.0)))
         world.mover(mid).velocity = Vec3(0.0, 0.0, -0.5)  # already falling: no zero-length first step
         for _ in range(130):  # lands after ~135 frames: every timed step is a fall
-            yield lambda mid=mid: world.step(mid, zero, DT)
+            yield functools.partial(world.step, mid, zero, DT)
         world.remove_mover(mid)
 
 

@@ -362,6 +362,7 @@ def replay(failure: dict[str, Any]) -> list[engine.MoveResult]:
     world = sc.build()
     spec = spec_for(failure["mover"])
     if "case" in failure:
+        assert sc.trace is not None, f"scenario {sc.name} replays no trace"
         case = next(c for c in common.load_trace(sc.trace)["cases"] if c["id"] == failure["case"])
         mid = S.add_case_mover(world, case)
         if spec is not S.PLAYER:
