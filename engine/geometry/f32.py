@@ -22,10 +22,11 @@ import math
 
 from ..constants import EPSILON
 from .plane import Plane
+from .quaternion import Quat
 from .single import to_single
 from .vec3 import Vec3
 
-__all__ = ["f32", "vec_f32", "plane_f32", "dot_f32", "plane_dist_f32", "scale_f32", "sub_f32", "cross_f32", "normalize_check_small_f32"]
+__all__ = ["f32", "vec_f32", "plane_f32", "dot_f32", "plane_dist_f32", "scale_f32", "sub_f32", "cross_f32", "normalize_check_small_f32", "rotate_f32"]
 
 
 def f32(x: float) -> float:
@@ -76,3 +77,37 @@ def normalize_check_small_f32(v: Vec3) -> Vec3 | None:
     if length < EPSILON:
         return None
     return scale_f32(v, f32(1.0 / length))
+
+
+def rotate_f32(q: Quat, v: Vec3) -> Vec3:
+    """`v` rotated by `q` in single precision, as System.Numerics'
+    Vector3.Transform(Vector3, Quaternion) evaluates it (used by
+    AFrame.Combine); exact for the identity."""
+    if q.x == 0.0 and q.y == 0.0 and q.z == 0.0:
+        return v
+    x2 = to_single(q.x + q.x)
+    y2 = to_single(q.y + q.y)
+    z2 = to_single(q.z + q.z)
+    wx2 = to_single(q.w * x2)
+    wy2 = to_single(q.w * y2)
+    wz2 = to_single(q.w * z2)
+    xx2 = to_single(q.x * x2)
+    xy2 = to_single(q.x * y2)
+    xz2 = to_single(q.x * z2)
+    yy2 = to_single(q.y * y2)
+    yz2 = to_single(q.y * z2)
+    zz2 = to_single(q.z * z2)
+    r00 = to_single(to_single(1.0 - yy2) - zz2)
+    r01 = to_single(xy2 - wz2)
+    r02 = to_single(xz2 + wy2)
+    r10 = to_single(xy2 + wz2)
+    r11 = to_single(to_single(1.0 - xx2) - zz2)
+    r12 = to_single(yz2 - wx2)
+    r20 = to_single(xz2 - wy2)
+    r21 = to_single(yz2 + wx2)
+    r22 = to_single(to_single(1.0 - xx2) - yy2)
+    return Vec3(
+        to_single(to_single(to_single(v.x * r00) + to_single(v.y * r01)) + to_single(v.z * r02)),
+        to_single(to_single(to_single(v.x * r10) + to_single(v.y * r11)) + to_single(v.z * r12)),
+        to_single(to_single(to_single(v.x * r20) + to_single(v.y * r21)) + to_single(v.z * r22)),
+    )
