@@ -709,7 +709,7 @@ def test_scene_bsps_are_sane(name: str) -> None:
             else:
                 assert node.pos_node is not None and node.neg_node is not None, label
         for p in polys.values():
-            assert abs(p.plane.normal.length() - 1.0) < 1e-9, label
+            assert abs(p.plane.normal.length() - 1.0) < 2e-7, label  # a float32 unit vector, as the client makes it
             for v in p.vertices:  # planar
                 assert abs(p.plane.distance(v)) < 1e-4, (label, p)
 

@@ -24,7 +24,10 @@ from __future__ import annotations
 from typing import Final, TYPE_CHECKING
 
 from ..constants import ADJUST_TO_PLANE_ITERATIONS, LANDING_Z, PLACEMENT_ITERATIONS
+from ..geometry.f32 import dot_f32, rotate_f32, scale_f32
+from ..geometry.landdefs import get_block_offset
 from ..geometry.plane import Plane
+from ..geometry.single import to_single
 from ..geometry.polygon import Polygon, PolyHit
 from ..geometry.sphere import Sphere
 from ..geometry.vec3 import Vec3
@@ -56,6 +59,24 @@ def plane_local_to_global(to: Position, from_: Position, local_plane: Plane) -> 
     normal = from_.frame.local_to_global_vec(n)
     point = to.local_to_global_from(from_, n * -local_plane.d)
     return Plane(normal, -normal.dot(point))
+
+
+def plane_local_to_global_f32(to: Position, from_: Position, local_plane: Plane, scale: float) -> Plane:
+    """plane_local_to_global in the client's single precision, with d then
+    multiplied by `scale` (what a found floor's contact plane is): the
+    normal and the point rotated as System.Numerics rotates (rotate_f32),
+    each sum, product and the dot product rounded to float32."""
+    n = local_plane.normal
+    q = from_.frame.orientation
+    normal = rotate_f32(q, n)
+    r = rotate_f32(q, scale_f32(n, -local_plane.d))
+    o = from_.frame.origin
+    block = get_block_offset(to.cell_id, from_.cell_id)
+    px = to_single(block.x + to_single(o.x + r.x))
+    py = to_single(block.y + to_single(o.y + r.y))
+    pz = to_single(block.z + to_single(o.z + r.z))
+    d = -dot_f32(normal.x, normal.y, normal.z, px, py, pz)
+    return Plane(normal, to_single(d * scale))
 
 
 class BSPTree:
@@ -167,9 +188,13 @@ class BSPTree:
             assert local_space_pos is not None
             offset = local_space_pos.local_to_global_vec(valid_pos.center - local_sphere.center) * scale
             path.add_offset_to_check_pos(offset)
-            plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane)
+            if path.single_precision:
+                plane = plane_local_to_global_f32(path.check_pos, local_space_pos, hit_poly.plane, scale)
+            else:
+                plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane)
+                plane = Plane(plane.normal, plane.d * scale)
             ci = transition.collision_info
-            ci.set_contact_plane(Plane(plane.normal, plane.d * scale), False)
+            ci.set_contact_plane(plane, False)
             ci.contact_plane_cell_id = path.check_pos.cell_id
             path.set_walkable(valid_pos, hit_poly, path.local_space_z, local_space_pos, scale)
             return _ADJUSTED
@@ -238,9 +263,13 @@ class BSPTree:
         assert local_space_pos is not None
         offset = local_space_pos.local_to_global_vec(valid_pos.center - check_pos.center) * scale
         path.shift_check_pos(offset)
-        plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
+        if path.single_precision:
+            plane = plane_local_to_global_f32(path.check_pos, local_space_pos, poly_hit.plane, scale)
+        else:
+            plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
+            plane = Plane(plane.normal, plane.d * scale)
         ci = transition.collision_info
-        ci.set_contact_plane(Plane(plane.normal, plane.d * scale), False)
+        ci.set_contact_plane(plane, False)
         ci.contact_plane_cell_id = path.check_pos.cell_id
         path.set_walkable(valid_pos, poly_hit, path.local_space_z, local_space_pos, scale)
         return _ADJUSTED
