@@ -105,3 +105,82 @@ def test_adjust_offset_lifts_onto_the_contact_plane_in_float32() -> None:
     offset = t.adjust_offset(Vec3(0.0, 0.0, 0.0))
     assert offset == Vec3(0.0, 0.0, 0.0)
     assert path.global_sphere[0].center.z == float(expected_z)
+
+
+# -- rotations and placements in float32 ----------------------------------------------
+
+
+def _np_transform_quat(q: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
+    """System.Numerics Vector3.Transform(v, q), written out in numpy float32."""
+    w, x, y, z = (F(c) for c in q)
+    vx, vy, vz = (F(c) for c in v)
+    x2, y2, z2 = x + x, y + y, z + z
+    wx2, wy2, wz2 = w * x2, w * y2, w * z2
+    xx2, xy2, xz2 = x * x2, x * y2, x * z2
+    yy2, yz2, zz2 = y * y2, y * z2, z * z2
+    one = F(1.0)
+    return (
+        float(vx * (one - yy2 - zz2) + vy * (xy2 - wz2) + vz * (xz2 + wy2)),
+        float(vx * (xy2 + wz2) + vy * (one - xx2 - zz2) + vz * (yz2 - wx2)),
+        float(vx * (xz2 - wy2) + vy * (yz2 + wx2) + vz * (one - xx2 - yy2)),
+    )
+
+
+def _np_inverse_transform(q: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
+    """Vector3.Transform(v, Matrix4x4.Transpose(Matrix4x4.CreateFromQuaternion(q))) in numpy float32."""
+    w, x, y, z = (F(c) for c in q)
+    vx, vy, vz = (F(c) for c in v)
+    xx, yy, zz = x * x, y * y, z * z
+    xy, wz, xz, wy, yz, wx = x * y, z * w, z * x, y * w, y * z, x * w
+    one, two = F(1.0), F(2.0)
+    m11, m12, m13 = one - two * (yy + zz), two * (xy + wz), two * (xz - wy)
+    m21, m22, m23 = two * (xy - wz), one - two * (zz + xx), two * (yz + wx)
+    m31, m32, m33 = two * (xz + wy), two * (yz - wx), one - two * (yy + xx)
+    # the transpose's row i is column i of M
+    return (
+        float(vx * m11 + vy * m12 + vz * m13),
+        float(vx * m21 + vy * m22 + vz * m23),
+        float(vx * m31 + vy * m32 + vz * m33),
+    )
+
+
+def test_rotations_round_as_system_numerics_does() -> None:
+    from engine.geometry import Quat
+    from engine.geometry.f32 import local_z_f32, rotate_f32, unrotate_f32
+
+    rng = random.Random(7)
+    for _ in range(300):
+        angle = rng.uniform(-3.2, 3.2)
+        axis = Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)).normalized_or_none()
+        assert axis is not None
+        s = np.sin(angle / 2)
+        q = (float(F(np.cos(angle / 2))), float(F(axis.x * s)), float(F(axis.y * s)), float(F(axis.z * s)))
+        v = (_rand_f32(rng, 200.0), _rand_f32(rng, 200.0), _rand_f32(rng, 5.0))
+        quat = Quat(*q)
+        assert rotate_f32(quat, Vec3(*v)).as_tuple() == _np_transform_quat(q, v)
+        assert unrotate_f32(quat, Vec3(*v)).as_tuple() == _np_inverse_transform(q, v)
+        assert local_z_f32(quat).as_tuple() == _np_inverse_transform(q, (0.0, 0.0, 1.0))
+    # the identity leaves a vector as it is, bit for bit
+    v0 = Vec3(0.1, -2.5, 1e-3)
+    assert rotate_f32(Quat(), v0) is v0 and unrotate_f32(Quat(), v0) is v0
+
+
+def test_an_obstacle_sphere_is_placed_in_float32() -> None:
+    from engine.geometry import Quat
+    from engine.geometry.f32 import place_f32
+
+    # a quarter turn about z at (100.3, 50.7, 20.1), scale 1.5, a point (0.48, 0.1, 1.35)
+    # of the object: (x, y, z) -> (-y, x, z), times 1.5, plus the origin; all float32
+    s = float(F(np.sqrt(0.5)))
+    q = (s, 0.0, 0.0, s)
+    origin = tuple(float(F(c)) for c in (100.3, 50.7, 20.1))
+    point = (0.48, 0.1, 1.35)
+    pos = Position(0xA9B40101, Frame(Vec3(*origin), Quat(*q)))
+    scaled = tuple(float(F(c) * F(1.5)) for c in point)
+    r = _np_transform_quat(q, scaled)  # type: ignore[arg-type]
+    expected = tuple(float(F(o) + F(c)) for o, c in zip(origin, r))
+    assert place_f32(0xA9B40101, pos, Vec3(*point), 1.5).as_tuple() == expected
+    assert place_f32(0xA9B40101, pos, Vec3(*point), 1.5).as_tuple() == pytest.approx((100.3 - 0.15, 50.7 + 0.72, 20.1 + 2.025), abs=1e-5)
+    # from the next landblock east: 192 m further along x
+    east = place_f32(0xAAB40001, pos, Vec3(*point), 1.5)
+    assert east.as_tuple() == (float(F(-192.0) + F(expected[0])), expected[1], expected[2])

@@ -24,7 +24,10 @@ from __future__ import annotations
 from typing import Final, TYPE_CHECKING
 
 from ..constants import ADJUST_TO_PLANE_ITERATIONS, LANDING_Z, PLACEMENT_ITERATIONS
+from ..geometry.f32 import dot_f32, rotate_f32, scale_f32, sub_f32
+from ..geometry.landdefs import get_block_offset
 from ..geometry.plane import Plane
+from ..geometry.single import to_single
 from ..geometry.polygon import Polygon, PolyHit
 from ..geometry.sphere import Sphere
 from ..geometry.vec3 import Vec3
@@ -56,6 +59,43 @@ def plane_local_to_global(to: Position, from_: Position, local_plane: Plane) -> 
     normal = from_.frame.local_to_global_vec(n)
     point = to.local_to_global_from(from_, n * -local_plane.d)
     return Plane(normal, -normal.dot(point))
+
+
+def plane_local_to_global_f32(to: Position, from_: Position, local_plane: Plane, scale: float) -> Plane:
+    """plane_local_to_global in the client's single precision, with d then
+    multiplied by `scale` (what a found floor's contact plane is): the
+    normal and the point rotated as System.Numerics rotates (rotate_f32),
+    each sum, product and the dot product rounded to float32."""
+    n = local_plane.normal
+    q = from_.frame.orientation
+    normal = rotate_f32(q, n)
+    r = rotate_f32(q, scale_f32(n, -local_plane.d))
+    o = from_.frame.origin
+    block = get_block_offset(to.cell_id, from_.cell_id)
+    px = to_single(block.x + to_single(o.x + r.x))
+    py = to_single(block.y + to_single(o.y + r.y))
+    pz = to_single(block.z + to_single(o.z + r.z))
+    d = -dot_f32(normal.x, normal.y, normal.z, px, py, pz)
+    return Plane(normal, to_single(d * scale))
+
+
+def _global_vec(path: SpherePath, v: Vec3) -> Vec3:
+    """A vector of the path's local space in the landblock frame
+    (LocalSpacePos.LocalToGlobalVec), in float32 when the path is."""
+    lsp = path.local_space_pos
+    assert lsp is not None
+    if path.single_precision:
+        return rotate_f32(lsp.frame.orientation, v)
+    return lsp.frame.local_to_global_vec(v)
+
+
+def _global_offset(path: SpherePath, moved: Vec3, start: Vec3, scale: float) -> Vec3:
+    """How far a local-space sphere moved, in the landblock frame and scaled
+    (LocalToGlobalVec(moved - start) * scale), in float32 when the path is."""
+    if not path.single_precision:
+        return _global_vec(path, moved - start) * scale
+    v = _global_vec(path, sub_f32(moved, start))
+    return v if scale == 1.0 else scale_f32(v, to_single(scale))
 
 
 class BSPTree:
@@ -165,11 +205,15 @@ class BSPTree:
                 return _OK
             local_space_pos = path.local_space_pos
             assert local_space_pos is not None
-            offset = local_space_pos.local_to_global_vec(valid_pos.center - local_sphere.center) * scale
+            offset = _global_offset(path, valid_pos.center, local_sphere.center, scale)
             path.add_offset_to_check_pos(offset)
-            plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane)
+            if path.single_precision:
+                plane = plane_local_to_global_f32(path.check_pos, local_space_pos, hit_poly.plane, scale)
+            else:
+                plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane)
+                plane = Plane(plane.normal, plane.d * scale)
             ci = transition.collision_info
-            ci.set_contact_plane(Plane(plane.normal, plane.d * scale), False)
+            ci.set_contact_plane(plane, False)
             ci.contact_plane_cell_id = path.check_pos.cell_id
             path.set_walkable(valid_pos, hit_poly, path.local_space_z, local_space_pos, scale)
             return _ADJUSTED
@@ -195,7 +239,7 @@ class BSPTree:
         if root.sphere_intersects_poly(local_sphere, movement, hit) or hit.poly is not None:
             if state & OI.PATH_CLIPPED:
                 return self.collide_with_pt(transition, local_sphere, center, hit.poly, hit.contact_point, scale)  # type: ignore[arg-type]
-            normal = path.local_space_pos.local_to_global_vec(hit.poly.plane.normal)  # type: ignore[union-attr]
+            normal = _global_vec(path, hit.poly.plane.normal)  # type: ignore[union-attr]
             path.walkable_allowance = LANDING_Z
             path.set_collide(normal)
             return _ADJUSTED
@@ -204,7 +248,7 @@ class BSPTree:
             if root.sphere_intersects_poly(local_sphere_1, movement, hit) or hit.poly is not None:  # type: ignore[arg-type]
                 poly = hit.found()  # set by the query above
                 assert poly is not None
-                normal = path.local_space_pos.local_to_global_vec(poly.plane.normal)  # type: ignore[union-attr]
+                normal = _global_vec(path, poly.plane.normal)
                 transition.collision_info.set_collision_normal(normal)
                 return _COLLIDED
 
@@ -236,11 +280,15 @@ class BSPTree:
             return _OK
         local_space_pos = path.local_space_pos
         assert local_space_pos is not None
-        offset = local_space_pos.local_to_global_vec(valid_pos.center - check_pos.center) * scale
+        offset = _global_offset(path, valid_pos.center, check_pos.center, scale)
         path.shift_check_pos(offset)
-        plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
+        if path.single_precision:
+            plane = plane_local_to_global_f32(path.check_pos, local_space_pos, poly_hit.plane, scale)
+        else:
+            plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
+            plane = Plane(plane.normal, plane.d * scale)
         ci = transition.collision_info
-        ci.set_contact_plane(Plane(plane.normal, plane.d * scale), False)
+        ci.set_contact_plane(plane, False)
         ci.contact_plane_cell_id = path.check_pos.cell_id
         path.set_walkable(valid_pos, poly_hit, path.local_space_z, local_space_pos, scale)
         return _ADJUSTED
@@ -249,7 +297,7 @@ class BSPTree:
         """Try to step up onto what the sphere ran into; slide along it when
         that fails (BSPTREE::step_sphere_up). `collision_normal` is local."""
         path = transition.sphere_path
-        glob_normal = path.local_space_pos.local_to_global_vec(collision_normal)  # type: ignore[union-attr]
+        glob_normal = _global_vec(path, collision_normal)
         if transition.step_up(glob_normal):
             return _OK
         return path.step_up_slide(transition)
@@ -261,12 +309,12 @@ class BSPTree:
         from ..transition.slide import slide_sphere
 
         path = transition.sphere_path
-        glob_normal = path.local_space_pos.local_to_global_vec(collision_normal)  # type: ignore[union-attr]
+        glob_normal = _global_vec(path, collision_normal)
         return slide_sphere(transition, glob_normal, path.global_curr_center[0].center)
 
     def neg_poly_hit(self, path: SpherePath, hit_poly: Polygon, step_up: bool) -> int:
         """Defer a polygon hit to the transition (BSPTREE::NegPolyHit); OK."""
-        normal = path.local_space_pos.local_to_global_vec(hit_poly.plane.normal)  # type: ignore[union-attr]
+        normal = _global_vec(path, hit_poly.plane.normal)
         path.set_neg_poly_hit(step_up, normal)
         return _OK
 
@@ -290,7 +338,7 @@ class BSPTree:
         ci = transition.collision_info
         local_space_pos = path.local_space_pos
         assert local_space_pos is not None
-        collision_normal = local_space_pos.local_to_global_vec(hit_poly.plane.normal)
+        collision_normal = _global_vec(path, hit_poly.plane.normal)
         if not transition.object_info.state & OI.PERFECT_CLIP:
             ci.set_collision_normal(collision_normal)
             return _COLLIDED
@@ -298,7 +346,7 @@ class BSPTree:
         if not self.adjust_to_plane(valid_pos, cur_pos, hit_poly, contact_point):
             return _COLLIDED
         ci.set_collision_normal(collision_normal)
-        offset = local_space_pos.local_to_global_vec(valid_pos.center - check_pos.center) * scale
+        offset = _global_offset(path, valid_pos.center, check_pos.center, scale)
         path.add_offset_to_check_pos(offset)
         return _ADJUSTED
 
@@ -392,7 +440,5 @@ class BSPTree:
         position by the push, ADJUSTED (no scale applied, as in the reference)."""
         if i == 0:
             return _OK
-        adjust = valid_pos.center - path.local_space_sphere[0].center
-        offset = path.local_space_pos.local_to_global_vec(adjust)  # type: ignore[union-attr]
-        path.add_offset_to_check_pos(offset)
+        path.add_offset_to_check_pos(_global_offset(path, valid_pos.center, path.local_space_sphere[0].center, 1.0))
         return _ADJUSTED

@@ -238,7 +238,7 @@ class Polygon:
             self._nx = self._ny = self._nz = self._d = 0.0
             self._edges = ()
             return
-        self.plane = plane = Plane.from_points(verts)
+        self.plane = plane = Plane.from_points_f32(verts)
         nx, ny, nz = plane.normal.x, plane.normal.y, plane.normal.z
         self._nx, self._ny, self._nz, self._d = nx, ny, nz, plane.d
         edges: list[PolyEdge] = []

@@ -25,6 +25,8 @@ from typing import Any, Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, Plane, Position, Sphere, Vec3
+from ..geometry.f32 import normalize_check_small_f32, place_f32
+from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from ..transition.state import OI, InsertType, TransitionState
 from .sphere_collision import slide_sphere_env
@@ -39,6 +41,8 @@ _COLLIDED: Final = TransitionState.COLLIDED
 _ADJUSTED: Final = TransitionState.ADJUSTED
 _PLACEMENT: Final = InsertType.PLACEMENT
 _CONTACT_OR_WALKABLE: Final = OI.CONTACT | OI.ON_WALKABLE
+#: the client's EPSILON as the float32 it compares with
+_EPSILON_F32: Final = to_single(EPSILON)
 
 
 class CylSphere:
@@ -102,6 +106,12 @@ class CylSphere:
         scaled by `scale` (CylSphere.IntersectsSphere(Position, scale, ...))."""
         path = transition.sphere_path
         path.cache_local_space_sphere(position, 1.0)
+        if path.single_precision:
+            # the client's CylSphere(lowPoint, height, radius, scale) and
+            # CheckPos.LocalToGlobal(pos, lowPoint), in floats
+            f = to_single(scale)
+            low = place_f32(path.check_pos.cell_id, position, self.low_point, f)
+            return CylSphere(low, to_single(to_single(self.radius) * f), to_single(to_single(self.height) * f)).intersects_sphere(transition)
         low = path.check_pos.local_to_global_from(position, self.low_point * scale)
         return CylSphere(low, self.radius * scale, self.height * scale).intersects_sphere(transition)
 
@@ -125,7 +135,10 @@ class CylSphere:
             glob_sphere_1 = path.global_sphere[1]
             disp_1 = glob_sphere_1.center - self.low_point
 
-        radsum = self.radius - EPSILON + glob_sphere.radius
+        if path.single_precision:
+            radsum = to_single(to_single(self.radius - _EPSILON_F32) + glob_sphere.radius)
+        else:
+            radsum = self.radius - EPSILON + glob_sphere.radius
 
         if path.insert_type == _PLACEMENT or path.obstruction_ethereal:
             if self.collides_with_sphere(glob_sphere, disp, radsum):
@@ -263,6 +276,8 @@ class CylSphere:
         when the meeting point is outside the step.
         """
         path = transition.sphere_path
+        if path.single_precision:
+            return self._collide_with_point_f32(transition, check_sphere, disp, radsum, sphere_num)
         ci = transition.collision_info
         definite, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
         unit = normal.normalized_or_none()
@@ -340,3 +355,131 @@ class CylSphere:
         path.add_offset_to_check_pos(glob_center + scaled - check_sphere.center)
         ci.set_collision_normal(Vec3(n.x, n.y, 0.0))
         return _ADJUSTED
+
+    def _collide_with_point_f32(self, transition: Transition, check_sphere: Sphere, disp: Vec3, radsum: float, sphere_num: int) -> int:
+        """collide_with_point in the client's precision (CylSphere.CollideWithPoint).
+
+        The sphere meets the cylinder wall where a quadratic in the step's
+        horizontal movement has its root; its discriminant cancels two terms
+        of ~1e2, so float32 rounding moves the meeting point and the normal
+        in the sixth digit (enough to steer a missile's bounce measurably).
+        As in the client, floats throughout except where its 2D squared
+        lengths are doubles: the discriminant is evaluated in double from
+        float-rounded squares, and the root's time is rounded back to float.
+        """
+        path = transition.sphere_path
+        ci = transition.collision_info
+        low = self.low_point
+        eps = _EPSILON_F32
+        g = path.global_curr_center[sphere_num].center
+        cx = to_single(g.x - low.x)
+        cy = to_single(g.y - low.y)
+        cz = to_single(g.z - low.z)
+        # CylSphere.CollisionNormal
+        if to_single(radsum * radsum) < to_single(to_single(cx * cx) + to_single(cy * cy)):
+            nx, ny, nz = cx, cy, 0.0
+            half = to_single(self.height * 0.5)
+            definite = to_single(to_single(check_sphere.radius - eps) + half) >= abs(to_single(half - cz)) or abs(
+                to_single(cz - disp.z)
+            ) <= eps
+        else:
+            nx, ny, nz = 0.0, 0.0, (1.0 if to_single(disp.z - cz) <= 0.0 else -1.0)
+            definite = True
+        unit = normalize_check_small_f32(Vec3(nx, ny, nz))
+        if unit is None:
+            return _COLLIDED
+        if not transition.object_info.state & OI.PERFECT_CLIP:
+            ci.set_collision_normal(unit)
+            return _COLLIDED
+
+        gc = path.global_curr_center[0].center
+        assert path.curr_pos is not None
+        block = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
+        c = check_sphere.center
+        mx = to_single(block.x + to_single(c.x - gc.x))
+        my = to_single(block.y + to_single(c.y - gc.y))
+        mz = to_single(block.z + to_single(c.z - gc.z))
+        odx = to_single(gc.x - low.x)
+        ody = to_single(gc.y - low.y)
+        odz = to_single(gc.z - low.z)
+        radsum = to_single(radsum + eps)
+        rr = to_single(radsum * radsum)
+
+        xy_move_len_sq = to_single(to_single(mx * mx) + to_single(my * my))
+        dot2d = to_single(to_single(mx * odx) + to_single(my * ody))
+        xy_diff = -dot2d
+        diff_sq = to_single(xy_diff * xy_diff) - (to_single(to_single(odx * odx) + to_single(ody * ody)) - rr) * xy_move_len_sq
+        diff = to_single(math.sqrt(diff_sq)) if diff_sq >= 0.0 else math.nan
+        r = check_sphere.radius
+
+        if not definite:
+            if abs(mz) < eps:
+                return _COLLIDED
+            if mz > 0.0:
+                normal = Vec3(0.0, 0.0, -1.0)
+                time = -to_single(to_single(mz + r) / mz)
+            else:
+                normal = Vec3(0.0, 0.0, 1.0)
+                time = to_single(to_single(to_single(r + self.height) - mz) / mz)
+            sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+            px = to_single(sx + odx)
+            py = to_single(sy + ody)
+            if to_single(to_single(px * px) + to_single(py * py)) >= rr:
+                if abs(xy_move_len_sq) < eps:
+                    return _COLLIDED
+                if diff_sq >= 0.0 and xy_move_len_sq > eps:
+                    time = self._root_time_f32(xy_diff, diff, dot2d, xy_move_len_sq)
+                    sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+                normal = Vec3(
+                    to_single(to_single(to_single(sx + gc.x) - low.x) / radsum),
+                    to_single(to_single(to_single(sy + gc.y) - low.y) / radsum),
+                    0.0,
+                )
+            if time < 0.0 or time > 1.0:
+                return _COLLIDED
+            path.add_offset_to_check_pos(
+                Vec3(to_single(to_single(gc.x - sx) - c.x), to_single(to_single(gc.y - sy) - c.y), to_single(to_single(gc.z - sz) - c.z))
+            )
+            ci.set_collision_normal(normal)
+            return _ADJUSTED
+
+        if unit.z != 0.0:
+            if abs(mz) < eps:
+                return _COLLIDED
+            if mz > 0.0:
+                time = -to_single(to_single(odz + r) / mz)
+            else:
+                time = to_single(to_single(to_single(r + self.height) - odz) / mz)
+            if time < 0.0 or time > 1.0:
+                return _COLLIDED
+            sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+            path.add_offset_to_check_pos(
+                Vec3(to_single(to_single(gc.x + sx) - c.x), to_single(to_single(gc.y + sy) - c.y), to_single(to_single(gc.z + sz) - c.z))
+            )
+            ci.set_collision_normal(unit)
+            return _ADJUSTED
+
+        if diff_sq < 0.0 or xy_move_len_sq < eps:
+            return _COLLIDED
+        time = self._root_time_f32(xy_diff, diff, dot2d, xy_move_len_sq)
+        if time < 0.0 or time > 1.0:
+            return _COLLIDED
+        sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+        normal = Vec3(
+            to_single(to_single(to_single(sx + gc.x) - low.x) / radsum),
+            to_single(to_single(to_single(sy + gc.y) - low.y) / radsum),
+            0.0,
+        )
+        path.add_offset_to_check_pos(
+            Vec3(to_single(to_single(gc.x + sx) - c.x), to_single(to_single(gc.y + sy) - c.y), to_single(to_single(gc.z + sz) - c.z))
+        )
+        ci.set_collision_normal(normal)
+        return _ADJUSTED
+
+    @staticmethod
+    def _root_time_f32(xy_diff: float, diff: float, dot2d: float, xy_move_len_sq: float) -> float:
+        """The step fraction at the wall: the quadratic's root as the client
+        picks and rounds it (a float difference over a double, then float)."""
+        if to_single(xy_diff - diff) < 0.0:
+            return to_single(to_single(diff - dot2d) / xy_move_len_sq)
+        return to_single(to_single(xy_diff - diff) / xy_move_len_sq)

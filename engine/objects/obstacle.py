@@ -18,7 +18,9 @@ from typing import Any, Final, Sequence, TYPE_CHECKING
 
 from ..constants import EPSILON
 from ..geometry import ZERO, Frame, Position, Sphere, Vec3
+from ..geometry.f32 import place_f32
 from ..geometry.landdefs import get_block_offset
+from ..geometry.single import to_single
 from ..transition.state import OI, InsertType, TransitionState
 from .cylsphere_collision import CylSphere
 from .gfx_obj import PhysicsPart
@@ -161,6 +163,7 @@ class Obstacle:
         "_part_positions",
         "_sphere_cache_pos",
         "_sphere_cache_scale",
+        "_sphere_cache_single",
         "_placed_spheres",
     )
 
@@ -210,6 +213,7 @@ class Obstacle:
         self._part_positions: list[Any] = []
         self._sphere_cache_pos: Position | None = None
         self._sphere_cache_scale = 0.0
+        self._sphere_cache_single = False
         self._placed_spheres: list[Sphere] = []
 
     def __repr__(self) -> str:
@@ -245,16 +249,29 @@ class Obstacle:
             self._part_cache_scale = self.scale
         return self._part_positions
 
-    def placed_spheres(self) -> list[Sphere]:
+    def placed_spheres(self, single: bool = False) -> list[Sphere]:
         """The spheres scaled and placed by `position`, in its landblock's
         frame (the part of Sphere.IntersectsSphere(Position, scale) that does
-        not depend on the mover; kept until the obstacle moves)."""
-        if self._sphere_cache_pos is not self.position or self._sphere_cache_scale != self.scale:
-            frame = self.position.frame
+        not depend on the mover; kept until the obstacle moves). With
+        `single`, in the client's single precision."""
+        if (
+            self._sphere_cache_pos is not self.position
+            or self._sphere_cache_scale != self.scale
+            or self._sphere_cache_single != single
+        ):
+            pos = self.position
             scale = self.scale
-            self._placed_spheres = [Sphere(frame.local_to_global(s.center * scale), s.radius * scale) for s in self.spheres]
+            if single:
+                f = to_single(scale)
+                self._placed_spheres = [
+                    Sphere(place_f32(pos.cell_id, pos, s.center, f), to_single(to_single(s.radius) * f)) for s in self.spheres
+                ]
+            else:
+                frame = pos.frame
+                self._placed_spheres = [Sphere(frame.local_to_global(s.center * scale), s.radius * scale) for s in self.spheres]
             self._sphere_cache_pos = self.position
             self._sphere_cache_scale = self.scale
+            self._sphere_cache_single = single
         return self._placed_spheres
 
     def find_obj_collisions(self, transition: Transition) -> int:
@@ -405,9 +422,15 @@ def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
         elif obstacle.spheres:
             # the obstacle's spheres placed in the check position's landblock
             offset = get_block_offset(path.check_pos.cell_id, obstacle.position.cell_id)
-            for placed in obstacle.placed_spheres():
+            single = path.single_precision
+            for placed in obstacle.placed_spheres(single):
                 if offset is not ZERO:
-                    placed = Sphere(placed.center + offset, placed.radius)
+                    c = placed.center
+                    if single:
+                        c = Vec3(to_single(offset.x + c.x), to_single(offset.y + c.y), to_single(offset.z + c.z))
+                    else:
+                        c = c + offset
+                    placed = Sphere(c, placed.radius)
                 result = intersects_sphere(placed, transition, is_creature)
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)

@@ -6,7 +6,8 @@ from typing import TYPE_CHECKING, Any
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
-from ..geometry.f32 import vec_f32
+from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, sub_f32, unrotate_f32, vec_f32
+from ..geometry.quaternion import Quat
 from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .slide import slide_sphere
@@ -74,6 +75,9 @@ class SpherePath:
         "neg_poly_hit",
         "placement_allows_sliding",
         "single_precision",
+        "_lss_curr",
+        "_lss_check",
+        "_lss_sums",
     )
 
     def __init__(self) -> None:
@@ -123,6 +127,11 @@ class SpherePath:
         self.placement_allows_sliding = True
         #: keep the check position and sphere caches in single precision (settings)
         self.single_precision = True
+        #: the sphere centres of curr_pos and check_pos in their landblock
+        #: frame (float32), kept while those two positions stay the same
+        self._lss_curr: Position | None = None
+        self._lss_check: Position | None = None
+        self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
     def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
@@ -141,9 +150,19 @@ class SpherePath:
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         """Take at most two spheres (foot, head), scaled into the mover's frame."""
         self.num_sphere = min(len(spheres), 2)
-        self.local_sphere = [Sphere(s.center * scale, s.radius * scale) for s in spheres[: self.num_sphere]]
-        s0 = self.local_sphere[0]
-        self.local_low_point = Vec3(s0.center.x, s0.center.y, s0.center.z - s0.radius)
+        if self.single_precision:
+            # the client's spheres and scale are floats, and so is their product
+            f = to_single(scale)
+            self.local_sphere = [
+                Sphere(scale_f32(vec_f32(s.center), f), to_single(to_single(s.radius) * f)) for s in spheres[: self.num_sphere]
+            ]
+            s0 = self.local_sphere[0]
+            self.local_low_point = Vec3(s0.center.x, s0.center.y, to_single(s0.center.z - s0.radius))
+        else:
+            self.local_sphere = [Sphere(s.center * scale, s.radius * scale) for s in spheres[: self.num_sphere]]
+            s0 = self.local_sphere[0]
+            self.local_low_point = Vec3(s0.center.x, s0.center.y, s0.center.z - s0.radius)
+        self._lss_curr = None
         self.global_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
         self.global_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
         self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
@@ -232,10 +251,13 @@ class SpherePath:
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),
         divided by `scale` (SpherePath.CacheLocalSpaceSphere)."""
-        inv = 1.0 / scale
         curr = self.curr_pos
         check = self.check_pos
         assert curr is not None
+        if self.single_precision:
+            self._cache_local_space_sphere_f32(pos, curr, check, scale)
+            return
+        inv = 1.0 / scale
         for i in range(self.num_sphere):
             local = self.local_sphere[i]
             curr_center = pos.local_to_local(curr, local.center)
@@ -254,6 +276,78 @@ class SpherePath:
         c = s0.center
         r = s0.radius
         self.local_space_low_point = Vec3(c.x - z.x * r, c.y - z.y * r, c.z - z.z * r)
+
+    def _cache_local_space_sphere_f32(self, pos: Position, curr: Position, check: Position, scale: float) -> None:
+        """cache_local_space_sphere in the client's single precision: each
+        sphere centre carried into `pos`'s frame (Position.LocalToLocal: into
+        its landblock frame, across landblocks, then out of `pos`'s frame),
+        every sum and product rounded to float32. A floor found in that frame
+        is then landed on at the client's coordinates (a sphere resting on a
+        ramp sits a float32 step higher or lower otherwise).
+
+        The centres in the landblock frame depend only on curr_pos and
+        check_pos (positions are never changed in place, so they are known
+        by identity); they are kept for the next cell of the same step."""
+        if curr is not self._lss_curr or check is not self._lss_check or len(self._lss_sums) != self.num_sphere:
+            sums = []
+            for i in range(self.num_sphere):
+                c = _frame_point_f32(curr, self.local_sphere[i].center) if i == 0 else ZERO
+                k = _frame_point_f32(check, self.local_sphere[i].center)
+                sums.append((c.x, c.y, c.z, k.x, k.y, k.z))
+            self._lss_sums = sums
+            self._lss_curr = curr
+            self._lss_check = check
+        inv = to_single(1.0 / scale)
+        q = pos.frame.orientation
+        ident = q.x == 0.0 and q.y == 0.0 and q.z == 0.0
+        po = pos.frame.origin
+        ox = po.x
+        oy = po.y
+        oz = po.z
+        lb = pos.cell_id >> 16
+        for i in range(self.num_sphere):
+            cx, cy, cz, kx, ky, kz = self._lss_sums[i]
+            # blockOffset + cellOffset, less the origin; the block offset is
+            # zero (and adding it exact) within one landblock
+            if lb != check.cell_id >> 16:
+                b = get_block_offset(pos.cell_id, check.cell_id)
+                kx = to_single(b.x + kx)
+                ky = to_single(b.y + ky)
+                kz = to_single(b.z + kz)
+            k = Vec3(to_single(kx - ox), to_single(ky - oy), to_single(kz - oz))
+            if not ident:
+                k = unrotate_f32(q, k)
+            ls = self.local_space_sphere[i]
+            radius = self.local_sphere[i].radius
+            if inv != 1.0:
+                k = scale_f32(k, inv)
+                radius = to_single(radius * inv)
+            ls.center = k
+            ls.radius = radius
+            if i == 0:
+                # only the foot sphere's current centre is ever read (the
+                # step's movement in BSPTREE::find_collisions)
+                if lb != curr.cell_id >> 16:
+                    b = get_block_offset(pos.cell_id, curr.cell_id)
+                    cx = to_single(b.x + cx)
+                    cy = to_single(b.y + cy)
+                    cz = to_single(b.z + cz)
+                c = Vec3(to_single(cx - ox), to_single(cy - oy), to_single(cz - oz))
+                if not ident:
+                    c = unrotate_f32(q, c)
+                if inv != 1.0:
+                    c = scale_f32(c, inv)
+                self.local_space_curr_center[0].center = c
+        self.local_space_pos = pos
+        s0 = self.local_space_sphere[0]
+        if ident:
+            z = UNIT_Z
+            c0 = s0.center
+            self.local_space_low_point = Vec3(c0.x, c0.y, to_single(c0.z - s0.radius))
+        else:
+            z = local_z_f32(q)
+            self.local_space_low_point = sub_f32(s0.center, scale_f32(z, s0.radius))
+        self.local_space_z = z
 
     # -- walkable bookkeeping -----------------------------------------------
     def check_walkables(self) -> bool:
@@ -325,3 +419,14 @@ class SpherePath:
         if normal.dot(moved) > 0.0:
             normal = -normal
         return slide_sphere(transition, normal, self.global_curr_center[0].center)
+
+
+def _frame_point_f32(source: Position, point: Vec3) -> Vec3:
+    """`point` of `source`'s frame in its landblock frame, in single
+    precision (AFrame.LocalToGlobal)."""
+    sq = source.frame.orientation
+    o = source.frame.origin
+    if sq.x == 0.0 and sq.y == 0.0 and sq.z == 0.0:
+        return Vec3(to_single(o.x + point.x), to_single(o.y + point.y), to_single(o.z + point.z))
+    r = rotate_f32(sq, point)
+    return Vec3(to_single(o.x + r.x), to_single(o.y + r.y), to_single(o.z + r.z))

@@ -11,7 +11,9 @@ from __future__ import annotations
 from typing import Final, TYPE_CHECKING
 
 from ..constants import LANDING_Z, STEP_DOWN_PROBE
-from ..geometry import Plane, Vec3
+from ..geometry import ZERO, Plane, Vec3
+from ..geometry.f32 import cross_f32, dot_f32, normalize_check_small_f32, scale_f32, sub_f32
+from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .state import OI, InsertType, TransitionState
 
@@ -124,13 +126,31 @@ def cliff_slide(t: Transition, contact_plane: Plane) -> int:
     last ground we stood on (Transition.CliffSlide)."""
     path = t.sphere_path
     ci = t.collision_info
-    crease = contact_plane.normal.cross(ci.last_known_contact_plane.normal)
+    single = path.single_precision
+    if single:
+        crease = cross_f32(contact_plane.normal, ci.last_known_contact_plane.normal)
+    else:
+        crease = contact_plane.normal.cross(ci.last_known_contact_plane.normal)
     # the horizontal direction across the crease: (-cy, cx, 0) of the z-less crease
-    collide_normal = Vec3(-crease.y, crease.x, 0.0).normalized_or_none()
+    flat = Vec3(-crease.y, crease.x, 0.0)
+    collide_normal = normalize_check_small_f32(flat) if single else flat.normalized_or_none()
     if collide_normal is None:
         return _OK
     assert path.curr_pos is not None
     block_offset = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
+    if single:
+        moved = sub_f32(path.global_sphere[0].center, path.global_curr_center[0].center)
+        if block_offset is not ZERO:
+            moved = Vec3(to_single(moved.x + block_offset.x), to_single(moved.y + block_offset.y), to_single(moved.z + block_offset.z))
+        n = collide_normal
+        angle = dot_f32(n.x, n.y, n.z, moved.x, moved.y, moved.z)
+        if angle <= 0.0:
+            path.add_offset_to_check_pos(scale_f32(n, angle))
+            ci.set_collision_normal(n)
+        else:
+            path.add_offset_to_check_pos(scale_f32(n, -angle))
+            ci.set_collision_normal(-n)
+        return TransitionState.ADJUSTED
     moved = path.global_sphere[0].center - path.global_curr_center[0].center
     angle = collide_normal.dot(moved + block_offset)
     if angle <= 0.0:

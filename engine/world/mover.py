@@ -21,8 +21,9 @@ from ..constants import (
     SMALL_VELOCITY_SQ,
 )
 from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
-from ..geometry.f32 import plane_f32, vec_f32
+from ..geometry.f32 import dot_f32, plane_f32, rotate_f32, scale_f32, sub_f32, vec_f32
 from ..geometry.quaternion import Quat
+from ..geometry.single import to_single
 from ..transition.object_info import ObjectInfo
 from ..transition.settings import EngineSettings
 from ..transition.state import OI
@@ -31,6 +32,9 @@ from .transient import TS
 
 
 __all__ = ["Mover"]
+
+#: the client's EPSILON as the float32 it compares with
+_EPSILON_F32: Final = to_single(EPSILON)
 
 DEFAULT_ELASTICITY: Final = 0.05
 
@@ -259,9 +263,7 @@ class Mover:
         fsf = ci.frames_stationary_fall
         if fsf <= 1:
             if apply_bounce and ci.collision_normal_valid:
-                angle = self.velocity.dot(ci.collision_normal)
-                if angle < 0.0:
-                    self.velocity = self.velocity + ci.collision_normal * -(angle * (self.elasticity + 1.0))
+                self.velocity = self._bounce(ci.collision_normal, t.settings.single_precision)
         else:
             self.velocity = ZERO
             if fsf == 3:
@@ -277,6 +279,23 @@ class Mover:
         else:
             self.transient |= TS.STATIONARY_STUCK
 
+    def _bounce(self, normal: Vec3, single: bool) -> Vec3:
+        """The velocity after an elastic bounce off `normal` (the collision
+        response of PhysicsObj.handle_all_collisions); with `single` in the
+        client's single precision, the normal being the float32 it keeps."""
+        v = self.velocity
+        if not single:
+            angle = v.dot(normal)
+            if angle < 0.0:
+                return v + normal * -(angle * (self.elasticity + 1.0))
+            return v
+        n = vec_f32(normal)
+        angle = dot_f32(v.x, v.y, v.z, n.x, n.y, n.z)
+        if angle < 0.0:
+            push = -to_single(angle * to_single(to_single(self.elasticity) + 1.0))
+            return Vec3(to_single(v.x + to_single(n.x * push)), to_single(v.y + to_single(n.y * push)), to_single(v.z + to_single(n.z * push)))
+        return v
+
     def report_environment_collision(self) -> None:
         """A missile's first hit on the world ends its flight (report_environment_collision)."""
         if self.colliding_with_environment:
@@ -285,12 +304,65 @@ class Mover:
         self.missile = False
 
     # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
-    def integrate(self, motion: Vec3, dt: float) -> Frame:
+    def integrate(self, motion: Vec3, dt: float, single: bool = True) -> Frame:
         """Where this object wants to be after `dt`: its own motion `motion`
         (metres in the object frame, already scaled to the object's size, as
         the client's animation offset is; applied only on walkable ground),
         plus velocity and gravity, with friction on the ground and the speed
-        clamp."""
+        clamp (PhysicsObj.UpdatePositionInternal / UpdatePhysicsInternal).
+
+        With `single` (the reference's setting) every step is done in the
+        client's single precision, in the order its expressions evaluate:
+        the motion rotated and added to the origin (AFrame.Combine), the
+        movement `a * 0.5 * q * q + v * q` added to that, the velocity
+        updated by `a * q`, with `q` the time step as a float32."""
+        if not single:
+            return self._integrate_f64(motion, dt)
+        frame = self.position.frame
+        o = frame.origin
+        if self.transient & TS.ON_WALKABLE:
+            local = rotate_f32(frame.orientation, motion)
+            x = to_single(o.x + local.x)
+            y = to_single(o.y + local.y)
+            z = to_single(o.z + local.z)
+        else:
+            # the offset is scaled by zero: the origin plus a zero vector
+            x = o.x
+            y = o.y
+            z = o.z
+        q = to_single(dt)
+        a = self.acceleration
+        v = self.velocity
+        v2 = dot_f32(v.x, v.y, v.z, v.x, v.y, v.z)
+        if v2 > 0.0:
+            if v2 > MAX_VELOCITY_SQ:
+                length = to_single(math.sqrt(v2))
+                v = scale_f32(Vec3(to_single(v.x / length), to_single(v.y / length), to_single(v.z / length)), MAX_VELOCITY)
+                v2 = MAX_VELOCITY_SQ
+            v = self._friction_f32(v, q)
+            if to_single(v2 - SMALL_VELOCITY_SQ) < _EPSILON_F32:
+                v = ZERO
+            # Acceleration * 0.5f * quantum * quantum + Velocity * quantum
+            x = to_single(x + to_single(to_single(to_single(to_single(a.x * 0.5) * q) * q) + to_single(v.x * q)))
+            y = to_single(y + to_single(to_single(to_single(to_single(a.y * 0.5) * q) * q) + to_single(v.y * q)))
+            z = to_single(z + to_single(to_single(to_single(to_single(a.z * 0.5) * q) * q) + to_single(v.z * q)))
+        self.velocity = Vec3(to_single(v.x + to_single(a.x * q)), to_single(v.y + to_single(a.y * q)), to_single(v.z + to_single(a.z * q)))
+        return frame.with_origin(Vec3(x, y, z))
+
+    def _friction_f32(self, v: Vec3, q: float) -> Vec3:
+        """Ground friction in single precision (PhysicsObj.calc_friction)."""
+        if not self.transient & TS.ON_WALKABLE:
+            return v
+        n = self.contact_plane.normal
+        angle = dot_f32(v.x, v.y, v.z, n.x, n.y, n.z)
+        if angle >= 0.25:
+            return v
+        v = sub_f32(v, scale_f32(n, angle))
+        scalar = to_single(math.pow(to_single(1.0 - to_single(self.friction)), q))
+        return scale_f32(v, scalar)
+
+    def _integrate_f64(self, motion: Vec3, dt: float) -> Frame:
+        """The physics step in double precision (settings without single precision)."""
         if self.transient & TS.ON_WALKABLE:
             local = motion
         else:
@@ -328,3 +400,4 @@ class Mover:
 
     def up(self) -> Vec3:
         return UNIT_Z
+

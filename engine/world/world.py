@@ -188,7 +188,7 @@ class World:
             raise NonFiniteError("motion or dt has non-finite numbers")
         if dt < 0.0:
             raise ValueError(f"dt must not be negative, got {dt}")
-        frame = mover.integrate(motion, dt)
+        frame = mover.integrate(motion, dt, self.settings.single_precision)
         target = Position(mover.position.cell_id, frame)
         return move_mover(self.landscape, mover, target)
 
