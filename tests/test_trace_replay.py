@@ -51,12 +51,9 @@ KNOWN_DIVERGENT: dict[str, str] = {}
 
 #: `ace-viewer-outdoor` cases record a bug of the reference (an outdoor camera
 #: never moves). They are not targets (the engine's default is the retail
-#: camera, see test_scenarios), but ACE_COMPAT reproduces the bug, and these
-#: disagree with it even so.
-KNOWN_DIVERGENT_ACE_VIEWER = {
-    "steep-viewer-100-viewer-chase": "move 71: the reference's pushed-back camera reports the normal of the "
-    "triangle south of the start cell, where the path's end lies; ours the start cell's (not investigated further)",
-}
+#: camera, see test_scenarios), but ACE_COMPAT reproduces the bug: every one
+#: agrees with it. A case that stops agreeing goes here as a strict xfail.
+KNOWN_DIVERGENT_ACE_VIEWER: dict[str, str] = {}
 
 
 def _cases(ace_viewer_outdoor: bool = False) -> list:
