@@ -47,3 +47,14 @@ def first_mismatch(case: dict[str, Any], results: list[dict[str, Any]]) -> str |
             detail = "; ".join(f"{k}: expected {move['expect'][k]!r}, got {got.get(k)!r}" for k in bad)
             return f"move {i}: {detail}"
     return None
+
+
+def case_mismatch(case: dict[str, Any], results: Any) -> str | None:
+    """`first_mismatch` for a single-mover case, or for every mover of a
+    `movers` case (results by mover id): None when all agree."""
+    if "movers" not in case:
+        return first_mismatch(case, results)
+    problems = [
+        f"mover {m['id']}: {p}" for m in case["movers"] if (p := first_mismatch(m, results[m["id"]])) is not None
+    ]
+    return "; ".join(problems) or None

@@ -28,7 +28,7 @@ from engine.geometry.single import to_single
 from engine.geometry.f32 import rotate_f32
 from engine.world.mover import Mover
 from engine.world.transient import TS
-from replay_check import first_mismatch
+from replay_check import case_mismatch
 from test_trace_replay import CASES, ORACLE, TRACES, _world
 
 #: Physics cases that disagree with the reference when replayed from their
@@ -89,17 +89,8 @@ def test_there_are_physics_cases_to_replay() -> None:
 
 @pytest.mark.parametrize(("scene", "case"), PHYSICS_CASES)
 def test_case_agrees_when_replayed_from_offsets(scene: str, case: dict) -> None:
-    results = engine.run_case(_world(scene), case, use_offsets=True)
-    if "movers" in case:
-        problems = [
-            f"mover {m['id']}: {p}"
-            for m in case["movers"]
-            if (p := first_mismatch(m, results[m["id"]])) is not None
-        ]
-        assert not problems, "; ".join(problems)
-    else:
-        problem = first_mismatch(case, results)
-        assert problem is None, problem
+    problem = case_mismatch(case, engine.run_case(_world(scene), case, use_offsets=True))
+    assert problem is None, problem
 
 
 # -- the physics step alone, from the reference's own state ----------------------

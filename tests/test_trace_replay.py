@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 import engine
-from replay_check import first_mismatch
+from replay_check import case_mismatch, first_mismatch
 
 ORACLE = Path(__file__).resolve().parent.parent.parent / "shared" / "oracle"
 
@@ -93,17 +93,8 @@ def test_the_traces_are_all_there() -> None:
 
 @pytest.mark.parametrize(("scene", "case"), CASES)
 def test_case_agrees_with_reference(scene: str, case: dict) -> None:
-    results = engine.run_case(_world(scene), case)
-    if "movers" in case:
-        problems = [
-            f"mover {m['id']}: {p}"
-            for m in case["movers"]
-            if (p := first_mismatch(m, results[m["id"]])) is not None
-        ]
-        assert not problems, "; ".join(problems)
-    else:
-        problem = first_mismatch(case, results)
-        assert problem is None, problem
+    problem = case_mismatch(case, engine.run_case(_world(scene), case))
+    assert problem is None, problem
 
 
 @pytest.mark.parametrize(("scene", "case"), ACE_VIEWER_CASES)
