@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Any
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
 from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, sub_f32, unrotate_f32, vec_f32
-from ..geometry.quaternion import Quat
 from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .slide import slide_sphere
@@ -300,44 +299,19 @@ class SpherePath:
         inv = to_single(1.0 / scale)
         q = pos.frame.orientation
         ident = q.x == 0.0 and q.y == 0.0 and q.z == 0.0
-        po = pos.frame.origin
-        ox = po.x
-        oy = po.y
-        oz = po.z
-        lb = pos.cell_id >> 16
         for i in range(self.num_sphere):
             cx, cy, cz, kx, ky, kz = self._lss_sums[i]
-            # blockOffset + cellOffset, less the origin; the block offset is
-            # zero (and adding it exact) within one landblock
-            if lb != check.cell_id >> 16:
-                b = get_block_offset(pos.cell_id, check.cell_id)
-                kx = to_single(b.x + kx)
-                ky = to_single(b.y + ky)
-                kz = to_single(b.z + kz)
-            k = Vec3(to_single(kx - ox), to_single(ky - oy), to_single(kz - oz))
-            if not ident:
-                k = unrotate_f32(q, k)
+            k = _into_frame_f32(pos, check.cell_id, kx, ky, kz, inv)
             ls = self.local_space_sphere[i]
             radius = self.local_sphere[i].radius
             if inv != 1.0:
-                k = scale_f32(k, inv)
                 radius = to_single(radius * inv)
             ls.center = k
             ls.radius = radius
             if i == 0:
                 # only the foot sphere's current centre is ever read (the
                 # step's movement in BSPTREE::find_collisions)
-                if lb != curr.cell_id >> 16:
-                    b = get_block_offset(pos.cell_id, curr.cell_id)
-                    cx = to_single(b.x + cx)
-                    cy = to_single(b.y + cy)
-                    cz = to_single(b.z + cz)
-                c = Vec3(to_single(cx - ox), to_single(cy - oy), to_single(cz - oz))
-                if not ident:
-                    c = unrotate_f32(q, c)
-                if inv != 1.0:
-                    c = scale_f32(c, inv)
-                self.local_space_curr_center[0].center = c
+                self.local_space_curr_center[0].center = _into_frame_f32(pos, curr.cell_id, cx, cy, cz, inv)
         self.local_space_pos = pos
         s0 = self.local_space_sphere[0]
         if ident:
@@ -419,6 +393,26 @@ class SpherePath:
         if normal.dot(moved) > 0.0:
             normal = -normal
         return slide_sphere(transition, normal, self.global_curr_center[0].center)
+
+
+def _into_frame_f32(pos: Position, cell_id: int, x: float, y: float, z: float, inv: float) -> Vec3:
+    """A point of `cell_id`'s landblock frame carried into `pos`'s frame and
+    divided by the scale (`inv` = 1/scale), in float32 as LocalToLocal does:
+    the block offset added (zero, and exact, within one landblock), the
+    origin taken off, the rotation undone, then the scale."""
+    if pos.cell_id >> 16 != cell_id >> 16:
+        b = get_block_offset(pos.cell_id, cell_id)
+        x = to_single(b.x + x)
+        y = to_single(b.y + y)
+        z = to_single(b.z + z)
+    o = pos.frame.origin
+    p = Vec3(to_single(x - o.x), to_single(y - o.y), to_single(z - o.z))
+    q = pos.frame.orientation
+    if not (q.x == 0.0 and q.y == 0.0 and q.z == 0.0):
+        p = unrotate_f32(q, p)
+    if inv != 1.0:
+        p = scale_f32(p, inv)
+    return p
 
 
 def _frame_point_f32(source: Position, point: Vec3) -> Vec3:

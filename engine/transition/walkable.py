@@ -61,11 +61,9 @@ def validate_walkable(
     c = check_sphere.center
     low_z = c.z - check_sphere.radius
     dist = c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth
-    if not t.settings.single_precision:
-        pass
-    elif dist > _CLEAR:
-        return TransitionState.OK  # far above the band: float32 rounding cannot matter
-    else:
+    if t.settings.single_precision:
+        if dist > _CLEAR:
+            return TransitionState.OK  # far above the band: float32 rounding cannot matter
         dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
         if water_depth != 0.0:
             dist = f32(dist + f32(water_depth))
