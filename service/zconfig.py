@@ -3,6 +3,15 @@
 Default: peer mode on loopback, multicast scouting off, so nothing leaves
 the machine and no router is needed. A config file replaces the defaults;
 explicit endpoints are applied on top of either.
+
+Zenoh's shared-memory transport is switched off (unless a config file sets
+`transport/shared_memory` itself): with it on, zenoh 1.10 moves every
+message over 3 KiB between two processes of one machine through a 16 MiB
+shared-memory pool of the sender's, and the receiver keeps that pool mapped
+after the sender's session has closed. A service answering many short-lived
+bulk clients then grew by about 20 MB of RSS per client session, for good
+(docs/performance.md, "Memory"). Loopback TCP costs these message sizes
+nothing measurable.
 """
 
 from __future__ import annotations
@@ -13,9 +22,19 @@ import zenoh
 
 from .wire import DEFAULT_PORT
 
-__all__ = ["DEFAULT_ENDPOINT", "make_config"]
+__all__ = ["DEFAULT_ENDPOINT", "make_config", "SHM_KEY"]
 
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+SHM_KEY = "transport/shared_memory/enabled"
+
+
+def _file_sets_shm(config_file: str) -> bool:
+    """Whether a config file mentions the shared-memory transport at all (then its choice stands)."""
+    try:
+        with open(config_file, encoding="utf-8") as f:
+            return "shared_memory" in f.read()
+    except OSError:  # zenoh.Config.from_file has already read it; be conservative
+        return True
 
 
 def make_config(
@@ -29,12 +48,15 @@ def make_config(
     """A zenoh.Config; arguments left None keep the file's (or our default) value."""
     if config_file:
         cfg = zenoh.Config.from_file(config_file)
+        if not _file_sets_shm(config_file):
+            cfg.insert_json5(SHM_KEY, "false")
     else:
         cfg = zenoh.Config()
         cfg.insert_json5("mode", json.dumps(mode or "peer"))
         # zenoh's own peer default listens on every interface; ours stays on loopback unless told
         cfg.insert_json5("listen/endpoints", json.dumps(listen or []))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(bool(multicast)))
+        cfg.insert_json5(SHM_KEY, "false")
         listen = None
         multicast = None
         mode = None
