@@ -1,4 +1,4 @@
-"""docs/performance.md and its plots, from benchmarks/out/results.json."""
+"""docs/performance.md and its plots, from docs/performance.json (the stored results of every section)."""
 
 from __future__ import annotations
 
@@ -659,6 +659,26 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
     return out + [""]
 
 
+def _memory(mem: dict[str, Any]) -> list[str]:
+    out = ["## Memory: the service under reconnecting bulk clients", "", _meta(mem), "",
+           (f"Client sessions two at a time, each its own process with Zenoh's default configuration (shared memory "
+            f"on), each registering {mem['movers_per_session']} movers, sending batches of {mem['batch']} moves "
+            "(about 5 KB, over Zenoh's 3 KiB shared-memory threshold), removing its movers and leaving "
+            "(benchmarks/bench_memory.py). RSS of the service process from /proc, once a second. The first row is the "
+            "service as shipped; the second gives the same service a config file that turns Zenoh's shared-memory "
+            "transport back on, as it ran before (service/zconfig.py says why it is off)."), "",
+           "| service | moves | client sessions | seconds | RSS at start | after the first minute | at the end | "
+           "growth after the first minute | growth per session |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in mem["rows"]:
+        label = "shared memory on (before)" if r["shared_memory"] else "as shipped (shared memory off)"
+        minute = "—" if r["rss_after_first_minute_mib"] is None else f"{r['rss_after_first_minute_mib']:.0f} MiB"
+        growth = "—" if r["growth_after_first_minute_pct"] is None else f"{r['growth_after_first_minute_pct']:+.1f} %"
+        out.append(f"| {label} | {r['moves']:,} | {r['sessions']} | {r['seconds']:.0f} | {r['rss_start_mib']:.0f} MiB | "
+                   f"{minute} | {r['rss_end_mib']:.0f} MiB | {growth} | {r['growth_per_session_mib']:.2f} MiB |")
+    return out + [""]
+
+
 def _stress(st: dict[str, Any]) -> list[str]:
     t = st["totals"]
     out = ["## 4. Numerical-stability stress", "", _meta(st), "",
@@ -717,7 +737,7 @@ Re-run:
     python3 -m benchmarks --only engine,error --error-cases 5
     python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 1800
 
-Raw results: `benchmarks/out/results.json` (not committed); plots: `benchmarks/plots/`.
+Raw results: `docs/performance.json` (each section's latest run); plots: `benchmarks/plots/`.
 """
 
 
@@ -729,6 +749,8 @@ def write(results: dict[str, Any]) -> None:
         lines += _error(results["error"], plot_error(results["error"]))
     if "service" in results:
         lines += _service(results["service"], plot_service(results["service"]))
+    if "memory" in results:
+        lines += _memory(results["memory"])
     if "stress" in results:
         lines += _stress(results["stress"])
     extra = results.get("notes")

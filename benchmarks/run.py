@@ -1,8 +1,8 @@
 """The one entry point: `python3 -m benchmarks [--quick] [--only ...]`.
 
 Runs the chosen benchmarks, stores their raw results in
-benchmarks/out/results.json (a section keeps its last results when another
-section is re-run alone), draws the plots into benchmarks/plots/ and rewrites
+docs/performance.json (committed beside the doc, so a section keeps its last
+results when another section is re-run alone, on any machine), draws the plots into benchmarks/plots/ and rewrites
 docs/performance.md from all stored sections.
 
 Exit status 1 when the stress run found NaN/inf, fall-throughs, penetrations
@@ -25,7 +25,7 @@ from typing import Any
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "stress")
+SECTIONS = ("engine", "error", "service", "memory", "stress")
 
 
 def _git_commit() -> str:
@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"unknown section(s) {', '.join(bad)}; choose from {', '.join(SECTIONS)}")
 
     common.OUT.mkdir(parents=True, exist_ok=True)
-    results_path = common.OUT / "results.json"
+    results_path = common.DOC.with_suffix(".json")
     try:
         results = json.loads(results_path.read_text())
     except (OSError, ValueError):
@@ -155,6 +155,10 @@ def main(argv: list[str] | None = None) -> int:
                     data["compiled"] = bench_service.run(args.quick, engine_root=pure.build_compiled())
                 except Exception as e:  # noqa: BLE001
                     data["compiled"] = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "memory":
+            from . import bench_memory
+
+            data = bench_memory.run(args.quick)
         else:
             from . import stress
 
@@ -165,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
                 [dict(f, scenario=s["scenario"]) for s in data["scenarios"] for f in s["failures"]]), indent=1))
         data["meta"] = dict(meta, seconds=time.monotonic() - t0)
         results[section] = _clean(data)
-        results_path.write_text(json.dumps(results, indent=1))
+        results_path.write_text(json.dumps(results, indent=1) + "\n")
         log(f"== {section} done in {time.monotonic() - t0:.0f} s ==")
 
     if not args.no_doc:
