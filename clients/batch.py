@@ -9,6 +9,7 @@ together in the items' order as a `BatchResults`.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -152,12 +153,12 @@ def request_arrays(ids: Any, offsets: Any = None, targets: Any = None, motions: 
 def _scatter(out: BatchResults, idx: Array, cols: dict[str, Array], collide: list[tuple[int, Array]]) -> None:
     for col in REPLY_COLUMNS:
         getattr(out, col.name)[idx] = cols[col.name]
-    counts = cols["collide_count"]
+    counts = cols["collide_count"].astype(np.int64)
     if counts.any():
         ids = cols["collide_ids"]
-        starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+        ends = np.cumsum(counts).tolist()
         for j in np.flatnonzero(counts).tolist():
-            collide.append((int(idx[j]), ids[starts[j]:starts[j] + counts[j]]))
+            collide.append((int(idx[j]), ids[ends[j] - int(counts[j]):ends[j]]))
 
 
 def _read_reply(reply: dict[str, Any], m: int) -> tuple[dict[str, Array], list[Any]]:
@@ -177,6 +178,18 @@ def _read_reply(reply: dict[str, Any], m: int) -> tuple[dict[str, Array], list[A
     except (KeyError, ValueError, TypeError) as e:
         raise ServiceError(ErrorKind.MALFORMED, f"unreadable column reply: {e}") from None
     return cols, errors
+
+
+def _reindexed(err: ServiceError, sent: int, given: int) -> ServiceError:
+    """The error with its path's item index as the caller gave it (`sent`: its index in the request that
+    went to one landblock, a subset of the batch)."""
+    if sent == given or not err.path:
+        return err
+    m = re.match(r"columns\.\w+\[(\d+)\]", err.path)
+    if m is None or int(m.group(1)) != sent:
+        return err
+    path = f"{err.path[:m.start(1)]}{given}{err.path[m.end(1):]}"
+    return type(err)(err.kind, err.message.replace(err.path, path), path, {**err.details, "path": path})
 
 
 def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None,
@@ -229,7 +242,7 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                     where[id_list[i]] = target
                     retry.append(i)
                     continue
-                out.errors[i] = ServiceError.from_wire(err_map)
+                out.errors[i] = _reindexed(ServiceError.from_wire(err_map), j, i)
         if not retry:
             break
         pending = sorted(retry)
