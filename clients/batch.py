@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -68,7 +68,8 @@ class BatchResults:
             shape = (n,) if col.width == 1 else (n, col.width)
             fill = float("nan") if col.missing == "NaN" else int(col.missing)
             arrays[col.name] = np.full(shape, fill, dtype=col.np_dtype.newbyteorder("="))
-        return cls(**arrays, collide_ids=np.zeros(0, dtype=np.uint64))
+        made: BatchResults = cast(Any, cls)(**arrays, collide_ids=np.zeros(0, dtype=np.uint64))
+        return made
 
     def __len__(self) -> int:
         return len(self.seq)
@@ -228,8 +229,8 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
             _scatter(out, idx, cols, collide)
             where = client._where
             resolved = (cols["flags"] & Flag.RESOLVED) != 0
-            for j, cell in zip(np.flatnonzero(resolved).tolist(), cols["cell"][resolved].tolist()):
-                where[id_list[members[j]]] = (cell >> 16) & 0xFFFF
+            for row, cell in zip(np.flatnonzero(resolved).tolist(), cols["cell"][resolved].tolist()):
+                where[id_list[members[row]]] = (cell >> 16) & 0xFFFF
             for entry in errors:
                 j = entry.get("index") if isinstance(entry, dict) else None
                 if type(j) is not int or not 0 <= j < len(members):

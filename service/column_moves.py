@@ -51,12 +51,18 @@ _REALS = 17
 _NO_REALS = (_NAN,) * _REALS
 _NO_PLANE = (_NAN,) * 4
 _NO_VEC = (_NAN,) * 3
+_NO_IDS: list[int] = []
 #: the integers of one row: seq, cell, flags, transition_state, frames_stationary_fall, contact_plane_cell,
 #: collide_count
 _INTS = 7
 _NO_INTS = (0, 0, 0, FAILED_STATE, 255, 0, 0)
 _TRANSIENT_BIT = {name: 1 << (Flag.TRANSIENT_SHIFT + i) for i, name in enumerate(TRANSIENT_FLAGS)}
 _TRANSIENT_BITS: dict[tuple[str, ...], int] = {}
+_CODE = TRANSITION_CODE
+#: the flags of (ok, contact, on_walkable, water_contact), with RESOLVED
+_BASE_FLAGS = {(ok, c, w, wc): Flag.RESOLVED | (Flag.OK if ok else 0) | (Flag.CONTACT if c else 0)
+               | (Flag.ON_WALKABLE if w else 0) | (Flag.WATER_CONTACT if wc else 0)
+               for ok in (False, True) for c in (False, True) for w in (False, True) for wc in (False, True)}
 
 
 class ColumnBus(Protocol):
@@ -106,36 +112,37 @@ def _transient_bits(names: list[str]) -> int:
 def _add_row(out: ColumnResults, seq: int, r: MoveResult, collide: list[int]) -> None:
     """Append one result's values (the State's fields, as columns)."""
     pos = r.position
-    o, q = pos.frame.origin, pos.frame.orientation
+    frame = pos.frame
+    o, q = frame.origin, frame.orientation
     cp, cn, sn, cpc, fsf = r.contact_plane, r.collision_normal, r.sliding_normal, r.contact_plane_cell, \
         r.frames_stationary_fall
-    flags = (Flag.RESOLVED | (Flag.OK if r.ok else 0) | (Flag.CONTACT if r.contact else 0)
-             | (Flag.ON_WALKABLE if r.on_walkable else 0) | (Flag.WATER_CONTACT if r.water_contact else 0)
-             | _transient_bits(r.transient_state))
-    reals = out.reals
-    reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z))
+    flags = _BASE_FLAGS[r.ok, r.contact, r.on_walkable, r.water_contact] | _transient_bits(r.transient_state)
     if cp is None:
-        reals.extend(_NO_PLANE)
+        plane = _NO_PLANE
     else:
         flags |= Flag.HAS_CONTACT_PLANE
         n = cp.normal
-        reals.extend((n.x, n.y, n.z, cp.d))
+        plane = (n.x, n.y, n.z, cp.d)
     if cn is None:
-        reals.extend(_NO_VEC)
+        coll = _NO_VEC
     else:
         flags |= Flag.HAS_COLLISION_NORMAL
-        reals.extend((cn.x, cn.y, cn.z))
+        coll = (cn.x, cn.y, cn.z)
     if sn is None:
-        reals.extend(_NO_VEC)
+        slide = _NO_VEC
     else:
         flags |= Flag.HAS_SLIDING_NORMAL
-        reals.extend((sn.x, sn.y, sn.z))
-    if cpc is not None:
+        slide = (sn.x, sn.y, sn.z)
+    if cpc is None:
+        cpc = 0
+    else:
         flags |= Flag.HAS_CONTACT_PLANE_CELL
-    if fsf is not None:
+    if fsf is None:
+        fsf = 255
+    else:
         flags |= Flag.HAS_FRAMES_STATIONARY_FALL
-    out.ints.extend((seq, pos.cell_id, flags, TRANSITION_CODE.get(r.transition_state, FAILED_STATE),
-                     255 if fsf is None else fsf, 0 if cpc is None else cpc, len(collide)))
+    out.reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z, *plane, *coll, *slide))
+    out.ints.extend((seq, pos.cell_id, flags, _CODE.get(r.transition_state, FAILED_STATE), fsf, cpc, len(collide)))
     if collide:
         out.collide_ids.extend(collide)
 
@@ -154,6 +161,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     bus = core.bus
     cbus: ColumnBus = bus  # type: ignore[assignment]  # the node implements both
     world, movers, owns = core.world, core.movers, core.ownership.owns
+    everything = core.ownership.everything
     kind, n, arrays = req.kind, req.n, req.arrays
     ids: list[int] = arrays["id"].tolist()
     # the kind's vectors as lists of Python floats: the map form's values exactly (msgpack float64)
@@ -170,6 +178,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     latency: list[float] = []
     engine: list[float] = []
     bad = req.bad
+    ids_out = out.ids
     for i in range(n):
         mid = ids[i]
         if bad and i in bad:
@@ -216,23 +225,25 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
                 log.exception("engine failed on move of %X", mid)
             _fail(out, i, mid, err)
             continue
-        engine.append(perf_counter() - t0)
+        t1 = perf_counter()
         prev, prev_seq = rec.last, rec.seq
-        rec.last, rec.seq = result, rec.seq + 1
-        collide = core.collide_ids(result)
-        lb = (result.position.cell_id >> 16) & 0xFFFF
-        if not owns(lb):
-            try:
-                core.hand_over(rec, prev, prev_seq, lb)
-            except ProtocolError as e:
-                engine.pop()
-                _fail(out, i, mid, e)
-                continue
+        seq = rec.seq = prev_seq + 1
+        rec.last = result
+        collide = core.collide_ids(result) if result.collide_objects else _NO_IDS
+        if not everything:
+            lb = (result.position.cell_id >> 16) & 0xFFFF
+            if not owns(lb):
+                try:
+                    core.hand_over(rec, prev, prev_seq, lb)
+                except ProtocolError as e:
+                    _fail(out, i, mid, e)
+                    continue
+        engine.append(t1 - t0)
         latency.append(monotonic() - received)
-        _add_row(out, rec.seq, result, collide)
-        out.ids.append(mid)
+        _add_row(out, seq, result, collide)
+        ids_out.append(mid)
         if each or collect:
-            state = pack_state(mid, rec.seq, result, collide)
+            state = pack_state(mid, seq, result, collide)
             if each:
                 bus.publish_state(mid, state)
             else:
