@@ -527,3 +527,58 @@ def test_push_columns_moves_and_reports_errors(service: ServiceProcess, client: 
 def test_health_lists_the_column_form(client: Client) -> None:
     (h,) = client.health()
     assert h.get("move_forms") == ["move", "moves", "columns"]
+
+
+def test_client_refuses_wrong_shapes_before_sending(client: Client) -> None:
+    with pytest.raises(ValueError, match="offset"):
+        client.move_batch([1, 2], offsets=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="exactly one"):
+        client.move_batch([1], offsets=np.zeros((1, 3)), motions=np.zeros((1, 3)), dt=0.1)
+    with pytest.raises(ValueError, match="dt"):
+        client.move_batch([1], motions=np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="velocity"):
+        client.move_batch([1], motions=np.zeros((1, 3)), dt=0.1, velocities=np.zeros((1, 3)))
+
+
+def test_async_move_batch_equals_what_the_service_holds(client: Client, service: ServiceProcess,
+                                                         ten: list[int]) -> None:
+    import asyncio
+
+    from clients import AsyncClient
+
+    async def go() -> BatchResults:
+        async with AsyncClient([service.endpoint], timeout=20.0) as ac:
+            return await ac.move_batch(ten, offsets=np.tile([0.0, 0.15, 0.0], (10, 1)))
+
+    r = asyncio.run(go())
+    assert r.errors == {} and r.resolved.all()
+    for k, mid in enumerate(ten):
+        st = client.get(mid)[0]
+        o = st.position.frame.origin
+        assert int(r.seq[k]) == st.seq and _vec(r.origin[k]) == _vec((o.x, o.y, o.z))
+
+
+def test_each_publishes_per_mover_and_push_envelope_errors_go_to_errors_key(
+        service: ServiceProcess, client: Client, ten: list[int]) -> None:
+    states: list[Any] = []
+    errors: list[tuple[int | None, Any]] = []
+    subs = [client.subscribe(states.append, ten[0]), client.subscribe_errors(lambda m, e: errors.append((m, e)))]
+    try:
+        def published() -> bool:
+            client.move_batch(ten[:2], offsets=np.zeros((2, 3)))  # publish "each" by default
+            return wait_until(lambda: bool(states), timeout=0.3)
+
+        assert wait_until(published, timeout=10.0)
+        assert states[-1].id == ten[0] and states[-1].seq == client.get(ten[0])[0].seq
+        lb = client.landblock_of(ten[0])
+        bad = msgpack.packb({"v": 1, "kind": "offset", "columns": {"id": struct.pack("<Q", ten[0]),
+                                                                    "offset": [0.1, 0.0, 0.0]}}, use_bin_type=True)
+        before = client.get(ten[0])[0].seq
+        client.session.put(client.keys.push(lb), bad)
+        assert wait_until(lambda: any(m is None for m, _ in errors), timeout=5.0)
+        err = next(e for m, e in errors if m is None)
+        assert (err.kind, err.path) == ("wrong_type", "columns.offset")
+        assert client.get(ten[0])[0].seq == before
+    finally:
+        for s in subs:
+            s.close()
