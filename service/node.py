@@ -345,7 +345,7 @@ class ServiceNode:
 
         return run
 
-    def _on_push_columns(self, sample: zenoh.Sample, msg: dict[str, Any], received: float) -> None:
+    def _on_push_columns(self, msg: dict[str, Any], received: float) -> None:
         core = self.core
         assert core is not None
         req = parse_column_request(msg)  # ProtocolError: answered on P/errors by the caller
@@ -364,7 +364,7 @@ class ServiceNode:
         try:
             msg = decode_envelope(self._payload(sample))
             if is_column_request(msg):
-                self._on_push_columns(sample, msg, received)
+                self._on_push_columns(msg, received)
                 return
             batch = parse_moves(msg)
         except ProtocolError as e:

@@ -28,7 +28,7 @@ import zenoh
 from clients import Client, Move
 from clients.batch import BatchResults
 from clients.demo_world import global_to_cell
-from engine.geometry import Position, Vec3
+from engine.geometry import Position, Quat, Vec3
 from service.column_request import parse_column_request
 from service.columns import REPLY_COLUMNS, REQUEST_COLUMNS, TRANSIENT_FLAGS, TRANSITION_STATES, Flag
 from service.errors import ProtocolError
@@ -303,7 +303,6 @@ def test_column_form_equals_map_form_bit_for_bit(client: Client) -> None:
                                           velocity=None if vel is None else tuple(vel[k])))
                     elif "targets" in args:
                         x, y, z = args["targets"][k]
-                        from engine.geometry import Quat
                         moves.append(Move(mid, to=Position.at(int(args["cells"][k]), Vec3(x, y, z),
                                                               Quat(*args["orientations"][k]))))
                     else:
