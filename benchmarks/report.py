@@ -617,6 +617,26 @@ def _handling(lat: dict[str, Any]) -> list[str]:
     return out
 
 
+def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
+    """Issue 10's workload through the map and the column batch, beside World.move in process."""
+    if not data or "engine" not in data:
+        return []
+    eng = data["engine"]
+    out = ["", (f"Issue 10's workload ({label}): {data['movers']} player movers one every {data['spacing_m']:.0f} m on "
+                f"the demo world walking ±{data['step_m']} m, two client processes each moving its half in batches of "
+                "100 (every mover out and back), by map batch (`Client.move_many_maps`) and by column batch "
+                "(`Client.move_batch`, docs/protocol.md, Column batches); beside it `World.move` on the same movers in "
+                f"one process, in the same run: {eng['moves_per_s']:,.0f} moves/s, "
+                f"{eng['cpu_us_per_move']:.1f} µs of CPU per move."), "",
+           "| batch form | moves/s | service CPU µs per move | client CPU µs per move | moves/s / engine's | "
+           "engine's CPU per move / service's | errors |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in data["service"]:
+        out.append(f"| {r['form']} | {r['moves_per_s']:,.0f} | {r['service_cpu_us_per_move']:.1f} | "
+                   f"{r['client_cpu_us_per_move']:.1f} | {r['ratio_to_engine']:.2f} | {r['cpu_ratio_to_engine']:.2f} | "
+                   f"{r['errors']} |")
+    return out
+
+
 def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
     out = ["## 3. Service over loopback", "", _meta(svc), ""]
     if "latency" not in svc:
@@ -639,6 +659,7 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
             f"({lat['ratio_move_to_echo_p99']:.2f}x at p99). Inside the service the engine took "
             f"{_f(_nan(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
             _THROUGHPUT_TEXT, "", *_throughput_table(svc["throughput"])]
+    out += _issue10(svc.get("issue10_columns"), "the working tree's engine")
     comp = svc.get("compiled")
     if comp and "latency" in comp:
         cl = comp["latency"]
@@ -652,6 +673,7 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
         ce = _nan((cl.get("service_engine_ms") or {}).get("p50")) * 1000.0
         out += ["", f"One move / echo: **{cl['ratio_move_to_echo']:.2f}x**; engine {_f(ce, 0)} µs per move inside the service.", "",
                 *_throughput_table(comp["throughput"])]
+        out += _issue10(comp.get("issue10_columns"), "compiled engine")
     elif comp:
         out += ["", f"The compiled-engine service run failed: {comp.get('failed')}"]
     if plot:

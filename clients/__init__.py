@@ -4,6 +4,7 @@
 """
 
 from .aio import AsyncClient
+from .batch import BatchResults
 from .client import Client, Subscription
 from .errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState
@@ -11,6 +12,7 @@ from .types import InstanceInfo, Move, MoverState
 __all__ = [
     "AcphysError",
     "AsyncClient",
+    "BatchResults",
     "BusyError",
     "Client",
     "InstanceInfo",

@@ -14,6 +14,7 @@ import functools
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
+from .batch import BatchResults
 from .client import Client
 from .errors import AcphysError
 from .types import InstanceInfo, Move, MoverState
@@ -47,6 +48,10 @@ class AsyncClient:
     async def move_many_maps(self, moves: Sequence[Move], timeout: float | None = None,
                              publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
         return await self._run(self.sync.move_many_maps, moves, timeout, publish)
+
+    async def move_batch(self, *args: Any, **kwargs: Any) -> BatchResults:
+        """`Client.move_batch`, in a thread."""
+        return await self._run(self.sync.move_batch, *args, **kwargs)
 
     async def remove(self, mover_id: int) -> None:
         await self._run(self.sync.remove, mover_id)

@@ -26,6 +26,7 @@ from service.codec import encode_mover_spec, encode_plane, encode_position, enco
 from service.wire import DEFAULT_PREFIX, PROTOCOL_VERSION, ErrorKind, Keys
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
+from .batch import BatchResults, move_batch
 from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState, item_result
 
@@ -340,6 +341,23 @@ class Client:
                 break
             pending = sorted(retry)
         return [r if r is not None else AcphysError("no result") for r in results]
+
+    def move_batch(self, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None, dt: Any = None,
+                   *, cells: Any = None, orientations: Any = None, velocities: Any = None,
+                   publish: str | None = None, timeout: float | None = None) -> BatchResults:
+        """A batch in the column form (docs/protocol.md, "Column batches"): numpy arrays in and out.
+
+        `ids` (n,) mover ids and exactly one of: `offsets` (n, 3); `targets` (n, 3) origins, with
+        optional `cells` (n,) (0: the mover's current cell) and `orientations` (n, 4) (all zeros:
+        the current one); `motions` (n, 3) with `dt` (n,) or one number. `velocities` (n, 3) goes
+        with offsets or targets. One request per landblock; a mover handed over meanwhile is
+        followed. `publish`: "each" (default), "batch" or "columns" (one columnar message on
+        `P/state_columns`). Returns the results in the moves' order; failed moves are in
+        `errors` by index. ValueError for arguments of the wrong shape or combination. Needs an
+        instance whose Health lists "columns" in `move_forms`.
+        """
+        return move_batch(self, ids, offsets, targets, motions, dt, cells=cells, orientations=orientations,
+                          velocities=velocities, publish=publish, timeout=timeout)
 
     def push(self, moves: Sequence[Move], publish: str | None = None) -> None:
         """Fire-and-forget: states arrive on the state keys (with `publish="batch"`, on `P/states`, one

@@ -301,6 +301,24 @@ class ServiceCore:
         if collected:
             self.bus.publish_batch(collected)
 
+    # -- what the column form (service.column_moves) shares with the map form ----------
+    def mover_record(self, mover_id: int, path: str | None = None) -> MoverRecord:
+        """The mover's record, or ProtocolError `moved` / `unknown_mover` naming `path`."""
+        return self._record(mover_id, path)
+
+    def forwarded_to(self, mover_id: int) -> int | None:
+        """The landblock a mover this instance no longer holds was handed over to, if remembered."""
+        return None if mover_id in self.movers else self._forwarded.get(mover_id)
+
+    def collide_ids(self, r: MoveResult) -> list[int]:
+        return self._collide_ids(r)
+
+    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int) -> None:
+        self._hand_over(rec, prev, prev_seq, lb)
+
+    def moves_done(self, latency: list[float], engine: list[float]) -> None:
+        self._done(latency, engine)
+
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:
         r = rec.last

@@ -26,6 +26,9 @@ from typing import Any, Callable
 import msgpack
 import zenoh
 
+from .column_moves import push_columns, reply_message, run_columns
+from .column_request import column_count, is_column_request, parse_column_request
+from .columns import MOVE_FORMS
 from .core import ServiceCore
 from .errors import ProtocolError
 from .frames import pack, results_message, state_message, states_message
@@ -96,6 +99,7 @@ class ServiceNode:
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
         self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
         self._batch_pub: Any = None  # the publisher on P/states
+        self._columns_pub: Any = None  # the publisher on P/state_columns
 
     # -- lifecycle ------------------------------------------------------------
     def start(self) -> None:
@@ -111,6 +115,7 @@ class ServiceNode:
             # kept until the queued requests are answered at shutdown (they ask it)
             self._state_watch = s.declare_publisher(self.keys.state("*"))
         self._batch_pub = s.declare_publisher(self.keys.states)
+        self._columns_pub = s.declare_publisher(self.keys.state_columns)
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
@@ -138,13 +143,13 @@ class ServiceNode:
             self._thread.join(timeout)
         if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
             self._engine_lock.release()
-        for pub in (self._state_watch, self._batch_pub):
+        for pub in (self._state_watch, self._batch_pub, self._columns_pub):
             if pub is not None:
                 try:
                     pub.undeclare()
                 except Exception:  # already gone with the session
                     pass
-        self._state_watch = self._batch_pub = None
+        self._state_watch = self._batch_pub = self._columns_pub = None
         if self.session is not None:
             self.session.close()
             self.session = None
@@ -269,6 +274,8 @@ class ServiceNode:
         says whether it is short enough to run in the callback."""
         work = self._work(op, lb, msg, received)
         if op == "move":
+            if is_column_request(msg):
+                return work, column_count(msg) <= self.options.inline_max_moves
             batch = msg.get("moves")  # a list when given (parsed above), else one move
             return work, batch is None or len(batch) <= self.options.inline_max_moves
         # load and unload may read a landblock from disk: queued
@@ -278,6 +285,8 @@ class ServiceNode:
               received: float) -> Callable[[], dict[str, Any] | bytes]:
         core = self.core
         assert core is not None
+        if op == "move" and is_column_request(msg):
+            return self._column_work(msg, received)
         if op == "move":
             batch = parse_moves(msg)
             if batch.single:
@@ -320,12 +329,43 @@ class ServiceNode:
             return lambda: core.handover_in(handover)
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 
+    def _column_work(self, msg: dict[str, Any], received: float) -> Callable[[], bytes]:
+        """A column request (docs/protocol.md, "Column batches"): checked here, run by the closure."""
+        core = self.core
+        assert core is not None
+        req = parse_column_request(msg)
+
+        def run() -> bytes:
+            out, packed = run_columns(core, req, received)
+            for _i, _mid, err in out.errors:
+                self.stats.error(err.kind)
+            if packed:
+                self.publish_batch(packed)
+            return reply_message(out)
+
+        return run
+
+    def _on_push_columns(self, msg: dict[str, Any], received: float) -> None:
+        core = self.core
+        assert core is not None
+        req = parse_column_request(msg)  # ProtocolError: answered on P/errors by the caller
+        if not self._submit(lambda: push_columns(core, req, received), req.n <= self.options.inline_max_moves):
+            kind = ErrorKind.SHUTTING_DOWN if self.queue.closed else ErrorKind.BUSY
+            for mid in req.arrays["id"].tolist():
+                self.stats.error(kind)
+                err = ProtocolError(kind, "the service's queue is full; this move was dropped" if kind == ErrorKind.BUSY
+                                    else "the service is shutting down; this move was dropped")
+                self.publish_error(mid, ItemError(err, mid).to_wire())
+
     # -- fire-and-forget ---------------------------------------------------------
     def _on_push(self, sample: zenoh.Sample) -> None:
         received = time.monotonic()
         self.stats.request("push")
         try:
             msg = decode_envelope(self._payload(sample))
+            if is_column_request(msg):
+                self._on_push_columns(msg, received)
+                return
             batch = parse_moves(msg)
         except ProtocolError as e:
             self.stats.error(e.kind)
@@ -355,6 +395,7 @@ class ServiceNode:
             "status": "draining" if self._draining else "ok",
             "protocol": PROTOCOL_VERSION,
             "publish": list(PUBLISH_MODES),
+            "move_forms": list(MOVE_FORMS),
             "uptime_s": time.monotonic() - self.stats.started,
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
@@ -417,6 +458,26 @@ class ServiceNode:
         pub = self._batch_pub
         if pub is not None:
             pub.put(states_message(packed_states))
+
+    def columns_watched(self) -> bool:
+        pub = self._columns_pub
+        if not self.options.publish_states or self.session is None or pub is None:
+            return False
+        if not self.options.skip_unwatched_states:
+            return True
+        try:
+            return bool(pub.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def publish_columns(self, message: bytes) -> None:
+        pub = self._columns_pub
+        if pub is not None:
+            pub.put(message)
+
+    def forward_columns(self, lb: int, message: bytes) -> None:
+        if self.session is not None:
+            self.session.put(self.keys.push(lb), message)
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         if not self.options.publish_states or self.session is None:

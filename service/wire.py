@@ -113,6 +113,11 @@ class Keys:
         """Where the States of a request sent with `"publish": "batch"` go, as one message."""
         return f"{self.prefix}/states"
 
+    @property
+    def state_columns(self) -> str:
+        """Where the results of a column request sent with `"publish": "columns"` go, as columns."""
+        return f"{self.prefix}/state_columns"
+
     def obj_error(self, mover_id: int | str) -> str:
         part = mover_id if isinstance(mover_id, str) else obj_hex(mover_id)
         return f"{self.prefix}/obj/{part}/error"

@@ -1,0 +1,253 @@
+"""The column form of a move batch, client side: numpy arrays in, numpy arrays out.
+
+`Client.move_batch` packs its arguments into the request columns declared
+in service/columns.py, sends one column request per landblock (the
+landblock each mover was last seen in), follows `moved` hand-overs by
+sending the items concerned again, and puts the reply columns back
+together in the items' order as a `BatchResults`.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+
+from service.columns import (
+    REPLY_COLUMNS,
+    REQUEST_BY_NAME,
+    REQUEST_COLUMNS,
+    TRANSIENT_FLAGS,
+    TRANSITION_STATES,
+    Flag,
+    pack_columns,
+    unpack_column,
+)
+from service.wire import ErrorKind
+
+from .errors import AcphysError, ServiceError
+
+if TYPE_CHECKING:
+    from .client import Client
+
+__all__ = ["BatchResults", "move_batch"]
+
+_REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
+_MAX_REDIRECTS = 4
+Array = np.ndarray[Any, Any]
+
+
+@dataclass(slots=True)
+class BatchResults:
+    """The results of `Client.move_batch`, one row per move in the order given (docs/protocol.md, "Column
+    reply" for every column's meaning and missing value). A failed move's row holds the missing values
+    and its error is in `errors`, by index."""
+
+    seq: Array  # (n,) uint64
+    cell: Array  # (n,) uint32
+    origin: Array  # (n, 3) float64
+    orientation: Array  # (n, 4) float64, w x y z
+    flags: Array  # (n,) uint32, service.columns.Flag bits
+    transition_state: Array  # (n,) uint8, index into TRANSITION_STATES (255: failed)
+    frames_stationary_fall: Array  # (n,) uint8 (255: none)
+    contact_plane: Array  # (n, 4) float64: nx ny nz d
+    contact_plane_cell: Array  # (n,) uint32
+    collision_normal: Array  # (n, 3) float64
+    sliding_normal: Array  # (n, 3) float64
+    collide_count: Array  # (n,) uint32
+    collide_ids: Array  # (sum of collide_count,) uint64, item after item
+    errors: dict[int, AcphysError] = field(default_factory=dict)
+
+    @classmethod
+    def empty(cls, n: int) -> BatchResults:
+        arrays: dict[str, Array] = {}
+        for col in REPLY_COLUMNS:
+            shape = (n,) if col.width == 1 else (n, col.width)
+            fill = float("nan") if col.missing == "NaN" else int(col.missing)
+            arrays[col.name] = np.full(shape, fill, dtype=col.np_dtype.newbyteorder("="))
+        made: BatchResults = cast(Any, cls)(**arrays, collide_ids=np.zeros(0, dtype=np.uint64))
+        return made
+
+    def __len__(self) -> int:
+        return len(self.seq)
+
+    def _bit(self, bit: int) -> Array:
+        return (self.flags & bit) != 0
+
+    @property
+    def resolved(self) -> Array:
+        """Which moves have a result (False: see `errors`)."""
+        return self._bit(Flag.RESOLVED)
+
+    @property
+    def ok(self) -> Array:
+        return self._bit(Flag.OK)
+
+    @property
+    def contact(self) -> Array:
+        return self._bit(Flag.CONTACT)
+
+    @property
+    def on_walkable(self) -> Array:
+        return self._bit(Flag.ON_WALKABLE)
+
+    @property
+    def water_contact(self) -> Array:
+        return self._bit(Flag.WATER_CONTACT)
+
+    @property
+    def landblock(self) -> Array:
+        return (self.cell >> 16) & 0xFFFF
+
+    def transition_name(self, i: int) -> str | None:
+        code = int(self.transition_state[i])
+        return TRANSITION_STATES[code] if code < len(TRANSITION_STATES) else None
+
+    def transient_state(self, i: int) -> list[str]:
+        bits = int(self.flags[i]) >> Flag.TRANSIENT_SHIFT
+        return [name for k, name in enumerate(TRANSIENT_FLAGS) if bits & (1 << k)]
+
+    def collide_objects(self, i: int) -> list[int]:
+        start = int(self.collide_count[:i].sum())
+        return [int(x) for x in self.collide_ids[start:start + int(self.collide_count[i])]]
+
+
+def _rows(name: str, value: Any, n: int) -> Array:
+    """A request argument as the column's array: (n,) or (n, width); a scalar `dt` is repeated."""
+    col = REQUEST_BY_NAME[name]
+    a = np.asarray(value, dtype=col.np_dtype.newbyteorder("="))
+    if col.width == 1 and a.ndim == 0:
+        a = np.full(n, a)
+    want = (n,) if col.width == 1 else (n, col.width)
+    if a.shape != want:
+        raise ValueError(f"{name}: expected shape {want}, got {a.shape}")
+    return a
+
+
+def request_arrays(ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None, dt: Any = None, *,
+                   cells: Any = None, orientations: Any = None, velocities: Any = None) -> tuple[str, dict[str, Array]]:
+    """The kind and the request columns of a batch (ValueError for a wrong combination or shape)."""
+    id_arr = np.asarray(ids, dtype=np.uint64).reshape(-1)
+    n = len(id_arr)
+    given = [k for k, v in (("offset", offsets), ("to", targets), ("motion", motions)) if v is not None]
+    if len(given) != 1:
+        raise ValueError(f"give exactly one of offsets, targets, motions (got {', '.join(given) or 'none'})")
+    kind = given[0]
+    named = {"offset": offsets, "to_origin": targets, "to_cell": cells, "to_orientation": orientations,
+             "motion": motions, "dt": dt, "velocity": velocities}
+    arrays: dict[str, Array] = {"id": id_arr}
+    for name, value in named.items():
+        if value is None:
+            continue
+        if not REQUEST_BY_NAME[name].allowed(kind):
+            raise ValueError(f"{name} does not go with kind {kind}")
+        arrays[name] = _rows(name, value, n)
+    for col in REQUEST_COLUMNS:
+        if kind in col.required and col.name not in arrays:
+            raise ValueError(f"{col.name} is required with {kind}")
+    return kind, arrays
+
+
+def _scatter(out: BatchResults, idx: Array, cols: dict[str, Array], collide: list[tuple[int, Array]]) -> None:
+    for col in REPLY_COLUMNS:
+        getattr(out, col.name)[idx] = cols[col.name]
+    counts = cols["collide_count"].astype(np.int64)
+    if counts.any():
+        ids = cols["collide_ids"]
+        ends = np.cumsum(counts).tolist()
+        for j in np.flatnonzero(counts).tolist():
+            collide.append((int(idx[j]), ids[ends[j] - int(counts[j]):ends[j]]))
+
+
+def _read_reply(reply: dict[str, Any], m: int) -> tuple[dict[str, Array], list[Any]]:
+    """The reply's columns (m rows) and error entries; ServiceError when they do not fit."""
+    cols_raw, errors = reply.get("columns"), reply.get("errors")
+    if reply.get("n") != m or not isinstance(cols_raw, dict) or not isinstance(errors, list):
+        raise ServiceError(ErrorKind.MALFORMED, "column reply does not match the request")
+    cols: dict[str, Array] = {}
+    try:
+        for col in REPLY_COLUMNS:
+            cols[col.name] = unpack_column(col, cols_raw[col.name], m)
+        total = int(cols["collide_count"].sum())
+        raw_ids = cols_raw["collide_ids"]
+        if not isinstance(raw_ids, bytes) or len(raw_ids) != 8 * total:
+            raise ValueError("collide_ids")
+        cols["collide_ids"] = np.frombuffer(raw_ids, dtype="<u8").astype(np.uint64)
+    except (KeyError, ValueError, TypeError) as e:
+        raise ServiceError(ErrorKind.MALFORMED, f"unreadable column reply: {e}") from None
+    return cols, errors
+
+
+def _reindexed(err: ServiceError, sent: int, given: int) -> ServiceError:
+    """The error with its path's item index as the caller gave it (`sent`: its index in the request that
+    went to one landblock, a subset of the batch)."""
+    if sent == given or not err.path:
+        return err
+    m = re.match(r"columns\.\w+\[(\d+)\]", err.path)
+    if m is None or int(m.group(1)) != sent:
+        return err
+    path = f"{err.path[:m.start(1)]}{given}{err.path[m.end(1):]}"
+    return type(err)(err.kind, err.message.replace(err.path, path), path, {**err.details, "path": path})
+
+
+def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None,
+               dt: Any = None, *, cells: Any = None, orientations: Any = None, velocities: Any = None,
+               publish: str | None = None, timeout: float | None = None) -> BatchResults:
+    """See `Client.move_batch`."""
+    kind, arrays = request_arrays(ids, offsets, targets, motions, dt, cells=cells, orientations=orientations,
+                                  velocities=velocities)
+    id_list: list[int] = arrays["id"].tolist()
+    n = len(id_list)
+    out = BatchResults.empty(n)
+    collide: list[tuple[int, Array]] = []
+    pending: Sequence[int] = range(n)
+    for attempt in range(_MAX_REDIRECTS + 1):
+        groups: dict[int, list[int]] = {}
+        for i in pending:
+            try:
+                lb = client.landblock_of(id_list[i])
+            except AcphysError as e:
+                out.errors[i] = e
+                continue
+            groups.setdefault(lb, []).append(i)
+        retry: list[int] = []
+        for lb, members in groups.items():
+            idx = np.array(members, dtype=np.intp)
+            body: dict[str, Any] = {"kind": kind, "columns": pack_columns(REQUEST_COLUMNS,
+                                                                           {k: a[idx] for k, a in arrays.items()})}
+            if publish is not None:
+                body["publish"] = publish
+            try:
+                cols, errors = _read_reply(client._request(client.keys.move(lb), body, timeout), len(members))
+            except AcphysError as e:
+                for i in members:
+                    out.errors[i] = e
+                continue
+            _scatter(out, idx, cols, collide)
+            where = client._where
+            resolved = (cols["flags"] & Flag.RESOLVED) != 0
+            for row, cell in zip(np.flatnonzero(resolved).tolist(), cols["cell"][resolved].tolist()):
+                where[id_list[members[row]]] = (cell >> 16) & 0xFFFF
+            for entry in errors:
+                j = entry.get("index") if isinstance(entry, dict) else None
+                if type(j) is not int or not 0 <= j < len(members):
+                    continue
+                i = members[j]
+                err_map = entry.get("error")
+                target = err_map.get("landblock") if isinstance(err_map, dict) else None
+                if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
+                        and attempt < _MAX_REDIRECTS:
+                    where[id_list[i]] = target
+                    retry.append(i)
+                    continue
+                out.errors[i] = _reindexed(ServiceError.from_wire(err_map), j, i)
+        if not retry:
+            break
+        pending = sorted(retry)
+    if collide:
+        collide.sort(key=lambda t: t[0])
+        out.collide_ids = np.concatenate([a for _, a in collide])
+    return out

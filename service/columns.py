@@ -1,0 +1,170 @@
+"""The column form of a move batch: its wire schema, declared once.
+
+A column request carries one move kind for N movers as packed
+little-endian arrays (msgpack `bin`), and its reply (and the columnar
+publication) carries the results the same way (docs/protocol.md, "Column
+batches"). `REQUEST_COLUMNS` and `REPLY_COLUMNS` below are the only place
+the columns are listed: the service's decoding and validation
+(service/column_request.py), its encoding (service/column_moves.py), the
+client's packing and unpacking (clients/batch.py) and the test that reads
+docs/protocol.md's column tables all go through them.
+
+Only numpy and the wire constants are imported, so the client library
+shares this module without the World.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Final
+
+import numpy as np
+
+__all__ = [
+    "Column",
+    "KINDS",
+    "REQUEST_COLUMNS",
+    "REPLY_COLUMNS",
+    "PUBLICATION_ID",
+    "REQUEST_BY_NAME",
+    "REPLY_BY_NAME",
+    "WIRE_DTYPES",
+    "Flag",
+    "TRANSITION_STATES",
+    "TRANSITION_CODE",
+    "TRANSIENT_FLAGS",
+    "FAILED_STATE",
+    "COLUMN_PUBLISH_MODES",
+    "MOVE_FORMS",
+    "FLOAT32_MAX",
+    "pack_columns",
+    "unpack_column",
+]
+
+#: The wire's names for element types (all little-endian) and their numpy dtypes.
+WIRE_DTYPES: Final[dict[str, str]] = {"f64": "<f8", "u64": "<u8", "u32": "<u4", "u16": "<u2", "u8": "|u1"}
+
+#: The move kinds of a column request (its `kind` field): one kind for every item of the request.
+KINDS: Final = ("offset", "to", "motion")
+
+#: Largest magnitude a real in a request may have (float32's largest finite value): the engine resolves
+#: in single precision, where anything larger is an infinity.
+FLOAT32_MAX: Final = float(np.finfo(np.float32).max)
+
+
+@dataclass(frozen=True, slots=True)
+class Column:
+    """One column: `width` values of `dtype` per item, item after item (row-major), little-endian.
+
+    For a request column, `required` and `optional` name the move kinds that must / may give it (a
+    column given for a kind in neither is refused). For a reply column, `missing` is what a value
+    holds when the item has none (its flag bit clear, or the item failed).
+    """
+
+    name: str
+    dtype: str  # a key of WIRE_DTYPES
+    width: int
+    required: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
+    missing: str = ""
+
+    @property
+    def np_dtype(self) -> np.dtype[Any]:
+        return np.dtype(WIRE_DTYPES[self.dtype])
+
+    @property
+    def item_bytes(self) -> int:
+        """Bytes one item takes in this column."""
+        return self.np_dtype.itemsize * self.width
+
+    @property
+    def real(self) -> bool:
+        return self.dtype == "f64"
+
+    def allowed(self, kind: str) -> bool:
+        return kind in self.required or kind in self.optional
+
+
+REQUEST_COLUMNS: Final = (
+    Column("id", "u64", 1, required=KINDS),
+    Column("offset", "f64", 3, required=("offset",)),
+    Column("to_cell", "u32", 1, optional=("to",)),
+    Column("to_origin", "f64", 3, required=("to",)),
+    Column("to_orientation", "f64", 4, optional=("to",)),
+    Column("motion", "f64", 3, required=("motion",)),
+    Column("dt", "f64", 1, required=("motion",)),
+    Column("velocity", "f64", 3, optional=("offset", "to")),
+)
+
+REPLY_COLUMNS: Final = (
+    Column("seq", "u64", 1, missing="0"),
+    Column("cell", "u32", 1, missing="0"),
+    Column("origin", "f64", 3, missing="NaN"),
+    Column("orientation", "f64", 4, missing="NaN"),
+    Column("flags", "u32", 1, missing="0"),
+    Column("transition_state", "u8", 1, missing="255"),
+    Column("frames_stationary_fall", "u8", 1, missing="255"),
+    Column("contact_plane", "f64", 4, missing="NaN"),
+    Column("contact_plane_cell", "u32", 1, missing="0"),
+    Column("collision_normal", "f64", 3, missing="NaN"),
+    Column("sliding_normal", "f64", 3, missing="NaN"),
+    Column("collide_count", "u32", 1, missing="0"),
+)
+
+#: The columnar publication's extra column (first): whose row it is.
+PUBLICATION_ID: Final = Column("id", "u64", 1, missing="0")
+
+REQUEST_BY_NAME: Final = {c.name: c for c in REQUEST_COLUMNS}
+REPLY_BY_NAME: Final = {c.name: c for c in REPLY_COLUMNS}
+
+
+class Flag:
+    """Bits of the reply's `flags` column."""
+
+    RESOLVED: Final = 1 << 0  # the item has a result (clear: it failed, see `errors`)
+    OK: Final = 1 << 1
+    CONTACT: Final = 1 << 2
+    ON_WALKABLE: Final = 1 << 3
+    WATER_CONTACT: Final = 1 << 4
+    HAS_CONTACT_PLANE: Final = 1 << 5
+    HAS_CONTACT_PLANE_CELL: Final = 1 << 6
+    HAS_COLLISION_NORMAL: Final = 1 << 7
+    HAS_SLIDING_NORMAL: Final = 1 << 8
+    HAS_FRAMES_STATIONARY_FALL: Final = 1 << 9
+    #: bits 16..22: the State's `transient_state` names, one bit each (TRANSIENT_FLAGS)
+    TRANSIENT_SHIFT: Final = 16
+
+
+#: `transient_state` names in bit order from Flag.TRANSIENT_SHIFT (the State lists them in this order too).
+TRANSIENT_FLAGS: Final = ("Contact", "OnWalkable", "Sliding", "WaterContact", "StationaryFall", "StationaryStop",
+                          "StationaryStuck")
+
+#: `transition_state` codes: the index in this tuple.
+TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
+TRANSITION_CODE: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
+#: `transition_state` of a failed item.
+FAILED_STATE: Final = 255
+
+#: A column request's `publish` values.
+COLUMN_PUBLISH_MODES: Final = ("each", "batch", "columns")
+#: Health's `move_forms`: the move request fields an instance understands.
+MOVE_FORMS: Final = ("move", "moves", "columns")
+
+
+def pack_columns(columns: tuple[Column, ...], arrays: dict[str, Any]) -> dict[str, bytes]:
+    """`{name: bin}` of the columns given in `arrays` (each cast to its wire dtype, rows in order)."""
+    out: dict[str, bytes] = {}
+    for col in columns:
+        a = arrays.get(col.name)
+        if a is not None:
+            out[col.name] = np.ascontiguousarray(a, dtype=col.np_dtype).tobytes()
+    return out
+
+
+def unpack_column(col: Column, data: bytes, n: int) -> np.ndarray[Any, Any]:
+    """A column's bytes as an array of shape (n,) for width 1, else (n, width), in native byte order.
+    The caller has checked the length (ValueError otherwise)."""
+    if len(data) != n * col.item_bytes:
+        raise ValueError(f"column {col.name}: {len(data)} bytes for {n} items of {col.item_bytes}")
+    a = np.frombuffer(data, dtype=col.np_dtype).astype(col.np_dtype.newbyteorder("="), copy=False)
+    return a if col.width == 1 else a.reshape(n, col.width)
