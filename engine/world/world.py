@@ -219,7 +219,9 @@ class World:
             # a whole `elapsed` run in one step keeps the caller's motion exactly
             share = pending_motion if quantum == elapsed else pending_motion * (quantum / elapsed)
             result = self._physics_step(mover, share, quantum)
-            hit.extend(i for i in result.collide_objects if i not in hit)
+            for obj_id in result.collide_objects:
+                if obj_id not in hit:
+                    hit.append(obj_id)
         assert result is not None
         if len(split.quanta) > 1:
             result.collide_objects = hit
