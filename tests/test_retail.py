@@ -286,3 +286,12 @@ def test_a_mover_that_is_not_a_sled_keeps_its_friction_and_stands() -> None:
     # (the first step rounds the origin to single precision, as the client keeps it)
     assert (world.mover(mid).position.frame.origin - start).length() < 1e-4
     assert world.mover(mid).acceleration == Vec3(0.0, 0.0, 0.0)
+
+
+def test_a_motion_given_with_no_time_waits_for_time() -> None:
+    world, mid = _walker(engine.RETAIL)
+    x0 = world.mover(mid).position.frame.origin.x
+    assert world.step(mid, Vec3(0.3, 0.0, 0.0), 0.0).transition_state == "NoTransition"
+    assert world.mover(mid).position.frame.origin.x == x0
+    world.step(mid, Vec3(0.1, 0.0, 0.0), 0.05)  # one 0.05 s step with both motions
+    assert world.mover(mid).position.frame.origin.x - x0 == pytest.approx(0.4, abs=TOL)

@@ -207,7 +207,11 @@ class World:
         if not settings.quantum_ladder:
             return self._physics_step(mover, motion, dt)
         elapsed = mover.held_time + dt
-        pending_motion = mover.held_motion + motion if mover.held_time > 0.0 else motion
+        pending_motion = motion if mover.held_motion == ZERO else mover.held_motion + motion
+        if elapsed == 0.0:
+            # no time at all: the motion waits for some
+            mover.held_motion = pending_motion
+            return move_result(mover, True, "NoTransition", None)
         split = split_elapsed(elapsed, settings.max_quantum)
         mover.held_time = split.held
         mover.held_motion = pending_motion * (split.held / elapsed) if split.held > 0.0 else ZERO
