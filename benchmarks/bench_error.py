@@ -44,11 +44,20 @@ SETTINGS: list[tuple[str, str, engine.EngineSettings]] = [
      dataclasses.replace(engine.ACE_COMPAT, single_precision=False)),
     ("ace-compat+step-length=2", "ACE_COMPAT with sub-steps of up to two radii (the client: one)",
      dataclasses.replace(engine.ACE_COMPAT, step_length=2.0)),
+    # RETAIL's corrections of ACE one at a time (docs/divergences.md); the traces step at 1/30 s and have
+    # no sleds, so these must agree with the first row; benchmarks/bench_retail.py measures what they change
+    ("ace-compat+quantum-ladder", "ACE_COMPAT with the client's physics step ladder (0.2 s quantum)",
+     dataclasses.replace(engine.ACE_COMPAT, quantum_ladder=True, max_quantum=0.2)),
+    ("ace-compat+sled-slope-friction", "ACE_COMPAT with the client's sledding friction test",
+     dataclasses.replace(engine.ACE_COMPAT, sled_slope_friction=True)),
+    ("ace-compat+sled-gravity", "ACE_COMPAT with gravity kept on a grounded sled",
+     dataclasses.replace(engine.ACE_COMPAT, sled_gravity=True)),
     # the same settings again: its error is 0 by construction, its run time shows how much of the
     # differences between the other rows is machine noise
     ("ace-compat (repeat)", "ACE_COMPAT again: the noise control of the run-time column", engine.ACE_COMPAT),
 ]
-KNOWN_FIELDS = {"max_steps", "ace_normals", "ace_outdoor_viewer", "single_precision", "step_length"}
+KNOWN_FIELDS = {"max_steps", "ace_normals", "ace_outdoor_viewer", "single_precision", "step_length",
+                "quantum_ladder", "max_quantum", "sled_slope_friction", "sled_gravity"}
 
 TRACES = [
     "flat", "rolling", "steep", "cliff", "water",
@@ -242,7 +251,10 @@ def run(quick: bool, cases_per_trace: int | None = None, only_reference: bool = 
                         base_pairs = pairs
                         tr["moves"] += len(pairs)
             log(f"error: {tname:20s} {tr['moves']:6d} moves  max err (ref setting) {tr['max_err_ref'].get(settings[0][0], math.nan):.3g} m")
+    from . import bench_retail
+
     return {
+        "retail_corrections": bench_retail.run(quick) if not only_reference else None,
         "reference_setting": settings[0][0],
         "cases_per_trace": limit,
         "settings": [_row(name, desc, s, accs[name]) for name, desc, s in settings],

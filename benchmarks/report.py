@@ -502,6 +502,22 @@ def _engine(eng: dict[str, Any], plot: str | None) -> list[str]:
     return out + [""]
 
 
+def _retail_corrections(rc: dict[str, Any] | None) -> list[str]:
+    """The table of benchmarks/bench_retail.py: RETAIL's corrections off the traces."""
+    if not rc or not rc.get("rows"):
+        return []
+    out = ["", ("RETAIL's corrections of ACE, on a workload that exercises them (`benchmarks/bench_retail.py`: a "
+           f"player running through uneven frames of 1/60 s to 0.5 s, a sled on a walkable slope; {rc['calls']} calls "
+           "each). Moved: distance from where the mover is under ACE_COMPAT after the same calls, at the end and at "
+           "most."), "",
+           "| workload | scene | setting | µs/call mean | moved at the end m | moved at most m |",
+           "|---|---|---|---:|---:|---:|"]
+    for r in rc["rows"]:
+        out.append(f"| {r['workload']} | {r['scene']} | `{r['name']}` | {_f(r['us_mean'])} | {_e(r['moved_final_m'])} "
+                   f"| {_e(r['moved_max_m'])} |")
+    return out
+
+
 def _error(err: dict[str, Any], plot: str | None) -> list[str]:
     lim = err.get("cases_per_trace")
     out = ["## 2. Run time against error", "", _meta(err), "",
@@ -535,6 +551,7 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
                 f"({len(worst)}; {n_known} of them listed as known divergences in tests/test_trace_replay.py):"), ""]
         out.append(", ".join(f"{cid} {_e(v)} m{' (known)' if cid in known else ''}" for cid, v in worst[:25])
                    + (", ..." if len(worst) > 25 else "") + ".")
+    out += _retail_corrections(err.get("retail_corrections"))
     pend = [r for r in err.get("pending", []) if r["moves"]]
     if pend:
         out += ["", ("Traces still being ported when this harness was written (dungeon, objects, several movers), "

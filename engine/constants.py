@@ -26,9 +26,25 @@ MAX_VELOCITY: Final = 50.0
 MAX_VELOCITY_SQ: Final = MAX_VELOCITY * MAX_VELOCITY
 SMALL_VELOCITY: Final = 0.25
 SMALL_VELOCITY_SQ: Final = SMALL_VELOCITY * SMALL_VELOCITY
+#: The physics step ladder of PhysicsObj.update_object (seconds): shorter
+#: elapsed time waits, longer is split into MAX_QUANTUM steps, beyond
+#: HUGE_QUANTUM it is dropped. The client's MAX_QUANTUM is 0.2 (1 / 5 fps);
+#: ACE uses 0.1 (its own comment keeps the 0.2 it replaced).
 MIN_QUANTUM: Final = 1.0 / 30.0
-MAX_QUANTUM: Final = 0.1
+MAX_QUANTUM: Final = 0.2
+ACE_MAX_QUANTUM: Final = 0.1
 HUGE_QUANTUM: Final = 2.0
+
+# -- calc_friction's sledding branch (PhysicsState.Sledding) ------------------
+#: below this squared speed a sled on the ground stops (friction 1)
+SLED_STOP_SPEED_SQ: Final = 1.5625
+#: at or above this squared speed a sled may get the low slope friction
+SLED_FAST_SPEED_SQ: Final = 6.25
+SLED_SLOPE_FRICTION: Final = 0.2
+#: the client: low friction where the ground's normal z is below cos(10 deg)
+SLED_SLOPE_NORMAL_Z: Final = 0.98480775301220802
+#: ACE: low friction where the ground's normal z is above this (nearly flat)
+ACE_SLED_FLAT_NORMAL_Z: Final = 0.99999536
 DUMMY_SPHERE_RADIUS: Final = 0.1
 
 #: Sub-step cap of FindTransitionalPosition: retail 30, ACE 1000.

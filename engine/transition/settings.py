@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Final
 
-from ..constants import ACE_MAX_STEPS, RETAIL_MAX_STEPS
+from ..constants import ACE_MAX_QUANTUM, ACE_MAX_STEPS, MAX_QUANTUM, MIN_QUANTUM, RETAIL_MAX_STEPS
 
 __all__ = ["EngineSettings", "RETAIL", "ACE_COMPAT"]
 
@@ -20,6 +20,25 @@ class EngineSettings:
     - `ace_outdoor_viewer`: ACE's terrain check for cameras, which only lets a
       camera clear the ground when its path began indoors (so an outdoor
       camera never moves). Retail lets it move.
+
+    The physics step (PhysicsObj.update_object and what it calls; the
+    evidence is in docs/divergences.md, "Retail against ACE: survey"):
+
+    - `quantum_ladder`: `World.step(dt)` spends elapsed time as the client's
+      update_object does: time shorter than the minimum quantum (1/30 s) is
+      held until more comes, time longer than `max_quantum` is run in
+      quanta of `max_quantum` (a remainder not above the minimum quantum is
+      held), time longer than the huge quantum (2 s) is dropped. False: one
+      integration of exactly `dt`, what the reference traces record.
+    - `max_quantum`: the longest physics step of the ladder (client 0.2 s,
+      ACE 0.1 s).
+    - `sled_slope_friction`: a sledding object moving faster than 2.5 m/s
+      gets the low sledding friction (0.2) on ground steeper than 10 degrees
+      (normal z below cos 10 deg), as the client's calc_friction gives it.
+      False: ACE's test, which gives it on ground flatter than normal z
+      0.99999536 instead.
+    - `sled_gravity`: a sledding object on walkable ground keeps gravity
+      (the client's calc_acceleration). False: ACE's, which zeroes it.
 
     Speed against accuracy (the client's values by default; the benchmarks
     measure what the others cost in agreement with the reference):
@@ -49,6 +68,10 @@ class EngineSettings:
     max_steps: int = RETAIL_MAX_STEPS
     ace_normals: bool = False
     ace_outdoor_viewer: bool = False
+    quantum_ladder: bool = True
+    max_quantum: float = MAX_QUANTUM
+    sled_slope_friction: bool = True
+    sled_gravity: bool = True
     single_precision: bool = True
     step_length: float = 1.0
     skip_far_cells: bool = True
@@ -58,6 +81,8 @@ class EngineSettings:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.step_length) and self.step_length > 0.0):
             raise ValueError(f"step_length must be a positive number of radii, got {self.step_length!r}")
+        if not (math.isfinite(self.max_quantum) and self.max_quantum >= MIN_QUANTUM):
+            raise ValueError(f"max_quantum must be a number of seconds not below the minimum quantum {MIN_QUANTUM}, got {self.max_quantum!r}")
         if self.max_steps < 1:
             raise ValueError(f"max_steps must be at least 1, got {self.max_steps!r}")
 
@@ -67,4 +92,12 @@ class EngineSettings:
 
 RETAIL: Final = EngineSettings()
 #: What replaying the reference traces needs (ACE's known departures from retail).
-ACE_COMPAT: Final = EngineSettings(max_steps=ACE_MAX_STEPS, ace_normals=True, ace_outdoor_viewer=True)
+ACE_COMPAT: Final = EngineSettings(
+    max_steps=ACE_MAX_STEPS,
+    ace_normals=True,
+    ace_outdoor_viewer=True,
+    quantum_ladder=False,
+    max_quantum=ACE_MAX_QUANTUM,
+    sled_slope_friction=False,
+    sled_gravity=False,
+)

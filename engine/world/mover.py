@@ -18,6 +18,11 @@ from ..constants import (
     GRAVITY,
     MAX_VELOCITY,
     MAX_VELOCITY_SQ,
+    SLED_FAST_SPEED_SQ,
+    SLED_SLOPE_FRICTION,
+    SLED_SLOPE_NORMAL_Z,
+    SLED_STOP_SPEED_SQ,
+    ACE_SLED_FLAT_NORMAL_Z,
     SMALL_VELOCITY_SQ,
 )
 from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
@@ -59,6 +64,7 @@ class Mover:
         "step_down",
         "ethereal",
         "creature",
+        "sledding",
         "position",
         "cell",
         "transient",
@@ -72,6 +78,8 @@ class Mover:
         "shadow_cells",
         "obstacle",
         "colliding_with_environment",
+        "held_time",
+        "held_motion",
         "__weakref__",
     )
 
@@ -90,6 +98,7 @@ class Mover:
         ethereal: bool = False,
         creature: bool = False,
         cyl_spheres: list[Any] | None = None,
+        sledding: bool = False,
     ) -> None:
         if not spheres:
             spheres = [Sphere(Vec3(0.0, 0.0, 0.1), 0.1)]  # the client's dummy sphere
@@ -106,6 +115,8 @@ class Mover:
         self.step_down = step_down
         self.ethereal = ethereal
         self.creature = creature
+        #: PhysicsState.Sledding: the sledding friction rule, and (retail) gravity on the ground
+        self.sledding = sledding
         self.position: Position = Position(0, Frame(ZERO))
         self.cell: Any = None
         self.transient = TS.ACTIVE
@@ -120,6 +131,11 @@ class Mover:
         #: this mover as an obstacle for others (engine.objects.obstacle.MoverObstacle)
         self.obstacle: Any = None
         self.colliding_with_environment = False
+        #: elapsed time not yet run as a physics step (the client's lag of
+        #: update_time behind the clock), and the share of the caller's
+        #: motion that goes with it
+        self.held_time = 0.0
+        self.held_motion = ZERO
 
     # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------
     def set_velocity(self, velocity: Vec3) -> None:
@@ -133,8 +149,13 @@ class Mover:
     def stop_velocity(self) -> None:
         self.set_velocity(ZERO)
 
-    def calc_acceleration(self) -> None:
-        if self.transient & TS.CONTACT and self.transient & TS.ON_WALKABLE:
+    def calc_acceleration(self, sled_gravity: bool = True) -> None:
+        """Gravity unless the object stands on walkable ground
+        (PhysicsObj.calc_acceleration). With `sled_gravity` (the client's
+        rule) a sledding object keeps gravity on the ground too; ACE drops
+        the sledding test."""
+        grounded = self.transient & TS.CONTACT and self.transient & TS.ON_WALKABLE
+        if grounded and not (sled_gravity and self.sledding):
             self.acceleration = ZERO
         elif self.gravity:
             self.acceleration = Vec3(0.0, 0.0, GRAVITY)
@@ -225,7 +246,8 @@ class Mover:
             self.transient |= TS.CONTACT
         else:
             self.transient &= ~TS.CONTACT
-        self.calc_acceleration()
+        sled_gravity = t.settings.sled_gravity
+        self.calc_acceleration(sled_gravity)
         if ci.contact_plane_is_water:
             self.transient |= TS.WATER_CONTACT
         else:
@@ -237,7 +259,7 @@ class Mover:
                 self.transient |= TS.ON_WALKABLE
         else:
             self.transient &= ~TS.ON_WALKABLE
-        self.calc_acceleration()
+        self.calc_acceleration(sled_gravity)
 
         self.sliding_normal = vec_f32(ci.sliding_normal) if single else ci.sliding_normal
         if ci.sliding_normal_valid:
@@ -249,7 +271,8 @@ class Mover:
     def handle_all_collisions(self, t: Transition, prev_contact: bool, prev_on_walkable: bool) -> None:
         """Bounce off what we hit and track the stationary-fall flags."""
         ci = t.collision_info
-        apply_bounce = not (prev_on_walkable and self.transient & TS.ON_WALKABLE)
+        # a sled bounces off the ground it slides on; anything else on walkable ground does not
+        apply_bounce = self.sledding or not (prev_on_walkable and self.transient & TS.ON_WALKABLE)
         for obj in ci.collide_object:
             # track_object_collision: hitting a live object ends a missile's flight
             if getattr(obj, "static", False):
@@ -304,7 +327,7 @@ class Mover:
         self.missile = False
 
     # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
-    def integrate(self, motion: Vec3, dt: float, single: bool = True) -> Frame:
+    def integrate(self, motion: Vec3, dt: float, single: bool = True, settings: EngineSettings | None = None) -> Frame:
         """Where this object wants to be after `dt`: its own motion `motion`
         (metres in the object frame, already scaled to the object's size, as
         the client's animation offset is; applied only on walkable ground),
@@ -315,9 +338,13 @@ class Mover:
         client's single precision, in the order its expressions evaluate:
         the motion rotated and added to the origin (AFrame.Combine), the
         movement `a * 0.5 * q * q + v * q` added to that, the velocity
-        updated by `a * q`, with `q` the time step as a float32."""
+        updated by `a * q`, with `q` the time step as a float32.
+
+        `settings` choose the sledding friction rule (the client's unless
+        given with `sled_slope_friction` off)."""
+        sled_slope = settings.sled_slope_friction if settings is not None else True
         if not single:
-            return self._integrate_f64(motion, dt)
+            return self._integrate_f64(motion, dt, sled_slope)
         frame = self.position.frame
         o = frame.origin
         if self.transient & TS.ON_WALKABLE:
@@ -339,7 +366,7 @@ class Mover:
                 length = to_single(math.sqrt(v2))
                 v = scale_f32(Vec3(to_single(v.x / length), to_single(v.y / length), to_single(v.z / length)), MAX_VELOCITY)
                 v2 = MAX_VELOCITY_SQ
-            v = self._friction_f32(v, q)
+            v = self._friction_f32(v, q, v2, sled_slope)
             if to_single(v2 - SMALL_VELOCITY_SQ) < _EPSILON_F32:
                 v = ZERO
             # Acceleration * 0.5f * quantum * quantum + Velocity * quantum
@@ -349,7 +376,7 @@ class Mover:
         self.velocity = Vec3(to_single(v.x + to_single(a.x * q)), to_single(v.y + to_single(a.y * q)), to_single(v.z + to_single(a.z * q)))
         return frame.with_origin(Vec3(x, y, z))
 
-    def _friction_f32(self, v: Vec3, q: float) -> Vec3:
+    def _friction_f32(self, v: Vec3, q: float, speed_sq: float, sled_slope: bool) -> Vec3:
         """Ground friction in single precision (PhysicsObj.calc_friction)."""
         if not self.transient & TS.ON_WALKABLE:
             return v
@@ -358,10 +385,27 @@ class Mover:
         if angle >= 0.25:
             return v
         v = sub_f32(v, scale_f32(n, angle))
-        scalar = to_single(math.pow(to_single(1.0 - to_single(self.friction)), q))
+        friction = self.ground_friction(speed_sq, sled_slope)
+        scalar = to_single(math.pow(to_single(1.0 - to_single(friction)), q))
         return scale_f32(v, scalar)
 
-    def _integrate_f64(self, motion: Vec3, dt: float) -> Frame:
+    def ground_friction(self, speed_sq: float, sled_slope: bool) -> float:
+        """The friction coefficient calc_friction applies on the ground, for a
+        squared speed `speed_sq` (before the contact plane's normal part is
+        taken off). A sled stops below 1.25 m/s; from 2.5 m/s it gets the low
+        sledding friction on slopes steeper than 10 degrees (`sled_slope`, the
+        client's test) or on nearly flat ground (ACE's test)."""
+        if not self.sledding:
+            return self.friction
+        if speed_sq < SLED_STOP_SPEED_SQ:
+            return 1.0
+        if speed_sq >= SLED_FAST_SPEED_SQ:
+            nz = self.contact_plane.normal.z
+            if (nz < SLED_SLOPE_NORMAL_Z) if sled_slope else (nz > ACE_SLED_FLAT_NORMAL_Z):
+                return SLED_SLOPE_FRICTION
+        return self.friction
+
+    def _integrate_f64(self, motion: Vec3, dt: float, sled_slope: bool) -> Frame:
         """The physics step in double precision (settings without single precision)."""
         if self.transient & TS.ON_WALKABLE:
             local = motion
@@ -376,7 +420,7 @@ class Mover:
             if v2 > MAX_VELOCITY_SQ:
                 v = v * (MAX_VELOCITY / math.sqrt(v2))
                 v2 = MAX_VELOCITY_SQ
-            v = self._friction(v, dt)
+            v = self._friction(v, dt, v2, sled_slope)
             if v2 - SMALL_VELOCITY_SQ < EPSILON:
                 v = ZERO
             a = self.acceleration
@@ -384,7 +428,7 @@ class Mover:
         self.velocity = v + self.acceleration * dt
         return frame.with_origin(origin)
 
-    def _friction(self, v: Vec3, dt: float) -> Vec3:
+    def _friction(self, v: Vec3, dt: float, speed_sq: float, sled_slope: bool) -> Vec3:
         """Ground friction (PhysicsObj.calc_friction)."""
         if not self.transient & TS.ON_WALKABLE:
             return v
@@ -393,7 +437,7 @@ class Mover:
         if angle >= 0.25:
             return v
         v = v - n * angle
-        return v * math.pow(1.0 - self.friction, dt)
+        return v * math.pow(1.0 - self.ground_friction(speed_sq, sled_slope), dt)
 
     def orientation(self) -> Quat:
         return self.position.frame.orientation

@@ -85,6 +85,9 @@ class MoverSpec:
     gravity: bool = True
     creature: bool | None = None  # default: True for IsPlayer, else False
     cyl_spheres: list[CylSphereSpec] = field(default_factory=list)
+    #: PhysicsState.Sledding: calc_friction's sledding rule; on the ground the
+    #: client keeps gravity on a sled and lets it bounce (docs/divergences.md)
+    sledding: bool = False
 
 
 @dataclass(slots=True)

@@ -12,7 +12,7 @@ import math
 from typing import Any, Callable
 
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownMoverError
-from ..geometry import Plane, Position, Sphere, Vec3
+from ..geometry import ZERO, Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
@@ -20,6 +20,7 @@ from .landblock import Landblock
 from ..cells.landscape import Landscape
 from . import shadows
 from .mover import Mover
+from .quantum import split_elapsed
 from .resolve import move_mover, move_result
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
@@ -135,7 +136,7 @@ class World:
         if sliding_normal is not None:
             mover.sliding_normal = sliding_normal
             mover.transient |= TS.SLIDING
-        mover.calc_acceleration()
+        mover.calc_acceleration(self.settings.sled_gravity)
         self.movers[mover.id] = mover
         self._next_mover_id += 1
         self._enter_cells(mover)
@@ -156,7 +157,7 @@ class World:
         """Change a mover's shape and flags, keeping its position and contact state."""
         old = self.mover(mover_id)
         new = _mover_from_spec(mover_id, spec)
-        for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration"):
+        for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion"):
             setattr(new, name, getattr(old, name))
         shadows.remove_shadows(old)
         self.movers[mover_id] = new
@@ -181,14 +182,58 @@ class World:
         return move_mover(self.landscape, mover, target)
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
-        """Advance a mover by `dt` seconds with its own motion `motion` (object
-        frame) under velocity, gravity and friction (UpdateObjectInternal)."""
+        """Advance a mover by `dt` seconds with its own motion `motion` (metres
+        over `dt`, object frame) under velocity, gravity and friction.
+
+        With the settings' `quantum_ladder` (RETAIL) `dt` is a frame's real
+        elapsed time, spent as the client's PhysicsObj.update_object spends
+        it (engine.world.quantum): time short of the minimum quantum (1/30 s)
+        is held with its motion until later steps bring enough, long time
+        runs as several physics steps of at most `max_quantum` (the motion
+        shared among them in proportion to their time), time beyond the huge
+        quantum (2 s, held time included) is dropped with its motion. A step
+        that runs nothing answers the mover's state as it stands, with
+        transition_state "NoTransition"; one that runs several answers the
+        last one's result, with the objects hit by any of them.
+
+        Without it (ACE_COMPAT) `dt` is one integration step as given
+        (UpdateObjectInternal), as the reference traces record them."""
         mover = self.mover(mover_id)
         if not motion.is_finite() or not math.isfinite(dt):
             raise NonFiniteError("motion or dt has non-finite numbers")
         if dt < 0.0:
             raise ValueError(f"dt must not be negative, got {dt}")
-        frame = mover.integrate(motion, dt, self.settings.single_precision)
+        settings = self.settings
+        if not settings.quantum_ladder:
+            return self._physics_step(mover, motion, dt)
+        elapsed = mover.held_time + dt
+        pending_motion = motion if mover.held_motion == ZERO else mover.held_motion + motion
+        if elapsed == 0.0:
+            # no time at all: the motion waits for some
+            mover.held_motion = pending_motion
+            return move_result(mover, True, "NoTransition", None)
+        split = split_elapsed(elapsed, settings.max_quantum)
+        mover.held_time = split.held
+        mover.held_motion = pending_motion * (split.held / elapsed) if split.held > 0.0 else ZERO
+        if not split.quanta:
+            return move_result(mover, True, "NoTransition", None)
+        result: MoveResult | None = None
+        hit: list[int] = []
+        for quantum in split.quanta:
+            # a whole `elapsed` run in one step keeps the caller's motion exactly
+            share = pending_motion if quantum == elapsed else pending_motion * (quantum / elapsed)
+            result = self._physics_step(mover, share, quantum)
+            for obj_id in result.collide_objects:
+                if obj_id not in hit:
+                    hit.append(obj_id)
+        assert result is not None
+        if len(split.quanta) > 1:
+            result.collide_objects = hit
+        return result
+
+    def _physics_step(self, mover: Mover, motion: Vec3, quantum: float) -> MoveResult:
+        """One physics step of `quantum` seconds (UpdateObjectInternal)."""
+        frame = mover.integrate(motion, quantum, self.settings.single_precision, self.settings)
         target = Position(mover.position.cell_id, frame)
         return move_mover(self.landscape, mover, target)
 
@@ -247,4 +292,5 @@ def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
         ethereal=spec.ethereal,
         creature=creature,
         cyl_spheres=list(spec.cyl_spheres),
+        sledding=spec.sledding,
     )
