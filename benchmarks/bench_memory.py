@@ -54,6 +54,7 @@ def client_main(endpoint: str, index: int, batches: int) -> None:
         pos = _start(index * MOVERS_PER_SESSION + k)
         reply = list(session.get(f"acphys/lb/{pos['cell'] >> 16:04X}/register",
                                  payload=msgpack.packb({"v": 1, "mover": spec, "position": pos}), timeout=30))[0]
+        assert reply.ok is not None, "register refused"
         ids.append(msgpack.unpackb(reply.ok.payload.to_bytes())["state"]["id"])
     key = f"acphys/lb/{_start(0)['cell'] >> 16:04X}/move"
     ok = 0

@@ -363,7 +363,7 @@ def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float
         batch_ids = np.array(ids + ids, dtype=np.uint64)
         offsets = np.zeros((2 * share, 3))
         offsets[:share, 0], offsets[share:, 0] = ISSUE_STEP, -ISSUE_STEP
-        map_moves = [Move(int(i), offset=tuple(o)) for i, o in zip(batch_ids.tolist(), offsets.tolist())]
+        map_moves = [Move(int(i), offset=(o[0], o[1], o[2])) for i, o in zip(batch_ids.tolist(), offsets.tolist())]
         time.sleep(max(0.0, start_at - time.time()))
         cpu0 = time.process_time()
         end = time.monotonic() + seconds
