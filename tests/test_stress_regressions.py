@@ -110,12 +110,14 @@ def test_zero_and_vanishing_moves_leave_the_mover_in_place(offset: tuple[float, 
 @pytest.mark.parametrize("settings", [engine.RETAIL, engine.ACE_COMPAT], ids=["retail", "ace"])
 @pytest.mark.parametrize("offset", [(1e4, 0.0, 0.0), (1e12, 0.0, 0.0), (0.0, 0.0, 1e6), (0.0, 0.0, -1e6)])
 def test_absurdly_long_moves_fail_cleanly_and_keep_the_mover(settings: engine.EngineSettings, offset: tuple) -> None:
+    # targets beyond the limits (engine.limits: one landblock past the addressed one, |z| <= 10 km) are refused
     world = terrain_world(hills, [(0xA9, 0xB4)])
     world.settings = settings
     mid = stand(world, PLAYER, 0xA9B40000, 50.0, 50.0)
     before = world.mover(mid).position
-    r = world.move(mid, before.moved(Vec3(*offset)))
-    assert not r.ok and finite(r)
+    with pytest.raises(engine.OutOfRangeError):
+        world.move(mid, before.moved(Vec3(*offset)))
+    r = world.mover_state(mid)
     assert r.position.origin == before.origin and r.position.cell_id == before.cell_id
     after = world.move(mid, before.moved(Vec3(0.3, 0.0, 0.0)))  # and it walks on afterwards
     assert after.ok and after.contact and finite(after)
