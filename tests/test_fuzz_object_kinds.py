@@ -70,7 +70,7 @@ def check(case: K.KindCase) -> K.Outcome:
     return first
 
 
-@settings(max_examples=150, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=400, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(cases)
 @example(SEA_CAMERA)
 @example(TINY_CAMERA)
