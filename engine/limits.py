@@ -27,6 +27,7 @@ __all__ = [
     "MAX_HEIGHT",
     "MAX_SPEED",
     "MAX_MOTION",
+    "MAX_DT",
     "MAX_PLANE_D",
     "UNIT_TOLERANCE",
     "check_number",
@@ -65,6 +66,9 @@ MAX_HEIGHT: Final = 10000.0
 #: object's own velocity to 50 m/s (PhysicsObj.set_velocity); a move's given
 #: velocity may exceed that (the reference traces reach 50.3), up to this
 MAX_SPEED: Final = 1000.0
+#: the longest physics step the engine takes (seconds); the service allows only HUGE_QUANTUM (2 s),
+#: the longest frame the client resolves. Longer ones would square into numbers beyond float32
+MAX_DT: Final = 60.0
 #: the largest component of a physics step's own motion (metres per step)
 MAX_MOTION: Final = 2.0 * BLOCK_LENGTH
 #: the largest |d| of a contact plane (metres): a plane through a point of the
@@ -121,10 +125,27 @@ def check_target_origin(origin: Vec3, field: str) -> None:
     _check_in(origin.z, -MAX_HEIGHT, MAX_HEIGHT, f"{field}[2]", "the heights allowed")
 
 
+#: the squared lengths a unit quaternion's may have (length within UNIT_TOLERANCE of 1)
+_UNIT_SQ_LOW: Final = (1.0 - UNIT_TOLERANCE) ** 2
+_UNIT_SQ_HIGH: Final = (1.0 + UNIT_TOLERANCE) ** 2
+_XY_LOW: Final = -TARGET_MARGIN
+_XY_HIGH: Final = BLOCK_LENGTH + TARGET_MARGIN
+
+
 def check_position(position: Position, field: str) -> None:
-    """A target position: orientation a unit quaternion, origin as check_target_origin."""
-    check_orientation(position.frame.orientation, f"{field}.orientation")
-    check_target_origin(position.frame.origin, f"{field}.origin")
+    """A target position: orientation a unit quaternion, origin as check_target_origin.
+
+    Every move passes here: the common case is a few comparisons (a NaN fails
+    them all), and only a refusal takes the per-field checks that say why."""
+    frame = position.frame
+    o = frame.origin
+    q = frame.orientation
+    n2 = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z
+    if (_XY_LOW <= o.x <= _XY_HIGH and _XY_LOW <= o.y <= _XY_HIGH and -MAX_HEIGHT <= o.z <= MAX_HEIGHT
+            and _UNIT_SQ_LOW <= n2 <= _UNIT_SQ_HIGH):
+        return
+    check_orientation(q, f"{field}.orientation")
+    check_target_origin(o, f"{field}.origin")
 
 
 def check_start(position: Position, field: str, slack: float = 0.0) -> None:
@@ -164,15 +185,17 @@ def check_velocity(v: Vec3, field: str) -> None:
 
 
 def check_motion(v: Vec3, field: str) -> None:
+    m = MAX_MOTION
+    if -m <= v.x <= m and -m <= v.y <= m and -m <= v.z <= m:  # every physics step: a NaN fails these
+        return
     for i, c in enumerate((v.x, v.y, v.z)):
         _check_in(c, -MAX_MOTION, MAX_MOTION, f"{field}[{i}]", "a physics step's motion")
 
 
 def check_dt(dt: float, field: str) -> None:
-    """A physics step's duration: finite, not negative, a float32 (the service also caps it)."""
-    check_number(dt, field)
-    if dt < 0.0:
-        raise OutOfRangeError(f"{field}: must not be negative, got {dt!r}", field)
+    """A physics step's duration: 0 .. MAX_DT seconds (the service allows at most HUGE_QUANTUM)."""
+    if not 0.0 <= dt <= MAX_DT:
+        _check_in(dt, 0.0, MAX_DT, field, "the step durations allowed")
 
 
 def check_scale(scale: float, field: str) -> None:

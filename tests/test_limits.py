@@ -105,6 +105,7 @@ HOSTILE: dict[str, tuple[Callable[[engine.World, int], None], type[EngineError],
     "motion 1e30": (lambda w, m: w.step(m, Vec3(1e30, 0.0, 0.0), 1.0 / 30.0), OutOfRangeError, "motion[0]"),
     "negative dt": (lambda w, m: w.step(m, Vec3(0.0, 0.0, 0.0), -1.0), OutOfRangeError, "dt"),
     "dt 1e39": (lambda w, m: w.step(m, Vec3(0.0, 0.0, 0.0), 1e39), OutOfRangeError, "dt"),
+    "dt 1e30": (lambda w, m: w.step(m, Vec3(0.0, 0.0, 0.0), 1e30), OutOfRangeError, "dt"),  # squared: beyond float32
     "giant sphere 1e39": (_register(_sphere(1e39)), OutOfRangeError, "spec.spheres[0].radius"),
     "giant sphere 1e30": (_register(_sphere(1e30)), OutOfRangeError, "spec.spheres[0].radius"),
     "sphere bigger than a landblock": (_register(_sphere(MAX_OBJECT_SIZE * 1.01)), OutOfRangeError, "spec.spheres[0].radius"),
