@@ -727,7 +727,7 @@ Re-run:
     python3 -m benchmarks           # everything, the working tree's build only
     python3 -m benchmarks --quick   # a few minutes, small counts
     python3 -m benchmarks --only engine,error --error-cases 5
-    python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 1800
+    python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 3600
 
 Raw results: `benchmarks/out/results.json` (not committed); plots: `benchmarks/plots/`.
 """

@@ -678,13 +678,22 @@ def _record(out: dict[str, Any], recorded: set[str] | None, kind: str, failure: 
         out["failures"].append({"kind": kind, **failure})
 
 
-def run(total_moves: int, seconds: float, jobs: int = 2, seed: int = 6) -> dict[str, Any]:
-    per = max(1, total_moves // len(SCENARIOS))
+def run(total_moves: int, seconds: float, jobs: int = 2, seed: int = 6, kinds_moves: int | None = None) -> dict[str, Any]:
+    """`total_moves` over the scene scenarios, and `kinds_moves` (default: as many again) of the
+    object-kinds fuzz, within `seconds` in all."""
+    scenes = [sc for sc in SCENARIOS if sc.name != "object-kinds"]
+    kinds_total = total_moves if kinds_moves is None else kinds_moves
+    per = max(1, total_moves // len(scenes))
     chunks = max(1, per // 20000)  # split big scenarios so both workers stay busy
-    n_tasks = len(SCENARIOS) * chunks
-    counts = [total_moves // n_tasks + (1 if i < total_moves % n_tasks else 0) for i in range(n_tasks)]
-    tasks = [(sc.name, seed * 1000003 + i * 7919 + k, counts[i * chunks + k], seconds / max(1.0, n_tasks / jobs))
-             for i, sc in enumerate(SCENARIOS) for k in range(chunks)]
+    n_scene_tasks = len(scenes) * chunks
+    counts = [total_moves // n_scene_tasks + (1 if i < total_moves % n_scene_tasks else 0) for i in range(n_scene_tasks)]
+    kinds_chunks = max(1, kinds_total // 20000) if kinds_total > 0 else 0
+    kinds_counts = [kinds_total // kinds_chunks + (1 if k < kinds_total % kinds_chunks else 0) for k in range(kinds_chunks)]
+    n_tasks = n_scene_tasks + kinds_chunks
+    share = seconds / max(1.0, n_tasks / jobs)
+    tasks = [(sc.name, seed * 1000003 + i * 7919 + k, counts[i * chunks + k], share)
+             for i, sc in enumerate(scenes) for k in range(chunks)]
+    tasks += [("object-kinds", seed * 1000003 + len(scenes) * 7919 + k, kinds_counts[k], share) for k in range(kinds_chunks)]
     t0 = time.monotonic()
     results: dict[str, dict[str, Any]] = {}
     with ProcessPoolExecutor(max_workers=jobs) as ex:
