@@ -53,13 +53,17 @@ def to_protocol_error(
     if isinstance(exc, ProtocolError):
         return exc
     field = getattr(exc, "field", None)
+    text = _describe(exc)
     if fields is not None and isinstance(field, str):
-        path = wire_path(field, fields) or path
+        wire = wire_path(field, fields)
+        if wire is not None:
+            path = wire
+            text = text.replace(f" {field}:", f" {wire}:", 1)  # the message names the request's field too
     names = [c.__name__ for c in type(exc).__mro__]
     for name in names:
         kind = _BY_CLASS.get(name)
         if kind is not None:
-            return ProtocolError(kind, _describe(exc), path)
+            return ProtocolError(kind, text, path)
     if "EngineError" in names:
         return ProtocolError(ErrorKind.ENGINE_ERROR, _describe(exc), path)
     if isinstance(exc, KeyError) and key_error_kind is not None:
