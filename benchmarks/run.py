@@ -72,8 +72,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--stress-moves", type=int, default=None,
                    help="moves in the stress run (default 1,000,000; 20,000 with --quick)")
     p.add_argument("--stress-seconds", type=float, default=None,
-                   help="time budget of the stress run in seconds (default 1500; 120 with --quick)")
+                   help="time budget of the stress run in seconds (default 3600; 120 with --quick)")
     p.add_argument("--stress-jobs", type=int, default=2, help="worker processes of the stress run (default 2)")
+    p.add_argument("--stress-kinds-moves", type=int, default=None,
+                   help="moves of the object-kinds fuzz in the stress run (default: as many as --stress-moves; "
+                        "2,000 with --quick)")
     p.add_argument("--error-cases", type=int, default=None,
                    help="cases per reference trace in the error benchmark (default: all; 3 with --quick)")
     p.add_argument("--build-compiled", action="store_true",
@@ -163,8 +166,9 @@ def main(argv: list[str] | None = None) -> int:
             from . import stress
 
             moves = args.stress_moves if args.stress_moves is not None else (20000 if args.quick else 1_000_000)
-            seconds = args.stress_seconds if args.stress_seconds is not None else (120.0 if args.quick else 1500.0)
-            data = stress.run(moves, seconds, jobs=args.stress_jobs)
+            seconds = args.stress_seconds if args.stress_seconds is not None else (120.0 if args.quick else 3600.0)
+            kinds = args.stress_kinds_moves if args.stress_kinds_moves is not None else (2000 if args.quick else moves)
+            data = stress.run(moves, seconds, jobs=args.stress_jobs, kinds_moves=kinds)
             (common.OUT / "stress_failures.json").write_text(json.dumps(_clean(
                 [dict(f, scenario=s["scenario"]) for s in data["scenarios"] for f in s["failures"]]), indent=1))
         data["meta"] = dict(meta, seconds=time.monotonic() - t0)
@@ -178,4 +182,6 @@ def main(argv: list[str] | None = None) -> int:
         report.write(results)
         log(f"wrote {common.DOC.relative_to(common.ROOT)} and plots in benchmarks/plots/")
     stress_bad = results.get("stress", {}).get("totals", {})
-    return 1 if "stress" in only and any(stress_bad.get(k) for k in ("nonfinite", "fall_through", "penetration", "exceptions")) else 0
+    from .stress import FAILURE_COUNTS
+
+    return 1 if "stress" in only and any(stress_bad.get(k) for k in FAILURE_COUNTS) else 0

@@ -7,13 +7,22 @@ __all__ = [
     "UnknownCellError",
     "LandblockNotLoadedError",
     "NonFiniteError",
+    "OutOfRangeError",
     "UnknownMoverError",
     "SceneFormatError",
 ]
 
 
 class EngineError(ValueError):
-    """Base of every error the engine raises on bad input."""
+    """Base of every error the engine raises on bad input.
+
+    `field` names the argument at fault when one is known, in the words of
+    the call ("position.origin[0]", "spec.spheres[1].radius", "dt").
+    """
+
+    def __init__(self, message: str = "", field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
 
 
 class UnknownCellError(EngineError):
@@ -26,6 +35,11 @@ class LandblockNotLoadedError(EngineError):
 
 class NonFiniteError(EngineError):
     """A NaN or infinite coordinate, orientation or velocity."""
+
+
+class OutOfRangeError(EngineError):
+    """A finite number outside the engine's limits (engine.limits): too large
+    for single precision, or outside the physical bounds of its field."""
 
 
 class UnknownMoverError(EngineError, KeyError):

@@ -14,7 +14,9 @@ from typing import Any
 
 import msgpack
 
+from engine.errors import EngineError
 from engine.geometry import Plane, Position, Quat, Vec3
+from engine.limits import check_mover_spec
 from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
 
 from .errors import ProtocolError
@@ -146,7 +148,7 @@ def decode_mover_spec(value: Any, path: str) -> MoverSpec:
                 ErrorKind.BAD_VALUE, f"{p}: unknown ObjectInfoState flag {n!r} (known: {', '.join(ObjectState.BY_NAME)})", p
             )
     creature_raw = opt_field(m, "creature")
-    return MoverSpec(
+    spec = MoverSpec(
         spheres=spheres,
         step_up_height=_opt(m, "step_up_height", path, _non_negative, 0.4),
         step_down_height=_opt(m, "step_down_height", path, _non_negative, 0.4),
@@ -158,6 +160,11 @@ def decode_mover_spec(value: Any, path: str) -> MoverSpec:
         creature=None if creature_raw is None else as_bool(creature_raw, field_path(path, "creature")),
         cyl_spheres=cyls,
     )
+    try:  # sizes within the engine's limits (docs/protocol.md, "Limits")
+        check_mover_spec(spec, path)
+    except EngineError as e:
+        raise ProtocolError(ErrorKind.BAD_VALUE, str(e), e.field or path) from None
+    return spec
 
 
 # -- encoding (replies, states) -------------------------------------------

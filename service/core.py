@@ -35,6 +35,21 @@ FORWARD_MEMORY = 100_000
 _TRANSIENT = ("Contact", "OnWalkable")
 
 
+
+#: the engine's argument names (engine.errors.EngineError.field) as request paths
+_REGISTER_FIELDS = {"position": "position", "spec": "mover", "contact_plane": "contact_plane", "sliding_normal": "sliding_normal"}
+_UPDATE_FIELDS = {"spec": "mover"}
+
+
+def _move_fields(item: MoveItem) -> dict[str, str]:
+    """The engine's argument names of one move as that move's request paths."""
+    base = f"{item.path}." if item.path else ""
+    if item.offset is not None:  # the target is the current origin plus the offset, axis by axis
+        return {"target.origin": f"{base}offset", "target": f"{base}offset", "velocity": f"{base}velocity"}
+    if item.to is not None:
+        return {"target": f"{base}to", "velocity": f"{base}velocity"}
+    return {"motion": f"{base}motion", "dt": f"{base}dt"}
+
 class BusPort(Protocol):
     """What the core needs from the bus (service.node implements it)."""
 
@@ -137,7 +152,7 @@ class ServiceCore:
             )
             last = self.world.mover_state(eid)
         except Exception as e:
-            raise to_protocol_error(e, "position") from None
+            raise to_protocol_error(e, "position", fields=_REGISTER_FIELDS) from None
         rec = MoverRecord(mover_id, eid, spec, seq, last)
         self.movers[mover_id] = rec
         self._by_engine[eid] = mover_id
@@ -181,7 +196,7 @@ class ServiceCore:
             self.world.update_mover(rec.engine_id, spec)
             rec.last = self.world.mover_state(rec.engine_id)
         except Exception as e:
-            raise to_protocol_error(e, "mover") from None
+            raise to_protocol_error(e, "mover", fields=_UPDATE_FIELDS) from None
         rec.spec = spec
         return {"state": self._state(rec)}
 
@@ -208,7 +223,7 @@ class ServiceCore:
             assert item.motion is not None and item.dt is not None
             return self.world.step(rec.engine_id, item.motion, item.dt)
         except Exception as e:
-            err = to_protocol_error(e, item.path or None)
+            err = to_protocol_error(e, item.path or None, fields=_move_fields(item))
             if err.kind == ErrorKind.INTERNAL:
                 log.exception("engine failed on move of %X", rec.id)
             raise err from None

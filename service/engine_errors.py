@@ -7,32 +7,63 @@ added: an unknown EngineError still becomes `engine_error`.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from .errors import ProtocolError
 from .wire import ErrorKind
 
-__all__ = ["to_protocol_error"]
+__all__ = ["to_protocol_error", "wire_path"]
 
 _BY_CLASS = {
     "UnknownCellError": ErrorKind.UNKNOWN_CELL,
     "LandblockNotLoadedError": ErrorKind.LANDBLOCK_NOT_LOADED,
     "NonFiniteError": ErrorKind.NON_FINITE,
+    "OutOfRangeError": ErrorKind.BAD_VALUE,
     "UnknownMoverError": ErrorKind.UNKNOWN_MOVER,
 }
 
 
-def to_protocol_error(exc: BaseException, path: str | None = None, *, key_error_kind: str | None = None) -> ProtocolError:
+def wire_path(field: str, fields: Mapping[str, str]) -> str | None:
+    """The request path of an engine error's `field` ("target.origin[2]"), given what the
+    engine's argument names are in the request (`{"target": "moves[3].to"}`): the longest
+    name that `field` starts with, replaced. None when no name matches."""
+    best = ""
+    for name in fields:
+        if len(name) > len(best) and field.startswith(name) and field[len(name):len(name) + 1] in ("", ".", "["):
+            best = name
+    if not best:
+        return None
+    return fields[best] + field[len(best):]
+
+
+def to_protocol_error(
+    exc: BaseException,
+    path: str | None = None,
+    *,
+    key_error_kind: str | None = None,
+    fields: Mapping[str, str] | None = None,
+) -> ProtocolError:
     """The ProtocolError for an exception the engine raised.
 
     `key_error_kind` is what a bare KeyError means in the caller's context
     (e.g. load_landblock raises KeyError for a landblock its source lacks).
+    `fields` maps the engine's argument names to request paths (wire_path):
+    an error naming its field gets that field's path instead of `path`.
     """
     if isinstance(exc, ProtocolError):
         return exc
+    field = getattr(exc, "field", None)
+    text = _describe(exc)
+    if fields is not None and isinstance(field, str):
+        wire = wire_path(field, fields)
+        if wire is not None:
+            path = wire
+            text = text.replace(f" {field}:", f" {wire}:", 1)  # the message names the request's field too
     names = [c.__name__ for c in type(exc).__mro__]
     for name in names:
         kind = _BY_CLASS.get(name)
         if kind is not None:
-            return ProtocolError(kind, _describe(exc), path)
+            return ProtocolError(kind, text, path)
     if "EngineError" in names:
         return ProtocolError(ErrorKind.ENGINE_ERROR, _describe(exc), path)
     if isinstance(exc, KeyError) and key_error_kind is not None:

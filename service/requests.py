@@ -12,6 +12,9 @@ from typing import Any
 
 import msgpack
 
+from engine import limits
+from engine.constants import HUGE_QUANTUM
+from engine.errors import EngineError
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import MoverSpec
 
@@ -248,18 +251,30 @@ def read_move_item(value: Any, path: str) -> MoveItem:
         item.offset = Vec3(*as_vec3(m["offset"], field_path(path, "offset")))
     else:
         item.motion = Vec3(*as_vec3(m["motion"], field_path(path, "motion")))
+        _checked(limits.check_motion, item.motion, field_path(path, "motion"))
         dt = as_float(get_field(m, "dt", path), field_path(path, "dt"))
-        if dt <= 0.0 or dt > 60.0:
+        if dt <= 0.0 or dt > HUGE_QUANTUM:
+            # the longest frame the client resolves (engine.constants.HUGE_QUANTUM)
             p = field_path(path, "dt")
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be in (0, 60] seconds, got {dt}", p)
+            raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be in (0, {HUGE_QUANTUM:g}] seconds, got {dt}", p)
         item.dt = dt
     vel = m.get("velocity")
     if vel is not None:
         if kind == "motion":
             p = field_path(path, "velocity")
             raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: a physics step integrates its own velocity", p)
+        # its speed limit is the engine's to check (World.move), as for the fast path's moves
         item.velocity = Vec3(*as_vec3(vel, field_path(path, "velocity")))
     return item
+
+
+def _checked(check: Any, value: Any, path: str) -> None:
+    """Run an engine.limits check on a decoded value; its refusal as the field's error."""
+    try:
+        check(value, path)
+    except EngineError as e:
+        kind = ErrorKind.NON_FINITE if type(e).__name__ == "NonFiniteError" else ErrorKind.BAD_VALUE
+        raise ProtocolError(kind, str(e), e.field or path) from None
 
 
 def _item_or_error(value: Any, path: str) -> MoveItem | ItemError:
@@ -319,12 +334,20 @@ def parse_register(msg: dict[str, Any]) -> RegisterRequest:
         raise ProtocolError(ErrorKind.BAD_VALUE, "id: 0 is reserved (omit id to have one assigned)", "id")
     spec = decode_mover_spec(get_field(msg, "mover", ""), "mover")
     position = decode_position(get_field(msg, "position", ""), "position")
+    try:
+        limits.check_start(position, "position", limits.start_slack(spec))
+    except EngineError as e:
+        raise ProtocolError(ErrorKind.BAD_VALUE, str(e), e.field or "position") from None
     plane, cell = _contact(msg, position)
+    if plane is not None:
+        _checked(limits.check_plane, plane, "contact_plane")
     sn = msg.get("sliding_normal")
+    sliding = None if sn is None else Vec3(*as_vec3(sn, "sliding_normal"))
+    if sliding is not None:
+        _checked(limits.check_unit_vector, sliding, "sliding_normal")
     wc = msg.get("water_contact")
     return RegisterRequest(
-        mover_id, spec, position, plane, cell,
-        None if sn is None else Vec3(*as_vec3(sn, "sliding_normal")),
+        mover_id, spec, position, plane, cell, sliding,
         False if wc is None else as_bool(wc, "water_contact"),
     )
 

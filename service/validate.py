@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from engine.limits import FLOAT32_MAX
+
 from .errors import ProtocolError
 from .wire import ErrorKind
 
@@ -76,11 +78,19 @@ def as_list(value: Any, path: str, max_len: int | None = None) -> list[Any]:
 
 
 def as_float(value: Any, path: str) -> float:
+    """A finite number that fits single precision (the client computes in float32)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _wrong(path, "number", value)
-    f = float(value)
+    try:
+        f = float(value)
+    except OverflowError:  # an integer beyond any float
+        f = math.inf if value > 0 else -math.inf
     if not math.isfinite(f):
         raise ProtocolError(ErrorKind.NON_FINITE, f"{path}: {value!r} is not a finite number", path)
+    if abs(f) > FLOAT32_MAX:
+        raise ProtocolError(
+            ErrorKind.BAD_VALUE, f"{path}: {value!r} does not fit single precision (|x| <= {FLOAT32_MAX:.8g})", path
+        )
     return f
 
 
@@ -141,11 +151,12 @@ def opt_field(obj: dict[str, Any], key: str) -> Any:
 
 # -- fast paths: accept only what the readers above accept, return None for anything else -----------
 def plain_floats3(v: Any) -> tuple[float, float, float] | None:
-    """Three finite floats; None for anything else (then the full reader says what is wrong)."""
+    """Three floats that fit single precision; None for anything else (then the full reader says what is wrong)."""
     if type(v) is list and len(v) == 3:
         x, y, z = v
-        # NaN or an infinity makes the sum non-finite; so does an overflow, which the full reader accepts
-        if type(x) is float and type(y) is float and type(z) is float and math.isfinite(x + y + z):
+        # a NaN fails every comparison; an infinity or a number beyond float32 the bounds
+        if (type(x) is float and type(y) is float and type(z) is float
+                and -FLOAT32_MAX <= x <= FLOAT32_MAX and -FLOAT32_MAX <= y <= FLOAT32_MAX and -FLOAT32_MAX <= z <= FLOAT32_MAX):
             return (x, y, z)
     return None
 
@@ -156,6 +167,7 @@ def plain_unit_quat(v: Any) -> tuple[float, float, float, float] | None:
         w, x, y, z = v
         if type(w) is float and type(x) is float and type(y) is float and type(z) is float:
             n2 = w * w + x * x + y * y + z * z
-            if math.isfinite(w + x + y + z) and math.isfinite(n2) and abs(math.sqrt(n2) - 1.0) <= 1e-3:
+            # finite components of a unit-length quaternion all lie within [-1.001, 1.001]
+            if math.isfinite(n2) and abs(math.sqrt(n2) - 1.0) <= 1e-3:
                 return (w, x, y, z)
     return None

@@ -74,7 +74,10 @@ MUTATIONS: list[tuple[str, Any, str | None]] = [
     ("offset", [math.nan, 0.0, 0.0], "non_finite"),
     ("offset", [0.0, math.inf, 0.0], "non_finite"),
     ("offset", [0.0, 0.0, -math.inf], "non_finite"),
-    ("offset", [1e308, 1e308, 0.0], None),  # finite parts whose sum overflows: accepted
+    ("offset", [1e308, 1e308, 0.0], "bad_value"),  # finite, but beyond single precision
+    ("offset", [0.0, -3.5e38, 0.0], "bad_value"),  # just beyond the largest float32
+    ("offset", [3.4e38, 0.0, 0.0], None),  # a float32: read here, refused later as a target out of bounds
+    ("velocity", [0.0, 0.0, 1e39], "bad_value"),
     ("offset", [1, 0, 0], None),  # integers are numbers too
     ("offset", [True, 0.0, 0.0], "wrong_type"),
     ("offset", [0.0, 0.0], "bad_value"),

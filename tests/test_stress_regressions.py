@@ -110,12 +110,14 @@ def test_zero_and_vanishing_moves_leave_the_mover_in_place(offset: tuple[float, 
 @pytest.mark.parametrize("settings", [engine.RETAIL, engine.ACE_COMPAT], ids=["retail", "ace"])
 @pytest.mark.parametrize("offset", [(1e4, 0.0, 0.0), (1e12, 0.0, 0.0), (0.0, 0.0, 1e6), (0.0, 0.0, -1e6)])
 def test_absurdly_long_moves_fail_cleanly_and_keep_the_mover(settings: engine.EngineSettings, offset: tuple) -> None:
+    # targets beyond the limits (engine.limits: one landblock past the addressed one, |z| <= 10 km) are refused
     world = terrain_world(hills, [(0xA9, 0xB4)])
     world.settings = settings
     mid = stand(world, PLAYER, 0xA9B40000, 50.0, 50.0)
     before = world.mover(mid).position
-    r = world.move(mid, before.moved(Vec3(*offset)))
-    assert not r.ok and finite(r)
+    with pytest.raises(engine.OutOfRangeError):
+        world.move(mid, before.moved(Vec3(*offset)))
+    r = world.mover_state(mid)
     assert r.position.origin == before.origin and r.position.cell_id == before.cell_id
     after = world.move(mid, before.moved(Vec3(0.3, 0.0, 0.0)))  # and it walks on afterwards
     assert after.ok and after.contact and finite(after)
@@ -210,32 +212,57 @@ def test_a_small_stress_run_is_clean(scenario: str) -> None:
 
 
 # -- a long diagonal move past the corner of an opening -------------------------------------------------
-#: (scene, floor z, start x, y, offset, wall: plane y, its outward normal's y, x range). The mover is the
-#: reference cases' (house-046-wall, dungeon-033-branch): one sphere of 0.6 m, step heights 0.6.
+#: (scene, floor z, start x, y, offset, wall: plane y, its outward normal's y, x range, the reference's gap).
+#: The mover is the reference cases' (house-046-wall, dungeon-033-branch): one sphere of 0.6 m, step
+#: heights 0.6. The gap is how far the sphere's surface ends from the wall (negative: inside it), as ACE's
+#: physics gives it for the same move (issue 11: run through the reference, which ends all four within
+#: 1e-5 m of the engine's positions; its gaps as reported there, to the millimetre).
 CORNER_CASES = {
     # the house room's south wall (y = 105.25, facing +y) runs x 108.75..111.75, a doorway west of it
-    "house, 6 m": ("house.json", 112.5, 105.7021, 106.4896, (6.0, -1.8, 0.0), 105.25, 1.0, (108.75, 111.75)),
-    "house, 14 m": ("house.json", 112.5, 105.7021, 106.4896, (13.332247, -3.996451, 0.0), 105.25, 1.0, (108.75, 111.75)),
+    "house, 6 m": ("house.json", 112.5, 105.7021, 106.4896, (6.0, -1.8, 0.0), 105.25, 1.0, (108.75, 111.75), -0.015),
+    "house, 14 m": ("house.json", 112.5, 105.7021, 106.4896, (13.332247, -3.996451, 0.0), 105.25, 1.0, (108.75, 111.75), -0.027),
     # the dungeon cell's north wall (y = 61.5, facing -y) runs x 65.5..68.0, a branch opening west of it
-    "dungeon, 17 m": ("dungeon.json", 52.5, 64.427597, 60.527897, (12.157162, 11.537189, 1.539856), 61.5, -1.0, (65.5, 68.0)),
-    "dungeon, 12 m": ("dungeon.json", 52.5, 63.784363, 60.322327, (10.327619, 6.476041, 0.304598), 61.5, -1.0, (65.5, 68.0)),
+    "dungeon, 17 m": ("dungeon.json", 52.5, 64.427597, 60.527897, (12.157162, 11.537189, 1.539856), 61.5, -1.0, (65.5, 68.0), -0.026),
+    "dungeon, 12 m": ("dungeon.json", 52.5, 63.784363, 60.322327, (10.327619, 6.476041, 0.304598), 61.5, -1.0, (65.5, 68.0), -0.039),
 }
 
 
-@pytest.mark.xfail(strict=True, reason="engine bug (suspected; no reference trace has such a move): one long "
-                   "diagonal move past the corner where a wall meets an opening ends with the sphere 1.5-4 cm inside "
-                   "that wall, though the transition reports the collision with it (found by benchmarks/stress.py)")
 @pytest.mark.parametrize("case", list(CORNER_CASES.values()), ids=list(CORNER_CASES))
-def test_a_long_move_past_the_corner_of_an_opening_does_not_end_inside_the_wall(case: tuple) -> None:
-    scene, floor, x, y, offset, wall_y, facing, (x0, x1) = case
+def test_a_long_move_past_the_corner_of_an_opening_ends_inside_the_wall_as_the_reference_does(case: tuple) -> None:
+    """The client's behaviour, not a bug (docs/divergences.md): the sub-step that crosses the wall's plane
+    is in the opening, and the slide along the wall's end never pushes the sphere back out."""
+    scene, floor, x, y, offset, wall_y, facing, (x0, x1), reference_gap = case
     world = engine.load_scene(ORACLE / "scenes" / scene)
     spec = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.6), 0.6)], step_up_height=0.6, step_down_height=0.6,
                      state=["Contact", "OnWalkable"], gravity=True)
     cell = 0xA9B40100
     mid = world.add_mover(spec, Position.at(cell, Vec3(x, y, floor)), Plane(Vec3(0.0, 0.0, 1.0), -floor), cell)
     r = world.move(mid, world.mover(mid).position.moved(Vec3(*offset)))
-    assert finite(r)
+    assert finite(r) and r.ok and r.position.cell_id == cell
     o = r.position.origin
-    if r.position.cell_id == cell and x0 <= o.x <= x1:  # in front of the wall: the sphere must not reach into it
-        gap = (o.y - wall_y) * facing - 0.6
-        assert gap >= -0.01, f"{r.position!r}: {-gap:.4f} m inside the wall"
+    assert x0 <= o.x <= x1 and o.z == floor  # in front of the wall, on the floor
+    gap = (o.y - wall_y) * facing - 0.6
+    assert gap == pytest.approx(reference_gap, abs=1e-3), f"{r.position!r}: gap {gap:.4f} m"
+
+
+@pytest.mark.parametrize("case", list(CORNER_CASES.values()), ids=list(CORNER_CASES))
+def test_the_stress_run_counts_the_doorway_corner_overlap_as_the_clients_behaviour(case: tuple) -> None:
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from benchmarks import stress
+
+    scene, floor, x, y, offset, _wall_y, _facing, _xs, reference_gap = case
+    world = engine.load_scene(ORACLE / "scenes" / scene)
+    spec = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.6), 0.6)], step_up_height=0.6, step_down_height=0.6,
+                     state=["Contact", "OnWalkable"], gravity=True)
+    cell = 0xA9B40100
+    mid = world.add_mover(spec, Position.at(cell, Vec3(x, y, floor)), Plane(Vec3(0.0, 0.0, 1.0), -floor), cell)
+    r = world.move(mid, world.mover(mid).position.moved(Vec3(*offset)))
+    centres = stress.sphere_centres(world, mid)
+    depth = stress.wall_depth(stress.CellPolys(world), r.position.cell_id, centres)
+    assert depth == pytest.approx(-reference_gap, abs=1e-3)  # the stress run's own measure sees the overlap
+    assert stress._corner_overlap(r, Vec3(*offset), False, centres, depth)
+    # a short move, a physics step, or a deeper overlap would still be a penetration
+    assert not stress._corner_overlap(r, Vec3(0.3, 0.0, 0.0), False, centres, depth)
+    assert not stress._corner_overlap(r, Vec3(*offset), True, centres, depth)
+    assert not stress._corner_overlap(r, Vec3(*offset), False, centres, stress.CORNER_OVERLAP_MAX + 0.01)

@@ -245,7 +245,9 @@ class BSPTree:
             return _ADJUSTED
 
         if path.num_sphere > 1:
-            if root.sphere_intersects_poly(local_sphere_1, movement, hit) or hit.poly is not None:  # type: ignore[arg-type]
+            # `hit.found()`, not `hit.poly`: the test above narrowed `hit.poly` to None, and the
+            # compiled build would check that narrowed type against the polygon this query sets
+            if root.sphere_intersects_poly(local_sphere_1, movement, hit) or hit.found() is not None:  # type: ignore[arg-type]
                 poly = hit.found()  # set by the query above
                 assert poly is not None
                 normal = _global_vec(path, poly.plane.normal)

@@ -2,7 +2,7 @@
 
 `run_case(world, case)` does what the reference did (formats README, "How a
 move is replayed") and returns, per move, a dict with exactly the keys of
-that move's `expect`.
+that move's `expect` (every field, for a move without one).
 """
 
 from __future__ import annotations
@@ -79,7 +79,21 @@ def _cell(text: str) -> int:
     return int(text, 16)
 
 
-def result_to_expect(result: MoveResult, keys: Any) -> dict[str, Any]:
+#: every field a move's `expect` may hold: what a move without `expect` reports
+EXPECT_FIELDS = (
+    "ok", "position", "contact", "on_walkable", "contact_plane", "collision_normal", "sliding_normal",
+    "contact_plane_cell", "water_contact", "frames_stationary_fall", "transient_state", "collide_objects",
+    "placement_result",
+)
+
+
+def expect_keys(move: dict[str, Any]) -> Any:
+    """The fields to report for a trace move: its `expect`'s, or every field when it has none."""
+    expect = move.get("expect")
+    return EXPECT_FIELDS if expect is None else expect.keys()
+
+
+def result_to_expect(result: MoveResult, keys: Any = EXPECT_FIELDS) -> dict[str, Any]:
     """A MoveResult in the trace's `expect` vocabulary, restricted to `keys`."""
     pos = result.position
     full: dict[str, Any] = {
@@ -142,7 +156,7 @@ def run_case(world: World, case: dict[str, Any], settings: EngineSettings = ACE_
         results: list[dict[str, Any]] = []
         for move in case["moves"]:
             result = replay_move(world, mover_id, move, physics is not None, dt, use_offsets)
-            results.append(result_to_expect(result, move["expect"].keys()))
+            results.append(result_to_expect(result, expect_keys(move)))
             if move.get("placement") is not None and result.placement_result != "OK":  # type: ignore[attr-defined]
                 break
         return results

@@ -18,7 +18,7 @@ __all__ = ["run_movers_case"]
 
 
 def run_movers_case(world: World, case: dict[str, Any], settings: EngineSettings, use_offsets: bool = False) -> dict[str, list[dict[str, Any]]]:
-    from .trace import _add_case_mover, _vec, replay_move, result_to_expect
+    from .trace import _add_case_mover, _vec, expect_keys, replay_move, result_to_expect
 
     saved = world.settings
     world.settings = settings
@@ -45,7 +45,7 @@ def run_movers_case(world: World, case: dict[str, Any], settings: EngineSettings
                 dt = float(physics["dt"]) if physics else 0.0
                 result = replay_move(world, ids[name], move, physics is not None, dt, use_offsets)
                 result.collide_objects = [names.get(i, f"{i:08X}") for i in result.collide_objects]  # type: ignore[misc]
-                results[name].append(result_to_expect(result, move["expect"].keys()))
+                results[name].append(result_to_expect(result, expect_keys(move)))
                 if move.get("placement") is not None and result.placement_result != "OK":
                     stopped.add(name)
         return results

@@ -19,6 +19,15 @@ __all__ = ["validate_walkable"]
 #: value is within ~1e-4 m of it at any landblock coordinate)
 _CLEAR: Final = EPSILON + 1e-3
 
+#: the largest float32: a pull-back beyond it is an infinity in the client
+_FLOAT32_MAX: Final = 3.4028234663852886e38
+
+
+def _representable(v: Vec3) -> bool:
+    """Every component finite and within single precision (a NaN fails every comparison)."""
+    m = _FLOAT32_MAX
+    return -m <= v.x <= m and -m <= v.y <= m and -m <= v.z <= m
+
 
 def validate_walkable(
     t: Transition, check_sphere: Sphere, plane: Plane, is_water: bool, water_depth: float, cell_id: int
@@ -50,7 +59,15 @@ def validate_walkable(
         angle = dist / denom if denom != 0.0 else (float("inf") if dist >= 0.0 else float("-inf"))
         if (angle <= 0.0 or angle > 1.0) and clear_ok:
             return TransitionState.OK
-        path.add_offset_to_check_pos(offset * -angle)
+        pull_back = offset * -angle
+        if not _representable(pull_back):
+            # A step parallel to the plane (or none at all): pulling back along
+            # it never reaches the plane, and the quotient is infinite (NaN
+            # times a zero step). ACE's C# puts that into the check position,
+            # where no cell holds it; here the transition fails at once and
+            # the camera stays where it was (docs/divergences.md).
+            return TransitionState.INVALID
+        path.add_offset_to_check_pos(pull_back)
         ci.set_collision_normal(normal)
         ci.collided_with_environment = True
         return TransitionState.ADJUSTED

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any, Callable
 
+from .. import limits
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownMoverError
 from ..geometry import ZERO, Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
@@ -22,6 +23,7 @@ from . import shadows
 from .mover import Mover
 from .quantum import split_elapsed
 from .resolve import move_mover, move_result
+from .rollback import MoverSnapshot
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
 
@@ -116,7 +118,16 @@ class World:
         sliding_normal: Vec3 | None = None,
         water_contact: bool = False,
     ) -> int:
-        """Register a mover at `position` with its starting contact state."""
+        """Register a mover at `position` with its starting contact state.
+
+        Every number is checked against engine.limits first: a refused
+        mover changes nothing."""
+        limits.check_mover_spec(spec, "spec")
+        limits.check_start(position, "position", limits.start_slack(spec))
+        if contact_plane is not None:
+            limits.check_plane(contact_plane, "contact_plane")
+        if sliding_normal is not None:
+            limits.check_unit_vector(sliding_normal, "sliding_normal")
         self._check_position(position)
         mover = _mover_from_spec(self._next_mover_id, spec)
         mover.position = position
@@ -137,9 +148,9 @@ class World:
             mover.sliding_normal = sliding_normal
             mover.transient |= TS.SLIDING
         mover.calc_acceleration(self.settings.sled_gravity)
+        self._enter_cells(mover)
         self.movers[mover.id] = mover
         self._next_mover_id += 1
-        self._enter_cells(mover)
         return mover.id
 
     def mover(self, mover_id: int) -> Mover:
@@ -156,7 +167,7 @@ class World:
     def update_mover(self, mover_id: int, spec: MoverSpec) -> None:
         """Change a mover's shape and flags, keeping its position and contact state."""
         old = self.mover(mover_id)
-        new = _mover_from_spec(mover_id, spec)
+        new = _mover_from_spec(mover_id, spec)  # checks the spec: a refused one changes nothing
         for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion"):
             setattr(new, name, getattr(old, name))
         shadows.remove_shadows(old)
@@ -174,12 +185,21 @@ class World:
         contact checks and collision responses see); None keeps its own.
         """
         mover = self.mover(mover_id)
+        limits.check_position(target, "target")
         self.landscape.check_position(target)
         if velocity is not None:
-            if not velocity.is_finite():
-                raise NonFiniteError("velocity has non-finite components")
+            limits.check_velocity(velocity, "velocity")
+        snapshot = MoverSnapshot(mover)
+        if velocity is not None:
             mover.velocity = velocity
-        return move_mover(self.landscape, mover, target)
+        try:
+            result = move_mover(self.landscape, mover, target)
+        except BaseException:
+            snapshot.restore()
+            raise
+        if velocity is not None:
+            mover.velocity = snapshot.velocity()  # the given velocity was this move's only
+        return result
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
         """Advance a mover by `dt` seconds with its own motion `motion` (metres
@@ -199,10 +219,17 @@ class World:
         Without it (ACE_COMPAT) `dt` is one integration step as given
         (UpdateObjectInternal), as the reference traces record them."""
         mover = self.mover(mover_id)
-        if not motion.is_finite() or not math.isfinite(dt):
-            raise NonFiniteError("motion or dt has non-finite numbers")
-        if dt < 0.0:
-            raise ValueError(f"dt must not be negative, got {dt}")
+        limits.check_motion(motion, "motion")
+        limits.check_dt(dt, "dt")
+        snapshot = MoverSnapshot(mover)
+        try:
+            return self._spend(mover, motion, dt)
+        except BaseException:
+            snapshot.restore()
+            raise
+
+    def _spend(self, mover: Mover, motion: Vec3, dt: float) -> MoveResult:
+        """`dt` seconds of a mover's time as physics steps: the quantum ladder, or one step without it."""
         settings = self.settings
         if not settings.quantum_ladder:
             return self._physics_step(mover, motion, dt)
@@ -267,17 +294,9 @@ class World:
 
 
 def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
+    limits.check_mover_spec(spec, "spec")
     flags = ObjectState.from_names(spec.state)
     spheres = [Sphere(Vec3(*s.center), float(s.radius)) for s in spec.spheres]
-    for s in spheres:
-        if not s.center.is_finite() or not math.isfinite(s.radius) or s.radius <= 0.0:
-            raise NonFiniteError(f"mover sphere {s!r} must have finite centre and positive radius")
-    if not math.isfinite(spec.scale) or spec.scale <= 0.0:
-        raise NonFiniteError(f"mover scale must be finite and positive, got {spec.scale!r}")
-    for name in ("step_up_height", "step_down_height"):
-        value = getattr(spec, name)
-        if not math.isfinite(value) or value < 0.0:
-            raise NonFiniteError(f"mover {name} must be finite and not negative, got {value!r}")
     creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
     return Mover(
         mover_id,
