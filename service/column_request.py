@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from engine.constants import HUGE_QUANTUM
+
 from .columns import COLUMN_PUBLISH_MODES, FLOAT32_MAX, KINDS, REQUEST_BY_NAME, REQUEST_COLUMNS, Column
 from .errors import ProtocolError
 from .wire import MAX_BATCH, ErrorKind
@@ -122,13 +124,14 @@ def _bad_reals(req: ColumnRequest) -> None:
 
 
 def _bad_ranges(req: ColumnRequest) -> None:
-    """`dt` in (0, 60]; a given orientation of unit length (all zeros: none given for that item)."""
+    """`dt` in (0, HUGE_QUANTUM]; a given orientation of unit length (all zeros: none given for that item)."""
     dt = req.arrays.get("dt")
     if dt is not None:
-        for i in np.flatnonzero(~((dt > 0.0) & (dt <= 60.0))).tolist():
+        for i in np.flatnonzero(~((dt > 0.0) & (dt <= HUGE_QUANTUM))).tolist():
             if i not in req.bad:
                 path = f"columns.dt[{i}]"
-                req.bad[i] = ProtocolError(ErrorKind.BAD_VALUE, f"{path}: must be in (0, 60] seconds, got {dt[i]}", path)
+                req.bad[i] = ProtocolError(ErrorKind.BAD_VALUE,
+                                           f"{path}: must be in (0, {HUGE_QUANTUM:g}] seconds, got {dt[i]}", path)
     q = req.arrays.get("to_orientation")
     if q is not None:
         with np.errstate(invalid="ignore", over="ignore"):

@@ -203,3 +203,19 @@ def test_the_velocity_a_move_is_given_is_what_the_move_resolves_with() -> None:
     assert flat.collision_normal is None
     assert up.collision_normal == Vec3(0.0, 0.0, 1.0)
     assert world.mover(mid).velocity == Vec3(0.0, 0.0, 0.0)
+
+
+def test_set_velocity_gives_the_mover_its_own_velocity_clamped_to_max_velocity() -> None:
+    world = flat_world()
+    mid = stand(world, 50.0, 50.0)
+    # a 3-4-5 triangle: 100 m/s along (0.6, 0.8) is cut to 50 m/s along the same direction
+    assert world.set_velocity(mid, Vec3(60.0, 80.0, 0.0)) == Vec3(30.0, 40.0, 0.0)
+    assert world.mover(mid).velocity == Vec3(30.0, 40.0, 0.0)
+    assert MAX_VELOCITY == 50.0
+    # below the clamp it is kept as given, and it outlives a later move (it is the mover's own)
+    world.set_velocity(mid, Vec3(0.0, 3.0, 0.0))
+    here = world.mover(mid).position
+    world.move(mid, here.with_origin(here.frame.origin + Vec3(0.1, 0.0, 0.0)))
+    assert world.mover(mid).velocity == Vec3(0.0, 3.0, 0.0)
+    with pytest.raises(NonFiniteError):
+        world.set_velocity(mid, Vec3(math.nan, 0.0, 0.0))

@@ -181,8 +181,7 @@ def _sled(settings: engine.EngineSettings, slope_bytes: int, speed: float) -> tu
     mid = standing(world, 170.0, 50.0, SLED)
     angle = math.atan2(slope_bytes * 0.5, 24.0)
     downhill = Vec3(-math.cos(angle), 0.0, -math.sin(angle))
-    here = world.mover(mid).position
-    world.move(mid, here, velocity=downhill * speed)
+    world.set_velocity(mid, downhill * speed)
     return world, mid, downhill
 
 

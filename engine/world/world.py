@@ -12,6 +12,7 @@ import math
 from typing import Any, Callable
 
 from .. import limits
+from ..constants import MAX_VELOCITY
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownMoverError
 from ..geometry import ZERO, Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
@@ -173,6 +174,19 @@ class World:
         shadows.remove_shadows(old)
         self.movers[mover_id] = new
         self._enter_cells(new)
+
+    def set_velocity(self, mover_id: int, velocity: Vec3) -> Vec3:
+        """Give a mover a velocity of its own, as the client's CPhysicsObj::set_velocity does
+        (a jump, a launch, a push): a speed above MaxVelocity (50 m/s) is scaled down to it.
+        Later physics steps (`step`) carry it on under gravity and friction. The velocity
+        set, after the clamp."""
+        mover = self.mover(mover_id)
+        limits.check_velocity(velocity, "velocity")
+        length = velocity.length()
+        if length > MAX_VELOCITY:
+            velocity = velocity * (MAX_VELOCITY / length)
+        mover.velocity = velocity
+        return velocity
 
     def mover_state(self, mover_id: int) -> MoveResult:
         return move_result(self.mover(mover_id), True, "NoTransition", None)
