@@ -41,6 +41,7 @@ class PathPoint:
     contact: bool
     on_walkable: bool
     collided: bool
+    z: float = 0.0
 
 
 def height_grid(height_at: Callable[[float, float], float], size_m: int, step_m: float = 1.0) -> np.ndarray:
