@@ -1,9 +1,10 @@
-"""The `acphys` command line: serve, move, demo, stats.
+"""The `acphys` command line: serve, move, demo, stats, view.
 
     acphys serve                      # the demo world on tcp/127.0.0.1:7447
     acphys demo --out walk.png        # walk the demo (embedded service if none runs)
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
+    acphys view                       # a live map of the movers on http://127.0.0.1:8765/
 """
 
 from __future__ import annotations
@@ -70,6 +71,12 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="acphys-demo.png", help="PNG map to write (default %(default)s)")
     d.add_argument("--quiet", action="store_true", help="no progress display")
 
+    v = sub.add_parser("view", help="serve a live map of the service's movers to a web browser (loopback by default)")
+    _conn_args(v)
+    from .view_server import add_view_arguments
+
+    add_view_arguments(v)
+
     st = sub.add_parser("stats", help="print every instance's health and statistics")
     _conn_args(st)
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
@@ -97,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
             return run_demo(args)
         if args.command == "stats":
             return _cmd_stats(args)
+        if args.command == "view":
+            from .view_server import run_view
+
+            return run_view(args)
     except KeyboardInterrupt:
         return 130
     except Exception as e:

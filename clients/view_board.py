@@ -32,6 +32,9 @@ def state_for_page(state: dict[str, Any]) -> dict[str, Any]:
     out = dict(state)
     out["id"] = f"{int(state['id']):X}"
     out["id_hex"] = out["id"]
+    pos = state.get("position")
+    if isinstance(pos, dict) and isinstance(pos.get("cell"), int):
+        out["cell_hex"] = f"{pos['cell']:08X}"
     out["collide_objects"] = [f"{int(i):X}" for i in state.get("collide_objects") or []]
     out["received"] = time.time()
     return out
