@@ -35,7 +35,7 @@ sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Pyth
 fi
 if [ "$compile" != 0 ]; then
     echo "acphys: installing into $venv and compiling the engine's hot modules with mypyc:" \
-         "about 2 minutes on a 2-core machine, with little output meanwhile" \
+         "about 2 minutes on an idle 2-core machine (more while it is busy), with little output meanwhile" \
          "(ACPHYS_COMPILE=0 sh install.sh skips the compile)" >&2
 else
     echo "acphys: installing into $venv with the pure-Python engine (no compile; under a minute)" >&2

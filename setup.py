@@ -37,7 +37,7 @@ if os.environ.get("ACPHYS_COMPILE", "1") != "0":
 
     modules = hot_modules()
     # seen with `pip install -v` (pip hides a build's output otherwise; install.sh says it before pip runs)
-    print(f"acphys: compiling {len(modules)} engine modules with mypyc: about 2 minutes on a 2-core machine "
+    print(f"acphys: compiling {len(modules)} engine modules with mypyc: about 2 minutes on an idle 2-core machine "
           "(ACPHYS_COMPILE=0 installs the pure-Python engine instead)", file=sys.stderr, flush=True)
     ext_modules = mypycify(modules, opt_level="3")
 

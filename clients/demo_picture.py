@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .demo_map import FLOOR_Z, PathPoint
-from .demo_walk import LANDING, WalkResult
+from .demo_walk import DT, LANDING, WalkResult
 from .demo_world import DEMO_LANDBLOCKS, ORIGIN_LANDBLOCK, Footprint, demo_footprints
 
 __all__ = ["EVENT_STYLE", "VILLAGE_BOX", "event_letters", "path_distances", "render_walk"]
@@ -48,7 +48,7 @@ EVENT_STYLE: dict[str, tuple[str, str, str]] = {
     "landed": ("v", AIR_COLOUR, "touched down"),
     "bounced": ("D", AIR_COLOUR, "bounced, came to rest"),
     "step_up": ("P", "#008000", "stepped up"),
-    "step_down": ("_", "#008000", "stepped down"),
+    "step_down": ("d", "#008000", "stepped down"),
     "went_in": ("h", ROOF_COLOUR, "went indoors / came out"),
     "came_out": ("h", ROOF_COLOUR, "went indoors / came out"),
 }
@@ -150,7 +150,7 @@ def _north_and_scale(ax: Any, metres: float, label: str) -> None:
 
 
 def _path_on(ax: Any, res: WalkResult, labels: list[str], in_box: Callable[[float, float], bool] | None,
-             legs: bool, arrow_min_m: float) -> None:
+             legs: bool, arrow_min_m: float, crowd_m: float) -> None:
     from matplotlib.collections import LineCollection
 
     path = res.path
@@ -186,13 +186,17 @@ def _path_on(ax: Any, res: WalkResult, labels: list[str], in_box: Callable[[floa
             ax.annotate(text, (p.x, p.y), xytext=(8, -12), textcoords="offset points", fontsize=8,
                         fontweight="bold", color=colour, zorder=9,
                         bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": colour, "alpha": 0.85})
+    placed: list[tuple[float, float]] = []
     for ev, letter in zip(res.events, labels):
         style = EVENT_STYLE.get(ev.kind)
         if style is None or (in_box is not None and not in_box(ev.x, ev.y)):
             continue
         marker, colour, _ = style
+        # letters of events close together are stacked upwards, so that each stays readable
+        crowd = sum(1 for (px, py) in placed if math.hypot(px - ev.x, py - ev.y) < crowd_m)
+        placed.append((ev.x, ev.y))
         ax.plot([ev.x], [ev.y], marker=marker, ms=8, mfc=colour, mec="white", mew=0.8, ls="none", zorder=7)
-        ax.annotate(letter, (ev.x, ev.y), xytext=(6, 4), textcoords="offset points", fontsize=7.5,
+        ax.annotate(letter, (ev.x, ev.y), xytext=(7, 2 + 10 * crowd), textcoords="offset points", fontsize=7.5,
                     color=colour, fontweight="bold", zorder=9,
                     bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.75})
 
@@ -201,7 +205,7 @@ def _key(ax: Any) -> None:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    handles = [
+    handles: list[Any] = [
         Line2D([], [], color=WALK_COLOUR, lw=1.4, label="walking on walkable ground"),
         Line2D([], [], color=STEEP_COLOUR, lw=2.2, label="standing on unwalkable (steep) ground"),
         Line2D([], [], color=AIR_COLOUR, lw=4.0, label="in the air"),
@@ -228,16 +232,20 @@ def _key(ax: Any) -> None:
 
 def _story(ax: Any, res: WalkResult, labels: list[str]) -> None:
     leg_no = {leg.name: n for n, leg in enumerate(res.legs, start=1)}
-    lines = [f"The walk: {res.steps} physics steps of {0.2:.1f} s", "",
+    lines = [f"The walk: {res.steps} physics steps of {DT:.1f} s.",
+             "A player-sized mover (two spheres of 0.48 m) is dropped",
+             "onto the hills, then heads for one waypoint after another",
+             "(the legs). A leg ends when the mover arrives, or is",
+             "blocked: it stops making progress against an obstacle.", "",
              f"0  {LANDING}: {res.landing.outcome}, {res.landing.steps} steps"]
     for n, leg in enumerate(res.legs, start=1):
         lines.append(f"{n:<2} {leg.name}: {leg.outcome}, {leg.steps} steps")
     lines += ["", "events (letters on the map, the village and the profile)"]
     for ev, letter in zip(res.events, labels):
         n = leg_no.get(ev.leg, 0)
-        text = ev.text if len(ev.text) <= 62 else ev.text[:59] + "..."
+        text = ev.text if len(ev.text) <= 72 else ev.text[:69] + "..."
         lines.append(f"{letter:>2} [{n}] {text}")
-    ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=7.2, transform=ax.transAxes)
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=7.0, transform=ax.transAxes)
     ax.axis("off")
 
 
@@ -293,10 +301,14 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     labels = event_letters(len(res.events))
     fig = Figure(figsize=(20, 14), dpi=100, layout="constrained")
     gs = fig.add_gridspec(2, 3, width_ratios=[2.3, 1.25, 1.35], height_ratios=[3.0, 1.0])
-    ax_map, ax_zoom = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
+    middle = gs[0, 1].subgridspec(2, 1, height_ratios=[1.15, 1.0])
+    ax_map, ax_zoom = fig.add_subplot(gs[0, 0]), fig.add_subplot(middle[0])
     ax_story, ax_prof = fig.add_subplot(gs[0, 2]), fig.add_subplot(gs[1, :])
+    ax_key = fig.add_subplot(middle[1])
     cmap = colormaps["gist_earth"]
-    norm = Normalize(vmin=float(heights.min()) - 15.0, vmax=float(heights.max()) + 10.0)
+    # the colour scale starts well below the lowest ground, so that low hills read green, not sea blue
+    lo, hi = float(heights.min()), float(heights.max())
+    norm = Normalize(vmin=lo - 45.0, vmax=hi + 5.0)
 
     _terrain(ax_map, heights, step_m, size_m, cmap, norm)
     for v in np.arange(192.0, size_m, 192.0):
@@ -317,7 +329,7 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     def outside_village(x: float, y: float) -> bool:
         return not (x0 <= x <= x1 and y0 <= y <= y1)
 
-    _path_on(ax_map, res, labels, outside_village, legs=True, arrow_min_m=12.0)
+    _path_on(ax_map, res, labels, outside_village, legs=True, arrow_min_m=12.0, crowd_m=8.0)
     ax_map.set_xlim(0, size_m)
     ax_map.set_ylim(0, size_m)
     ax_map.set_aspect("equal")
@@ -327,11 +339,12 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
                      fontsize=11, loc="left")
     _north_and_scale(ax_map, 50.0, "50 m")
     sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=ax_map, shrink=0.5, pad=0.01, label="terrain height (m)")
+    bar = fig.colorbar(sm, ax=ax_map, shrink=0.5, pad=0.01, label="terrain height (m)")
+    bar.ax.set_ylim(math.floor(lo), math.ceil(hi))
 
     _terrain(ax_zoom, heights, step_m, size_m, cmap, norm)
     _draw_footprints(ax_zoom, footprints)
-    _path_on(ax_zoom, res, labels, lambda x, y: x0 <= x <= x1 and y0 <= y <= y1, legs=True, arrow_min_m=4.0)
+    _path_on(ax_zoom, res, labels, lambda x, y: x0 <= x <= x1 and y0 <= y <= y1, legs=True, arrow_min_m=4.0, crowd_m=2.5)
     for f in footprints:
         if f.kind in ("building", "object") and f.name != "boulder" or (f.name == "boulder" and f.a[2] > 1.0):
             cx = (f.a[0] + f.a[2]) / 2 if f.shape == "rect" else f.a[0]
@@ -345,8 +358,7 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     ax_zoom.set_title("the village, to scale: house, pillar, boulder, platform", fontsize=10, loc="left")
     _north_and_scale(ax_zoom, 10.0, "10 m")
 
-    key_ax = ax_zoom.inset_axes((0.0, -0.72, 1.0, 0.62))
-    _key(key_ax)
+    _key(ax_key)
     _story(ax_story, res, labels)
     _profile(ax_prof, res, ground_at, labels)
     if out is not None:

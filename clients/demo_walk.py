@@ -259,8 +259,8 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
         elif was_walkable and st.contact and not st.on_walkable:
             res.event("steep", name, z, f"on unwalkable slope at ({x:.1f}, {y:.1f}), z {z:.2f}")
         elif was_contact and st.contact and was_plane is not None and moved < 1.5 * SPEED * DT:
-            n = was_plane.normal  # how far the old contact plane rises under this step
-            along = -(n.x * (x - was_xy[0]) + n.y * (y - was_xy[1])) / n.z if abs(n.z) > 1e-6 else 0.0
+            pn = was_plane.normal  # how far the old contact plane rises under this step
+            along = -(pn.x * (x - was_xy[0]) + pn.y * (y - was_xy[1])) / pn.z if abs(pn.z) > 1e-6 else 0.0
             rise = (z - was_z) - along
             if rise > STEP_UP_M:
                 res.event("step_up", name, z, f"stepped up {rise:.2f} m at ({x:.1f}, {y:.1f}), z {z:.2f}")
