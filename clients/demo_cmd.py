@@ -77,6 +77,13 @@ def _table(res: object) -> str:
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    try:
+        import matplotlib  # noqa: F401  (the picture's; checked before walking, to say so at once)
+        can_draw = True
+    except ImportError:
+        can_draw = False
+        print("acphys demo: matplotlib is not installed, so no picture will be written "
+              "(pip install 'acphys[demo]'; install.sh installs it)", file=sys.stderr)
     with ExitStack() as stack:
         client = _connect(args, stack)
         progress = None if args.quiet else Progress(_estimated_steps(), "walking", estimate=True)
@@ -92,6 +99,9 @@ def run_demo(args: argparse.Namespace) -> int:
         print(f"  {letter:>2}  {e}")
     print(f"\n{res.steps} physics steps of {DT} s; 'air' = steps without contact, 'steep' = in contact with unwalkable "
           "ground, 'hits' = steps with a collision normal")
+
+    if not can_draw:
+        return 1
 
     from engine import load_scene
 

@@ -183,6 +183,10 @@ def run_view(args: argparse.Namespace) -> int:
 
         try:
             asyncio.run(main())
+        except SystemExit:  # uvicorn exits when it cannot bind (it has logged why)
+            print(f"acphys view: cannot serve on {args.host}:{args.port} (in use by another program?): "
+                  "pick another with --port", file=sys.stderr)
+            return 1
         finally:
             board.close()
     return 0
