@@ -5,13 +5,16 @@
 # pyproject.toml and setup.py, so the test command only runs pytest from the second time on. The first
 # time it says what it does and about how long it takes: pip prints little while it compiles.
 #   ACPHYS_COMPILE=0 sh install.sh   the pure-Python engine: no C compiler, seconds instead of minutes,
-#                                    engine edits take effect at once (the compiled modules would shadow them)
+#                                    engine edits take effect at once (the compiled modules would shadow them);
+#                                    later runs without ACPHYS_COMPILE keep it (ACPHYS_COMPILE=1 compiles again)
 #   ACPHYS_VENV=DIR                  another place for the virtual environment
 set -eu
 cd "$(dirname "$0")"
 venv=${ACPHYS_VENV:-.venv}
-compile=${ACPHYS_COMPILE:-1}
 stamp="$venv/.acphys-installed"
+# ACPHYS_COMPILE unset: keep the way the last install was made (compiled unless told otherwise)
+previous=$(sed -n 's/^compile=//p' "$stamp" 2>/dev/null || true)
+compile=${ACPHYS_COMPILE:-${previous:-1}}
 
 if [ -f "$stamp" ] && [ "$stamp" -nt pyproject.toml ] && [ "$stamp" -nt setup.py ] \
         && [ "$(cat "$stamp")" = "compile=$compile" ]; then
