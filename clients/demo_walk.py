@@ -9,6 +9,13 @@ the room's EnvCell) and back out, runs into the pillar and the boulder
 Each leg heads for a waypoint with `Client.step` (own motion on the ground,
 gravity in the air) and ends when the waypoint is reached or the mover stops
 making progress.
+
+The landing lasts until the mover has stood on walkable ground for a few
+steps in a row (a hard landing bounces first), so that every leg starts
+standing. Each step is counted once: in the walk's total, in its leg (or
+the landing), on the path and by the progress callback. Events
+(`WalkEvent`) carry where they happened: the position after their step,
+except "left the ground", which is where the mover last stood.
 """
 
 from __future__ import annotations
