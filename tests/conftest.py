@@ -2,7 +2,7 @@
 
 Tests that read `../shared` carry the `needs_shared` mark (or skip their whole
 module with `require_shared()`); without the material they are skipped with
-one reason, said once more at the top of the run. ACPHYS_REQUIRE_SHARED=1
+one reason, said once more at the end of the run. ACPHYS_REQUIRE_SHARED=1
 (set by CI) turns a missing directory into an immediate failure.
 """
 
@@ -45,3 +45,14 @@ def shared_dir() -> Path:
     if not shared_available():
         pytest.skip(MISSING_REASON)
     return SHARED
+
+
+def pytest_terminal_summary(terminalreporter: object, exitstatus: int, config: pytest.Config) -> None:
+    if shared_available():
+        return
+    skipped = [r for r in getattr(terminalreporter, "stats", {}).get("skipped", [])
+               if MISSING_REASON in str(getattr(r, "longrepr", ""))]
+    tests = sum(1 for r in skipped if "::" in getattr(r, "nodeid", ""))
+    modules = len(skipped) - tests  # skipped while being collected: every test in them
+    write = getattr(terminalreporter, "write_line")
+    write(f"skipped {tests} tests and {modules} whole test modules: {MISSING_REASON}", yellow=True)
