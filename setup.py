@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import glob
 import os
+import sys
 
 from setuptools import setup
 
@@ -34,6 +35,10 @@ ext_modules = []
 if os.environ.get("ACPHYS_COMPILE", "1") != "0":
     from mypyc.build import mypycify
 
-    ext_modules = mypycify(hot_modules(), opt_level="3")
+    modules = hot_modules()
+    # seen with `pip install -v` (pip hides a build's output otherwise; install.sh says it before pip runs)
+    print(f"acphys: compiling {len(modules)} engine modules with mypyc: about 2 minutes on an idle 2-core machine "
+          "(ACPHYS_COMPILE=0 installs the pure-Python engine instead)", file=sys.stderr, flush=True)
+    ext_modules = mypycify(modules, opt_level="3")
 
 setup(ext_modules=ext_modules)

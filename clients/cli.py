@@ -1,9 +1,10 @@
-"""The `acphys` command line: serve, move, demo, stats.
+"""The `acphys` command line: serve, move, demo, stats, view.
 
     acphys serve                      # the demo world on tcp/127.0.0.1:7447
     acphys demo --out walk.png        # walk the demo (embedded service if none runs)
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
+    acphys view                       # a live map of the movers on http://127.0.0.1:8765/
 """
 
 from __future__ import annotations
@@ -24,9 +25,10 @@ __all__ = ["main", "build_parser"]
 def _conn_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("connection")
     g.add_argument("--connect", metavar="ENDPOINT", action="append",
-                   help="service endpoint (repeatable; default tcp/127.0.0.1:7447)")
+                   help="service endpoint (repeatable; default tcp/127.0.0.1:7447, shared by every user of the machine)")
     g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file instead of --connect")
-    g.add_argument("--prefix", default=DEFAULT_PREFIX, help="key expression prefix (default %(default)s)")
+    g.add_argument("--prefix", default=DEFAULT_PREFIX,
+                   help="key expression prefix (default %(default)s; a service's own prefix keeps it apart from others)")
     g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer (default %(default)s)")
 
 
@@ -59,7 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="target = current + offset")
     what.add_argument("--motion", nargs=3, type=float, metavar=("DX", "DY", "DZ"),
                       help="physics step with this own motion (object frame); needs --dt")
-    m.add_argument("--dt", type=float, default=0.1, help="seconds of a --motion step (default %(default)s)")
+    m.add_argument("--dt", type=float, default=0.1,
+                   help="seconds of a --motion step (default %(default)s); a --start mover is first put on the ground")
     m.add_argument("--json", action="store_true", help="print the State map as JSON")
 
     d = sub.add_parser("demo", help="walk a mover over the demo world; print a table and save a map")
@@ -67,6 +70,12 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--embedded", action="store_true", help="always start an embedded service")
     d.add_argument("--out", default="acphys-demo.png", help="PNG map to write (default %(default)s)")
     d.add_argument("--quiet", action="store_true", help="no progress display")
+
+    v = sub.add_parser("view", help="serve a live map of the service's movers to a web browser (loopback by default)")
+    _conn_args(v)
+    from .view_server import add_view_arguments
+
+    add_view_arguments(v)
 
     st = sub.add_parser("stats", help="print every instance's health and statistics")
     _conn_args(st)
@@ -95,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
             return run_demo(args)
         if args.command == "stats":
             return _cmd_stats(args)
+        if args.command == "view":
+            from .view_server import run_view
+
+            return run_view(args)
     except KeyboardInterrupt:
         return 130
     except Exception as e:
@@ -138,6 +151,7 @@ def _cmd_move(args: argparse.Namespace) -> int:
     from service.codec import encode_state
 
     from .demo_walk import demo_mover
+    from .ground import drop_to_ground
     from .types import Move
 
     with _client(args) as c:
@@ -145,7 +159,17 @@ def _cmd_move(args: argparse.Namespace) -> int:
         if temp:
             cell = _hex(args.start[0])
             x, y, z = (float(v) for v in args.start[1:])
-            mover_id = c.register(demo_mover(), Position.at(cell, Vec3(x, y, z))).id
+            registered = c.register(demo_mover(), Position.at(cell, Vec3(x, y, z)))
+            mover_id = registered.id
+            if args.motion is not None:  # a step from rest in the air does nothing: stand it on the ground first
+                try:
+                    placed = drop_to_ground(c, registered)
+                except BaseException:
+                    c.remove(mover_id)
+                    raise
+                o = placed.position.origin
+                print(f"placed on the ground at ({o.x:.2f}, {o.y:.2f}, {o.z:.2f}) in cell {placed.position.cell_id:08X}"
+                      if placed.contact else "no ground below the start: the step starts in the air", file=sys.stderr)
         else:
             mover_id = args.id
             if args.landblock is not None:
@@ -165,6 +189,7 @@ def _cmd_move(args: argparse.Namespace) -> int:
             else:
                 move = Move(mover_id, motion=tuple(args.motion), dt=args.dt)
             st = c.send(move)
+            _print_instance(c, args, st.landblock)
         finally:
             if temp:
                 c.remove(mover_id)
@@ -176,12 +201,26 @@ def _cmd_move(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_instance(c: Any, args: argparse.Namespace, lb: int) -> None:
+    """Say on stderr which instance owns landblock `lb` (the one that answered), and where it was reached."""
+    from .which_service import owner_of, print_service
+
+    try:
+        owners = owner_of(c.landblocks(timeout=min(args.timeout, 2.0)), lb)
+    except Exception:  # only a courtesy line: the move itself succeeded
+        owners = []
+    print_service(owners, args.connect, args.prefix, args.zenoh_config)
+
+
 def _cmd_stats(args: argparse.Namespace) -> int:
+    from .which_service import print_service
+
     with _client(args) as c:
         stats = c.stats()
     if not stats:
         print("acphys stats: no service instance answered", file=sys.stderr)
         return 1
+    print_service([s.instance for s in stats], args.connect, args.prefix, args.zenoh_config)
     if args.json:
         print(json.dumps([s.data for s in stats], indent=2, default=str))
         return 0

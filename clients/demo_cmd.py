@@ -8,23 +8,25 @@ import sys
 from contextlib import ExitStack
 
 from .client import Client
-from .demo_map import height_grid, render_map
+from .demo_map import height_grid
 from .demo_walk import DT, LEGS, SPEED, START, walk_demo
 from .demo_world import DEMO_LANDBLOCKS, demo_scene_path, global_to_cell
 from .embedded import EmbeddedService
 from .errors import AcphysError
-from .png import write_png
 from .progress import Progress
+from .which_service import print_service
 
 __all__ = ["run_demo"]
 
 
 def _estimated_steps() -> int:
+    """About how many steps the walk takes (the legs' straight lines at full speed, plus a landing):
+    the progress display's total until the walk ends, when it shows the real count."""
     total, (x, y) = 0.0, START
     for _, (wx, wy) in LEGS:
         total += math.hypot(wx - x, wy - y)
         x, y = wx, wy
-    return int(total / (SPEED * DT))
+    return int(total / (SPEED * DT)) + 15
 
 
 def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
@@ -37,6 +39,8 @@ def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
                 for lb in DEMO_LANDBLOCKS:
                     c.load_landblock(lb)
                 print("using the running service", file=sys.stderr)
+                print_service([h.instance for h in c.health(timeout=1.0)], args.connect, args.prefix,
+                              args.zenoh_config)
                 return c
             except AcphysError as e:
                 print(f"the running service cannot serve the demo world ({e}); starting an embedded one",
@@ -45,41 +49,59 @@ def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
             print("no service answers; starting an embedded one", file=sys.stderr)
     svc = stack.enter_context(EmbeddedService(demo_scene_path(), prefix=args.prefix))
     c = stack.enter_context(Client([svc.endpoint], prefix=args.prefix, timeout=args.timeout))
-    c.wait_ready()
+    ready = c.wait_ready()
+    print(f"service: embedded instance {ready[0].instance} on {svc.endpoint} (private to this command), "
+          f"prefix {args.prefix!r}", file=sys.stderr)
     return c
 
 
 def _table(res: object) -> str:
+    """The walk as a table: the landing, then one row per leg; the steps column adds up to the total."""
     from .demo_walk import WalkResult
 
     assert isinstance(res, WalkResult)
-    head = f"{'leg':<27} {'steps':>5} {'from (x, y, z)':>22} {'to (x, y, z)':>22} {'z range':>13} " \
+    head = f"{'leg':<30} {'steps':>5} {'from (x, y, z)':>22} {'to (x, y, z)':>22} {'z range':>13} " \
            f"{'air':>4} {'steep':>5} {'hits':>4}  outcome"
     lines = [head, "-" * len(head)]
-    for leg in res.legs:
+    for n, leg in enumerate([res.landing, *res.legs]):
         def xyz(p: tuple[float, float, float]) -> str:
             return f"({p[0]:5.1f}, {p[1]:5.1f}, {p[2]:5.1f})"
 
         zr = f"{leg.lowest_z:5.1f}..{leg.highest_z:5.1f}" if leg.steps else "-"
-        lines.append(f"{leg.name:<27} {leg.steps:>5} {xyz(leg.start):>22} {xyz(leg.end):>22} {zr:>13} "
+        name = f"{n:>2} {leg.name}"
+        lines.append(f"{name:<30} {leg.steps:>5} {xyz(leg.start):>22} {xyz(leg.end):>22} {zr:>13} "
                      f"{leg.airborne_steps:>4} {leg.unwalkable_steps:>5} {leg.collisions:>4}  {leg.outcome}")
+    lines.append("-" * len(head))
+    lines.append(f"{'total':<30} {res.steps:>5}")
     return "\n".join(lines)
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    try:
+        import matplotlib  # noqa: F401  (the picture's; checked before walking, to say so at once)
+        can_draw = True
+    except ImportError:
+        can_draw = False
+        print("acphys demo: matplotlib is not installed, so no picture will be written "
+              "(pip install 'acphys[demo]'; install.sh installs it)", file=sys.stderr)
     with ExitStack() as stack:
         client = _connect(args, stack)
-        progress = None if args.quiet else Progress(_estimated_steps(), "walking")
+        progress = None if args.quiet else Progress(_estimated_steps(), "walking", estimate=True)
         res = walk_demo(client, on_step=progress.update if progress else None)
         if progress:
-            progress.done()
+            progress.done(res.steps)
     print(_table(res))
     print()
-    print("events:")
-    for e in res.events:
-        print(f"  {e}")
-    print(f"\n{res.steps} physics steps; 'air' = steps without contact, 'steep' = in contact with unwalkable "
+    print("events (the letters of the picture):")
+    from .demo_picture import event_letters, render_walk
+
+    for letter, e in zip(event_letters(len(res.events)), res.events):
+        print(f"  {letter:>2}  {e}")
+    print(f"\n{res.steps} physics steps of {DT} s; 'air' = steps without contact, 'steep' = in contact with unwalkable "
           "ground, 'hits' = steps with a collision normal")
+
+    if not can_draw:
+        return 1
 
     from engine import load_scene
 
@@ -90,7 +112,7 @@ def run_demo(args: argparse.Namespace) -> int:
         return world.terrain_height(cell, lx, ly)
 
     heights = height_grid(height_at, 384)
-    write_png(args.out, render_map(heights, 1.0, res.path, scale=2))
-    print(f"map written to {args.out} (black: walking, orange: on steep ground, blue: in the air, "
-          "red x: collision, red tint: slopes steeper than FloorZ)")
+    render_walk(res, heights, 1.0, height_at, args.out)
+    print(f"picture written to {args.out}: the map with the numbered legs and lettered events, the village to scale, "
+          "the story and the height profile")
     return 0

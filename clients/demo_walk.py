@@ -9,6 +9,13 @@ the room's EnvCell) and back out, runs into the pillar and the boulder
 Each leg heads for a waypoint with `Client.step` (own motion on the ground,
 gravity in the air) and ends when the waypoint is reached or the mover stops
 making progress.
+
+The landing lasts until the mover has stood on walkable ground for a few
+steps in a row (a hard landing bounces first), so that every leg starts
+standing. Each step is counted once: in the walk's total, in its leg (or
+the landing), on the path and by the progress callback. Events
+(`WalkEvent`) carry where they happened: the position after their step,
+except "left the ground", which is where the mover last stood.
 """
 
 from __future__ import annotations
@@ -34,7 +41,8 @@ from .demo_world import (
 )
 from .types import MoverState
 
-__all__ = ["ARRIVE_WITHIN", "LEGS", "LegReport", "WalkResult", "demo_mover", "global_xy", "walk_demo"]
+__all__ = ["ARRIVE_WITHIN", "LANDING", "LEGS", "LegReport", "WalkEvent", "WalkResult", "demo_mover", "global_xy",
+           "walk_demo"]
 
 #: (what the leg is about, waypoint in global metres)
 LEGS: tuple[tuple[str, tuple[float, float]], ...] = (
@@ -66,6 +74,13 @@ ARRIVE_WITHIN: dict[str, float] = {
 }
 
 START = (20.0, 20.0)
+START_Z = 60.0
+LANDING = "fall onto the hills"  # the walk's first part: a drop from START_Z until it stands still on the ground
+SETTLED_STEPS = 2  # steps on walkable ground in a row that end the landing (a hard landing bounces first)
+STEP_UP_M = 0.3  # a rise this much above the contact plane's slope in one step is a step up (down: a step down)
+SLIDE_FRACTION = 0.3  # a collision that still leaves this share of the step's own motion ...
+SLIDE_COS = 0.94  # ... and turns it by more than 20 degrees is a slide
+HELD_FRACTION = 0.2  # on walkable ground, a walkable collision normal and less than this share: held back
 SPEED = 4.0  # metres per second of own motion
 DT = 0.2
 ARRIVE_M = 1.5
@@ -105,41 +120,108 @@ class LegReport:
     end_cell: int = 0
 
 
+@dataclass(frozen=True, slots=True)
+class WalkEvent:
+    """Something that happened on the walk, where it happened (global metres) and after which step.
+
+    `kind` is one of "dropped", "landed", "bounced", "left_ground", "touched_down", "steep",
+    "collision", "slide", "held_back", "step_up", "step_down", "blocked", "went_in", "came_out"."""
+
+    kind: str
+    leg: str
+    step: int
+    x: float
+    y: float
+    z: float
+    text: str
+
+    def __str__(self) -> str:
+        return f"{self.leg}: {self.text}" if self.leg and self.leg != LANDING else self.text
+
+
 @dataclass(slots=True)
 class WalkResult:
+    """The walk: its landing and legs, every resolved position, and its events.
+
+    `steps` counts every physics step sent; it equals `landing.steps` plus
+    every leg's `steps`, and `len(path) - 1` (path[0] is the registered start)."""
+
     mover_id: int
+    landing: LegReport = field(default_factory=lambda: LegReport(LANDING))
     legs: list[LegReport] = field(default_factory=list)
     path: list[PathPoint] = field(default_factory=list)
-    events: list[str] = field(default_factory=list)
+    events: list[WalkEvent] = field(default_factory=list)
     steps: int = 0
+
+    def event(self, kind: str, leg: str, z: float, text: str, at: tuple[float, float] | None = None) -> None:
+        """Record an event at `at` (default: the last point of the path)."""
+        x, y = at if at is not None else (self.path[-1].x, self.path[-1].y)
+        self.events.append(WalkEvent(kind, leg, self.steps, x, y, z, text))
 
 
 def _point(st: MoverState) -> PathPoint:
     x, y = global_xy(st.position)
-    return PathPoint(x, y, st.contact, st.on_walkable, st.collision_normal is not None)
+    return PathPoint(x, y, st.contact, st.on_walkable, st.collision_normal is not None, st.position.origin.z)
 
 
 def walk_demo(client: Client, on_step: Callable[[int], None] | None = None) -> WalkResult:
-    """Register the demo mover, walk every leg, remove it; what happened."""
+    """Register the demo mover, let it land, walk every leg, remove it; what happened.
+
+    `on_step` is called with the running count after every physics step (landing included)."""
     cell, lx, ly = global_to_cell(*START)
-    st = client.register(demo_mover(), Position.at(cell, Vec3(lx, ly, 60.0)))
+    st = client.register(demo_mover(), Position.at(cell, Vec3(lx, ly, START_Z)))
     res = WalkResult(st.id)
     res.path.append(_point(st))
-    res.events.append(f"dropped at ({START[0]:.0f}, {START[1]:.0f}) from z 60.0")
+    res.event("dropped", LANDING, START_Z, f"dropped at ({START[0]:.0f}, {START[1]:.0f}) from z {START_Z:.1f}")
     try:
-        # fall onto the hills first
-        for _ in range(100):
-            st = client.step(st.id, (0.0, 0.0, 0.0), DT)
-            res.steps += 1
-            res.path.append(_point(st))
-            if st.on_walkable:
-                break
-        res.events.append(f"landed at z {st.position.origin.z:.2f} after {res.steps} steps")
+        st = _land(client, st, res, on_step)
         for name, wp in LEGS:
             st = _walk_leg(client, st, name, wp, res, on_step)
     finally:
         client.remove(res.mover_id)
     return res
+
+
+def _record(st: MoverState, leg: LegReport, res: WalkResult, on_step: Callable[[int], None] | None) -> PathPoint:
+    """Count one physics step in the walk and in its leg, and add its point to the path."""
+    res.steps += 1
+    leg.steps += 1
+    if on_step is not None:
+        on_step(res.steps)
+    p = _point(st)
+    res.path.append(p)
+    leg.lowest_z, leg.highest_z = min(leg.lowest_z, p.z), max(leg.highest_z, p.z)
+    leg.collisions += p.collided
+    leg.airborne_steps += not st.contact
+    leg.unwalkable_steps += st.contact and not st.on_walkable
+    return p
+
+
+def _land(client: Client, st: MoverState, res: WalkResult, on_step: Callable[[int], None] | None) -> MoverState:
+    """Fall until the mover has stood on walkable ground SETTLED_STEPS steps in a row (a hard landing bounces)."""
+    leg = res.landing
+    x, y = global_xy(st.position)
+    leg.start = (x, y, st.position.origin.z)
+    first: tuple[float, float] | None = None
+    settled = 0
+    for _ in range(100):
+        st = client.step(st.id, (0.0, 0.0, 0.0), DT)
+        p = _record(st, leg, res, on_step)
+        if st.on_walkable and first is None:
+            first = (p.x, p.y)
+            res.event("landed", LANDING, p.z, f"landed at ({p.x:.1f}, {p.y:.1f}), z {p.z:.2f} after {res.steps} steps")
+        settled = settled + 1 if st.on_walkable else 0
+        if settled >= SETTLED_STEPS:
+            break
+    leg.end = (res.path[-1].x, res.path[-1].y, st.position.origin.z)
+    leg.end_cell = st.position.cell_id
+    if first is not None:
+        moved = math.hypot(leg.end[0] - first[0], leg.end[1] - first[1])
+        if leg.airborne_steps > 0 and moved > 0.05 and any(not q.contact for q in res.path[-leg.steps:][1:]):
+            res.event("bounced", LANDING, leg.end[2], f"bounced {moved:.1f} m and came to rest at "
+                      f"({leg.end[0]:.1f}, {leg.end[1]:.1f}), z {leg.end[2]:.2f} after {res.steps} steps")
+    leg.outcome = "standing" if settled >= SETTLED_STEPS else "still falling after 100 steps"
+    return st
 
 
 def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float], res: WalkResult,
@@ -151,7 +233,8 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
     recent: list[float] = []
     was_walkable, was_contact = st.on_walkable, st.contact
     was_cell = st.position.cell_id
-    hit = False
+    was_plane = st.result.contact_plane
+    hit = slid = held = False
     arrive_m = ARRIVE_WITHIN.get(name, ARRIVE_M)
     leg.outcome = f"gave up after {budget} steps"
     for _ in range(budget):
@@ -165,39 +248,52 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
             recent.pop(0)
             if recent[0] - recent[-1] < STALL_M and st.contact:
                 leg.outcome = f"blocked {d:.1f} m short"
-                res.events.append(f"{name}: blocked at ({x:.1f}, {y:.1f}), z {st.position.origin.z:.2f}")
+                res.event("blocked", name, st.position.origin.z,
+                          f"blocked at ({x:.1f}, {y:.1f}), z {st.position.origin.z:.2f}")
                 break
         f = SPEED * DT / d
+        was_xy, was_z = (x, y), st.position.origin.z
         st = client.step(st.id, (dx * f, dy * f, 0.0), DT)
-        res.steps += 1
-        leg.steps += 1
-        if on_step is not None:
-            on_step(res.steps)
-        x, y = global_xy(st.position)
-        z = st.position.origin.z
-        leg.lowest_z, leg.highest_z = min(leg.lowest_z, z), max(leg.highest_z, z)
-        p = _point(st)
-        res.path.append(p)
-        leg.collisions += p.collided
-        leg.airborne_steps += not st.contact
-        leg.unwalkable_steps += st.contact and not st.on_walkable
-        if was_contact and not st.contact:
-            res.events.append(f"{name}: left the ground at ({x:.1f}, {y:.1f}), z {z:.2f}")
+        p = _record(st, leg, res, on_step)
+        x, y, z = p.x, p.y, p.z
+        moved = math.hypot(x - was_xy[0], y - was_xy[1])
+        if was_contact and not st.contact:  # where it last stood, so that the air stretch starts there
+            res.event("left_ground", name, was_z, f"left the ground at ({was_xy[0]:.1f}, {was_xy[1]:.1f}), z {was_z:.2f}",
+                      at=was_xy)
         elif not was_contact and st.contact:
-            res.events.append(f"{name}: touched down at ({x:.1f}, {y:.1f}), z {z:.2f}"
-                              + ("" if st.on_walkable else " on unwalkable ground"))
+            res.event("touched_down", name, z, f"touched down at ({x:.1f}, {y:.1f}), z {z:.2f}"
+                      + ("" if st.on_walkable else " on unwalkable ground"))
         elif was_walkable and st.contact and not st.on_walkable:
-            res.events.append(f"{name}: on unwalkable slope at ({x:.1f}, {y:.1f}), z {z:.2f}")
+            res.event("steep", name, z, f"on unwalkable slope at ({x:.1f}, {y:.1f}), z {z:.2f}")
+        elif was_contact and st.contact and was_plane is not None and moved < 1.5 * SPEED * DT:
+            pn = was_plane.normal  # how far the old contact plane rises under this step
+            along = -(pn.x * (x - was_xy[0]) + pn.y * (y - was_xy[1])) / pn.z if abs(pn.z) > 1e-6 else 0.0
+            rise = (z - was_z) - along
+            if rise > STEP_UP_M:
+                res.event("step_up", name, z, f"stepped up {rise:.2f} m at ({x:.1f}, {y:.1f}), z {z:.2f}")
+            elif rise < -STEP_UP_M and st.on_walkable:
+                res.event("step_down", name, z, f"stepped down {-rise:.2f} m at ({x:.1f}, {y:.1f}), z {z:.2f}")
         n = st.collision_normal
-        if n is not None and abs(n.z) < FLOOR_Z and not hit:  # a wall, an object or a steep face
-            res.events.append(f"{name}: collided at ({x:.1f}, {y:.1f}), z {z:.2f}, "
-                              f"normal ({n.x:.2f}, {n.y:.2f}, {n.z:.2f})")
-            hit = True
+        if n is not None and abs(n.z) < FLOOR_Z:  # a wall, an object or a steep face
+            if not hit:
+                res.event("collision", name, z, f"collided at ({x:.1f}, {y:.1f}), z {z:.2f}, "
+                          f"normal ({n.x:.2f}, {n.y:.2f}, {n.z:.2f})")
+                hit = True
+            turned = moved > 1e-6 and ((x - was_xy[0]) * dx + (y - was_xy[1]) * dy) / (moved * d) < SLIDE_COS
+            if moved > SLIDE_FRACTION * SPEED * DT and turned and not slid:
+                res.event("slide", name, z, f"slid along the obstacle at ({x:.1f}, {y:.1f})")
+                slid = True
+        elif n is not None and st.on_walkable and moved < HELD_FRACTION * SPEED * DT and not held:
+            # the walkable check refused the step onto ground too steep to stand on
+            res.event("held_back", name, z, f"held back at the foot of an unwalkable slope at ({x:.1f}, {y:.1f}), "
+                      f"z {z:.2f}")
+            held = True
         cell = st.position.cell_id
         if is_indoor(cell) != is_indoor(was_cell):
-            where = "went into the house" if is_indoor(cell) else "came out of the house"
-            res.events.append(f"{name}: {where} at ({x:.1f}, {y:.1f}): cell {was_cell:08X} -> {cell:08X}")
+            kind, where = ("went_in", "went into the house") if is_indoor(cell) else ("came_out", "came out of the house")
+            res.event(kind, name, z, f"{where} at ({x:.1f}, {y:.1f}): cell {was_cell:08X} -> {cell:08X}")
         was_walkable, was_contact, was_cell = st.on_walkable, st.contact, cell
+        was_plane = st.result.contact_plane
     leg.end = (x, y, st.position.origin.z)
     leg.end_cell = st.position.cell_id
     if is_indoor(leg.end_cell):

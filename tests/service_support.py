@@ -31,7 +31,7 @@ from service.zconfig import make_config
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "tests"
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
-SHARED = Path(os.environ.get("ACPHYS_SHARED", ROOT.parent / "shared"))
+from support.shared_data import SHARED  # noqa: E402  (one place says where it is)
 START_TIMEOUT = 30.0
 
 

@@ -41,8 +41,9 @@ from engine.transition.object_info import ObjectInfo
 from engine.transition.sphere_path import SpherePath
 from engine.transition.state import OI, InsertType, TransitionState
 from engine.transition.transition import Transition
+from support.shared_data import ORACLE, needs_shared
 
-SCENES = Path("/work/shared/oracle/scenes")
+SCENES = ORACLE / "scenes"
 CELL = 0xA9B40100
 R = 0.5
 
@@ -697,7 +698,7 @@ def scene_bsps(scene: dict[str, Any]):  # type: ignore[no-untyped-def]
             yield gid, build_bsp(g["physics_bsp"], polys), polys, None
 
 
-needs_scenes = pytest.mark.skipif(not SCENES.is_dir(), reason="shared scenes not available")
+needs_scenes = needs_shared
 
 
 @needs_scenes

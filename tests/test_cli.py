@@ -6,7 +6,6 @@ import json
 import signal
 import subprocess
 import sys
-import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -42,6 +41,47 @@ def test_move_with_a_temporary_mover(service: ServiceProcess) -> None:
     assert r.returncode == 0, r.stderr
     state = json.loads(r.stdout)
     assert state["ok"] is True and state["position"]["origin"][0] == pytest.approx(21.0)
+    assert state["position"]["origin"][2] == pytest.approx(60.0)  # --offset moves it where it was put
+
+
+def _terrain(x: float, y: float) -> float:
+    from clients.demo_world import demo_scene_path
+    from engine import load_scene
+
+    return load_scene(str(demo_scene_path())).terrain_height(0xA9B40001, x, y)
+
+
+def test_move_start_with_motion_stands_the_mover_on_the_ground_and_the_step_moves_it(service: ServiceProcess) -> None:
+    r = acphys("move", "--connect", service.endpoint, "--start", "A9B40001", "20", "20", "60",
+               "--motion", "0", "4", "0", "--dt", "0.2", "--json")
+    assert r.returncode == 0, r.stderr
+    ground = _terrain(20.0, 20.0)
+    placed = next(ln for ln in r.stderr.splitlines() if ln.startswith("placed on the ground at"))
+    z_placed = float(placed.split("(")[1].split(")")[0].split(",")[2])
+    assert z_placed == pytest.approx(ground, abs=0.05)  # on the terrain, 15 m below the start
+    state = json.loads(r.stdout)  # --json prints the State map as before
+    assert set(state) >= {"id", "seq", "ok", "position", "contact", "on_walkable", "contact_plane"}
+    x, y, z = state["position"]["origin"]
+    assert state["contact"] is True and state["on_walkable"] is True
+    assert abs(x - 20.0) < 0.5 and y > 21.0  # it walked north (+y), as the motion said
+    assert z == pytest.approx(_terrain(x, y), abs=0.05)  # and is still on the ground
+
+
+def test_move_and_stats_say_which_service_answered(service: ServiceProcess) -> None:
+    (health,) = json.loads(acphys("stats", "--connect", service.endpoint, "--json").stdout)
+    for args in (["move", "--start", "A9B40001", "20", "20", "60", "--offset", "1", "0", "0"], ["stats"]):
+        r = acphys(*args, "--connect", service.endpoint)
+        assert r.returncode == 0, r.stderr
+        assert f"service: instance {health['instance']} via {service.endpoint}, prefix 'acphys'" in r.stderr
+
+
+def test_the_default_endpoint_is_called_shared() -> None:
+    from clients.which_service import describe_service
+
+    line = describe_service(["abc"], None, "acphys")
+    assert line.startswith("service: instance abc via tcp/127.0.0.1:7447, prefix 'acphys'")
+    assert "shared by every user" in line and "--connect" in line and "--prefix" in line
+    assert "shared" not in describe_service(["abc"], None, "mine")
 
 
 def test_move_reports_service_errors(service: ServiceProcess) -> None:
@@ -65,30 +105,45 @@ def test_stats_without_a_service_fails_clearly() -> None:
     assert r.returncode == 1 and "no service" in r.stderr
 
 
+def _service_line(stderr: str) -> str:
+    return next(ln for ln in stderr.splitlines() if ln.startswith("service: "))
+
+
 def test_demo_against_a_running_service(service: ServiceProcess, tmp_path: Path) -> None:
     out = tmp_path / "walk.png"
     r = acphys("demo", "--connect", service.endpoint, "--out", str(out), "--quiet")
     assert r.returncode == 0, r.stderr
     assert "using the running service" in r.stderr
-    assert _png_size(out.read_bytes()) == (768, 768)
+    (health,) = json.loads(acphys("stats", "--connect", service.endpoint, "--json").stdout)
+    line = _service_line(r.stderr)
+    assert f"instance {health['instance']} via {service.endpoint}, prefix 'acphys'" in line
+    assert "shared by every user" not in line  # an endpoint of its own was given
+    assert _png_size(out.read_bytes()) == (2000, 1400)
     lines = r.stdout.splitlines()
-    face = next(ln for ln in lines if ln.startswith("into the mesa's west face"))
+    face = next(ln for ln in lines if "into the mesa's west face " in ln and ln[:2].strip().isdigit())
     assert "blocked" in face  # the slope it cannot climb
-    ramp = next(ln for ln in lines if ln.startswith("up the ramp onto the mesa"))
+    ramp = next(ln for ln in lines if "up the ramp onto the mesa " in ln and ln[:2].strip().isdigit())
     assert "arrived" in ramp
     assert any("off the north ledge: left the ground" in ln for ln in lines)
+    # the table's steps add up to its total, which is the summary's count
+    rows = [ln for ln in lines if ln[:2].strip().isdigit() and ln[2] == " "]
+    assert len(rows) == 16  # the landing and 15 legs
+    total = int(next(ln for ln in lines if ln.startswith("total")).split()[1])
+    assert sum(int(ln[30:37]) for ln in rows) == total
+    assert any(ln.startswith(f"{total} physics steps") for ln in lines)
 
 
 def test_demo_embedded(tmp_path: Path) -> None:
     out = tmp_path / "walk.png"
     r = acphys("demo", "--embedded", "--out", str(out))
     assert r.returncode == 0, r.stderr
-    assert "walking" in r.stderr  # progress
-    data = out.read_bytes()
-    assert _png_size(data) == (768, 768)
-    # the image data inflates to 768 rows of 1 + 768 * 3 bytes
-    idat = data[data.index(b"IDAT") + 4:data.index(b"IEND") - 8]
-    assert len(zlib.decompress(idat)) == 768 * (1 + 768 * 3)
+    progress = [ln for ln in r.stderr.splitlines() if ln.startswith("walking")]
+    assert progress[0].startswith("walking: 1/~")  # an estimate while walking ...
+    total = int(next(ln for ln in r.stdout.splitlines() if ln.startswith("total")).split()[1])
+    assert progress[-1] == f"walking: {total}/{total} done"  # ... the real count at the end
+    line = _service_line(r.stderr)
+    assert line.startswith("service: embedded instance ") and " on tcp/127.0.0.1:" in line
+    assert _png_size(out.read_bytes()) == (2000, 1400)
 
 
 def test_serve_defaults_to_the_demo_world_and_stops_on_sigterm() -> None:

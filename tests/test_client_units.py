@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import io
 import json
-import zlib
 
-import numpy as np
 import pytest
 
 from clients import Move, ServiceError
 from clients.demo_world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height
 from clients.errors import BusyError
-from clients.png import encode_png
 from clients.progress import Progress
 from engine import load_scene
 from engine.constants import FLOOR_Z
@@ -61,18 +58,6 @@ def test_global_to_cell() -> None:
     assert global_to_cell(200.0, 262.0)[0] == 0xAAB50003
 
 
-def test_png_encoding_round_trip() -> None:
-    img = np.zeros((3, 4, 3), dtype=np.uint8)
-    img[1, 2] = (255, 10, 20)
-    data = encode_png(img)
-    idat = data[data.index(b"IDAT") + 4:data.index(b"IEND") - 8]
-    raw = np.frombuffer(zlib.decompress(idat), dtype=np.uint8).reshape(3, 1 + 4 * 3)
-    assert (raw[:, 0] == 0).all()
-    assert (raw[:, 1:].reshape(3, 4, 3) == img).all()
-    with pytest.raises(ValueError):
-        encode_png(np.zeros((3, 4), dtype=np.uint8))
-
-
 def test_progress_without_a_terminal_prints_quarters() -> None:
     out = io.StringIO()
     p = Progress(100, "walking", stream=out)
@@ -81,3 +66,14 @@ def test_progress_without_a_terminal_prints_quarters() -> None:
     p.done()
     assert out.getvalue().splitlines() == ["walking: 1/100", "walking: 25/100", "walking: 50/100",
                                            "walking: 75/100", "walking: 100/100"]
+
+
+def test_an_estimated_total_is_marked_and_replaced_by_the_real_count() -> None:
+    out = io.StringIO()
+    p = Progress(80, "walking", stream=out, estimate=True)
+    for k in range(1, 91):  # the estimate was short: 90 steps, not 80
+        p.update(k)
+    p.done(90)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "walking: 1/~80" and "walking: 20/~80" in lines
+    assert lines[-1] == "walking: 90/90 done"

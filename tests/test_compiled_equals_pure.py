@@ -18,9 +18,9 @@ import pytest
 
 import engine
 import engine.transition.transition as transition_module
+from support.shared_data import ORACLE, needs_shared
 
 ROOT = Path(__file__).resolve().parent.parent
-ORACLE = ROOT.parent / "shared" / "oracle"
 COMPILED = not transition_module.__file__.endswith(".py")
 
 # a few cases of every kind: terrain, indoor, objects, several movers
@@ -52,6 +52,7 @@ def _replay_here() -> dict:
     return json.loads(json.dumps(out))
 
 
+@needs_shared
 @pytest.mark.skipif(not COMPILED, reason="this install runs the pure-Python engine (ACPHYS_COMPILE=0): nothing compiled to compare")
 def test_compiled_engine_equals_pure_python(tmp_path: Path) -> None:
     pure = tmp_path / "pure"

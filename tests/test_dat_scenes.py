@@ -19,7 +19,9 @@ from engine.formats.dat import (
 from support.dat_records import write_scene_dats
 from support.scene_checks import check_scene
 from support.scene_compare import differences, normalize_scene
-from support.shared_data import load_scene_json, scene_names, shared_root
+from support.shared_data import load_scene_json, require_shared, scene_names, shared_root
+
+require_shared()  # the scenes are listed while collecting
 
 
 SHARED = shared_root()

@@ -23,7 +23,9 @@ from engine.formats.trace import mover_spec_from_case
 from engine.terrain.landblock import LandblockTerrain
 from support.dat_records import scene_to_dat_files, write_scene_dats
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, write_dat
-from support.shared_data import load_scene_json, shared_root
+from support.shared_data import load_scene_json, require_shared, shared_root
+
+require_shared()  # its paths are read while collecting
 
 SHARED = shared_root()
 DATS = SHARED / "dats"

@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 
 from clients.demo_cmd import _table
-from clients.demo_map import OBJECT, ROOF, render_map
 from clients.demo_walk import (
     ARRIVE_WITHIN,
     LEGS,
@@ -257,16 +256,17 @@ def _check_walk(res: WalkResult) -> None:
     assert inside.outcome.startswith("arrived") and inside.end_cell == HOUSE_CELL
     assert legs["back out of the house"].outcome == "arrived"
     assert not is_indoor(legs["back out of the house"].end_cell)
+    events = [str(e) for e in res.events]
     assert any(e.startswith("in through the door: went into the house") and f"-> {HOUSE_CELL:08X}" in e
-               for e in res.events)
-    assert any(e.startswith("back out of the house: came out of the house") for e in res.events)
+               for e in events)
+    assert any(e.startswith("back out of the house: came out of the house") for e in events)
     pillar = legs["into the pillar"]
     assert pillar.outcome.startswith("blocked") and pillar.collisions >= 1
     x, y, _ = pillar.end
     assert math.hypot(x - PILLAR[0], y - PILLAR[1]) >= PILLAR_RADIUS + MOVER_RADIUS - 1e-3
     assert math.hypot(x - PILLAR[0], y - PILLAR[1]) > ARRIVE_WITHIN["into the pillar"]
-    assert any(e.startswith("into the pillar: collided at") for e in res.events)
-    assert any(e.startswith("into the pillar: blocked at") for e in res.events)
+    assert any(e.startswith("into the pillar: collided at") for e in events)
+    assert any(e.startswith("into the pillar: blocked at") for e in events)
     assert legs["west into the boulder"].outcome.startswith("blocked")
     assert legs["north over the platform"].highest_z == pytest.approx(PAD_HEIGHT + 0.4, abs=1e-3)
     # the earlier legs still do what they did
@@ -274,7 +274,7 @@ def _check_walk(res: WalkResult) -> None:
     assert legs["up the ramp onto the mesa"].outcome == "arrived"
     # the printed table
     table = _table(res).splitlines()
-    row = {ln.split("  ")[0].strip(): ln for ln in table[2:]}
+    row = {ln[3:30].strip(): ln for ln in table[2:-2]}
     assert f"indoors (cell {HOUSE_CELL:08X})" in row["in through the door"]
     assert "blocked" in row["into the pillar"] and "arrived" in row["back out of the house"]
 
@@ -299,16 +299,118 @@ def test_the_demo_walk_through_an_embedded_service() -> None:
     assert res.events == direct.events
 
 
-def test_the_map_marks_the_house_and_the_objects() -> None:
-    heights = np.full((384, 384), float(PAD_HEIGHT))
-    img = render_map(heights, 1.0, [], scale=2)
-    size = img.shape[0]
 
-    def px(x: float, y: float) -> tuple[int, ...]:
-        return tuple(int(c) for c in img[int(size - 1 - y * 2), int(x * 2)])
 
-    assert px(HOUSE[0] + 2.0, HOUSE[1] + 1.0) == ROOF
-    assert px(*PILLAR) == OBJECT and px(*PLATFORM) == OBJECT and px(*BOULDER) == OBJECT
-    assert {f.kind for f in demo_footprints()} == {"building", "door", "object"}
-    bare = render_map(heights, 1.0, [], scale=2, footprints=[])
-    assert tuple(int(c) for c in bare[int(size - 1 - PILLAR[1] * 2), int(PILLAR[0] * 2)]) != OBJECT
+# -- counters, event positions and the picture --------------------------------------------------------
+@pytest.fixture(scope="module")
+def walk(scene: dict[str, Any]) -> tuple[WalkResult, list[int]]:
+    counts: list[int] = []
+    res = walk_demo(EngineClient(_world(scene)), on_step=counts.append)  # type: ignore[arg-type]
+    return res, counts
+
+
+def test_the_walks_counters_agree(walk: tuple[WalkResult, list[int]]) -> None:
+    res, counts = walk
+    # every physics step is counted once: in the total, in its leg (or the landing), on the path, by the callback
+    assert res.steps == res.landing.steps + sum(leg.steps for leg in res.legs)
+    assert len(res.path) == res.steps + 1  # path[0] is where the mover was registered
+    assert counts == list(range(1, res.steps + 1))
+    table = _table(res).splitlines()
+    assert table[-1].split() == ["total", str(res.steps)]
+    assert sum(int(ln[30:37]) for ln in table[2:-2]) == res.steps
+
+
+def _xy_in(text: str) -> tuple[float, float]:
+    inside = text.split("(")[1].split(")")[0].split(",")
+    return float(inside[0]), float(inside[1])
+
+
+def test_every_event_is_where_the_path_says(walk: tuple[WalkResult, list[int]]) -> None:
+    res, _ = walk
+    for e in res.events:
+        # left the ground: where it last stood, the point before the step; anything else: after its step
+        p = res.path[e.step - 1] if e.kind == "left_ground" else res.path[e.step]
+        assert (e.x, e.y) == pytest.approx((p.x, p.y)), e
+        if "(" in e.text and e.kind != "dropped":
+            assert _xy_in(e.text) == pytest.approx((e.x, e.y), abs=0.051), e  # the words say the same place
+
+
+def test_the_walker_touches_down_ahead_of_where_it_left_the_ground(walk: tuple[WalkResult, list[int]]) -> None:
+    res, _ = walk
+    waypoints = dict(LEGS)
+    lefts = [e for e in res.events if e.kind == "left_ground"]
+    assert lefts  # off the north ledge, at least
+    for left in lefts:
+        down = next(e for e in res.events if e.step > left.step and e.kind == "touched_down")
+        assert down.leg == left.leg
+        wx, wy = waypoints[left.leg]
+        heading = (wx - left.x, wy - left.y)
+        assert (down.x - left.x) * heading[0] + (down.y - left.y) * heading[1] >= 0.0, (left, down)
+    # the landing's bounce is the landing's: the first leg starts on the ground and stays there
+    assert res.landing.outcome == "standing" and res.legs[0].airborne_steps == 0
+    assert res.path[res.landing.steps].on_walkable
+
+
+def test_the_walk_has_the_events_the_picture_labels(walk: tuple[WalkResult, list[int]]) -> None:
+    res, _ = walk
+    kinds = {e.kind for e in res.events}
+    assert {"landed", "collision", "slide", "held_back", "left_ground", "touched_down", "step_up", "step_down",
+            "went_in", "came_out", "blocked"} <= kinds
+    up = next(e for e in res.events if e.kind == "step_up")
+    assert up.leg == "north over the platform" and up.z == pytest.approx(PAD_HEIGHT + 0.4, abs=1e-3)
+
+
+def test_the_picture_tells_the_walk(walk: tuple[WalkResult, list[int]], tmp_path: Any) -> None:
+    pytest.importorskip("matplotlib")
+    from clients.demo_map import height_grid
+    from clients.demo_picture import EVENT_STYLE, VILLAGE_BOX, event_letters, render_walk
+
+    res, _ = walk
+    world = _world(build_demo_scene())
+
+    def ground(x: float, y: float) -> float:
+        c, lx, ly = global_to_cell(x, y)
+        return world.terrain_height(c, lx, ly)
+
+    out = tmp_path / "walk.png"
+    fig = render_walk(res, height_grid(ground, 384, 4.0), 4.0, ground, out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ax_map, ax_zoom, ax_story, ax_prof = fig.axes[:4]
+
+    def texts(ax: Any) -> list[str]:
+        return [t.get_text() for t in ax.texts]
+
+    map_texts, zoom_texts = texts(ax_map), texts(ax_zoom)
+    # every leg numbered where it starts (on the map, or in the village for legs starting there)
+    x0, y0, x1, y1 = VILLAGE_BOX
+    for n in range(1, len(res.legs) + 1):
+        assert str(n) in map_texts + zoom_texts, n
+    assert "START" in map_texts and "END" in zoom_texts  # the walk ends in the village, on the platform
+    assert {"N", "50 m"} <= set(map_texts) | {t.get_text() for a in ax_map.artists for t in _all_texts(a)}
+    # every labelled event has its letter on the map or the village, and in the profile
+    letters = event_letters(len(res.events))
+    for e, letter in zip(res.events, letters):
+        if e.kind in EVENT_STYLE:
+            inside = x0 <= e.x <= x1 and y0 <= e.y <= y1
+            assert letter in (zoom_texts if inside else map_texts), (letter, e)
+            assert letter in texts(ax_prof), (letter, e)
+    # the story says every leg and every event in words
+    story = "\n".join(texts(ax_story))
+    assert all(leg.name in story for leg in res.legs)
+    assert all(e.text[:40] in story for e in res.events)
+    assert f"{res.steps} physics steps" in story
+    # the key names every kind of mark drawn
+    legend = fig.axes[4].get_legend()
+    labels = {t.get_text() for t in legend.get_texts()}
+    assert {style[2] for style in EVENT_STYLE.values()} <= labels
+    assert {"in the air", "start", "end"} <= labels
+    # the profile spans the whole walk and reaches the mesa's top
+    assert ax_prof.get_xlim()[1] == pytest.approx(sum(math.hypot(b.x - a.x, b.y - a.y)
+                                                      for a, b in zip(res.path, res.path[1:])))
+    assert ax_prof.get_ylim()[1] > 90.0
+
+
+def _all_texts(artist: Any) -> list[Any]:
+    from matplotlib.text import Text
+
+    return [a for a in artist.findobj(Text)]

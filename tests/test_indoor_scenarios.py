@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from support.shared_data import ORACLE, needs_shared
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -38,7 +40,7 @@ from indoor_builder import (
 )
 
 #: the shared reference scenes (as conftest finds the shared directory)
-SCENES = Path(os.environ.get("ACPHYS_SHARED", Path(__file__).resolve().parent.parent.parent / "shared")) / "oracle" / "scenes"
+SCENES = ORACLE / "scenes"
 
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # the head sphere's centre above the origin
@@ -121,6 +123,7 @@ def _shape(node: dict[str, Any], vertices: dict[str, Any], polygons: dict[str, A
     )
 
 
+@needs_shared
 @pytest.mark.parametrize(
     "scene, index, build",
     [

@@ -23,12 +23,13 @@ from engine.objects.setup import ModelLibrary, PhysicsGfx
 from engine.objects.sphere_collision import collides_with_sphere, find_time_of_collision
 from engine.transition.state import OI
 from scenes import PLAYER, world_from_heights
+from support.shared_data import ORACLE, needs_shared, shared_root
 
 LB = 0xA9B40000
 GROUND = 50.0
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # PLAYER's head sphere centre above its origin
-OBJECTS_SCENE = Path("/work/shared/oracle/scenes/objects.json")
+OBJECTS_SCENE = ORACLE / "scenes" / "objects.json"
 
 #: a walker that is not a player (players walk through players)
 WALKER = MoverSpec(
@@ -390,6 +391,7 @@ def test_a_viewer_ignores_creatures() -> None:
 
 @pytest.fixture(scope="module")
 def library() -> ModelLibrary:
+    shared_root()  # skips without the shared material
     return ModelLibrary(json.loads(OBJECTS_SCENE.read_text()))
 
 
@@ -488,6 +490,7 @@ def test_obstacle_flags_for_static_dat_objects_and_ignore_collisions() -> None:
     assert OI.IS_PLAYER == 0x100
 
 
+@needs_shared
 def test_scene_objects_become_obstacles_in_their_cells() -> None:
     w = engine.load_scene(OBJECTS_SCENE)
     # the cylsphere pillar (Setup 02000001) stands at (84, 84) of A9B4, unscaled

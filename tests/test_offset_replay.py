@@ -29,7 +29,10 @@ from engine.geometry.f32 import rotate_f32
 from engine.world.mover import Mover
 from engine.world.transient import TS
 from replay_check import case_mismatch
-from test_trace_replay import CASES, ORACLE, TRACES, _world
+from support.shared_data import require_shared
+
+require_shared()  # the cases are read from the traces while collecting
+from test_trace_replay import CASES, ORACLE, TRACES, _world  # noqa: E402
 
 #: Physics cases that disagree with the reference when replayed from their
 #: offsets, with what is known of why (strict xfail: a fix shows at once).

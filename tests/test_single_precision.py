@@ -21,9 +21,9 @@ from engine.geometry.f32 import cross_f32, dot_f32, f32, plane_dist_f32
 from engine.transition.settings import ACE_COMPAT
 from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition
+from support.shared_data import ORACLE, needs_shared
 
 F = np.float32
-ORACLE = Path(__file__).resolve().parent.parent.parent / "shared" / "oracle"
 
 
 def _rand_f32(rng: random.Random, scale: float) -> float:
@@ -48,6 +48,7 @@ def test_dot_and_plane_distance_round_every_operation() -> None:
         assert (c.x, c.y, c.z) == (float(cx), float(cy), float(cz))
 
 
+@needs_shared
 @pytest.mark.parametrize("trace", ["steep", "cliff", "rolling"])
 def test_terrain_planes_are_the_reference_contact_planes(trace: str) -> None:
     """Every terrain contact plane the reference reports is, bit for bit, the

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 import engine
+from support.shared_data import ORACLE, needs_shared
 
-ORACLE = Path(__file__).resolve().parent.parent.parent / "shared" / "oracle"
 SKIPS = [f.name for f in dataclasses.fields(engine.EngineSettings) if f.name.startswith("skip_")]
 
 
@@ -19,6 +19,7 @@ def test_there_are_skips_to_check() -> None:
     assert set(SKIPS) >= {"skip_far_cells", "skip_repeat_spheres"}
 
 
+@needs_shared
 @pytest.mark.parametrize("name", ["rolling", "cliff-edgeslide", "water", "house", "objects-movers"])
 def test_switching_every_skip_off_changes_no_answer(name: str) -> None:
     with gzip.open(ORACLE / "traces" / f"{name}.trace.json.gz", "rt") as f:

@@ -19,9 +19,9 @@ from scenes import PLAYER
 
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
+from support.shared_data import ORACLE, needs_shared
 
 ROOT = Path(__file__).resolve().parent.parent
-ORACLE = ROOT.parent / "shared" / "oracle"
 HEIGHTS = [b * 0.5 for b in range(256)]
 
 
@@ -179,6 +179,7 @@ def debris_world() -> engine.World:
     return engine.world_from_scene_dict(scene)
 
 
+@needs_shared
 @pytest.mark.parametrize("dy", [0.0, 0.02, -0.3])
 def test_degenerate_polygons_in_an_object_neither_crash_nor_let_a_mover_through(dy: float) -> None:
     world = debris_world()
@@ -199,7 +200,7 @@ def test_degenerate_polygons_in_an_object_neither_crash_nor_let_a_mover_through(
 
 
 # -- the harness itself, small ---------------------------------------------------------------------------
-@pytest.mark.parametrize("scenario", ["debris", "far-edge-FFFF", "house", "crowd"])
+@pytest.mark.parametrize("scenario", [pytest.param("debris", marks=needs_shared), "far-edge-FFFF", pytest.param("house", marks=needs_shared), "crowd"])
 def test_a_small_stress_run_is_clean(scenario: str) -> None:
     if str(ROOT) not in sys.path:
         sys.path.insert(0, str(ROOT))
@@ -227,6 +228,7 @@ CORNER_CASES = {
 }
 
 
+@needs_shared
 @pytest.mark.parametrize("case", list(CORNER_CASES.values()), ids=list(CORNER_CASES))
 def test_a_long_move_past_the_corner_of_an_opening_ends_inside_the_wall_as_the_reference_does(case: tuple) -> None:
     """The client's behaviour, not a bug (docs/divergences.md): the sub-step that crosses the wall's plane

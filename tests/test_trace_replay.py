@@ -20,8 +20,9 @@ import pytest
 
 import engine
 from replay_check import case_mismatch, first_mismatch
+from support.shared_data import ORACLE, require_shared
 
-ORACLE = Path(__file__).resolve().parent.parent.parent / "shared" / "oracle"
+require_shared()  # the cases are read from the traces while collecting
 
 TRACES = [
     # terrain
