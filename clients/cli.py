@@ -4,6 +4,7 @@
     acphys demo --out walk.png        # walk the demo (embedded service if none runs)
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
+    acphys router --listen tcp/0.0.0.0:7447   # a Zenoh router for instances on several machines
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import sys
 from typing import Any
 
 from service.main import add_serve_arguments, serve
+from service.router import add_router_arguments, run_router
 from service.wire import DEFAULT_PREFIX
 
 from .landblock_cmd import add_landblock_commands
@@ -46,6 +48,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("serve", help="run the service (the built-in demo world unless --scene/--dat-dir)")
     add_serve_arguments(s)
+
+    r = sub.add_parser("router", help="run a Zenoh router (router mode) for instances and clients to connect to")
+    add_router_arguments(r)
+    r.set_defaults(func=run_router)
 
     m = sub.add_parser("move", help="send one move and print the result")
     _conn_args(m)
