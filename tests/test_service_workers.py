@@ -1,0 +1,137 @@
+"""`python -m service --workers 2`: one service face, two engine processes behind a Zenoh router.
+
+The demo world's four landblocks split west/east between the workers
+(A9B4, A9B5 | AAB4, AAB5), so a mover walking east across x = 192 changes
+worker. What a client sees must not show it: one Health and one Stats
+reply, every move answered with the next seq and the state one engine
+alone computes, states published in seq order.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+from clients import Client, MoverState
+from engine.geometry import Vec3
+from service_support import ServiceProcess, comparable, demo_world, prime_states, wait_until
+from test_service_scaleout import ZERO, _walk_on_ground
+
+
+def _pid_gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+@pytest.fixture(scope="module")
+def service() -> Iterator[ServiceProcess]:
+    with ServiceProcess(extra=["--workers", "2"]) as s:
+        yield s
+
+
+@pytest.fixture()
+def client(service: ServiceProcess) -> Iterator[Client]:
+    with Client([service.endpoint], timeout=10.0) as c:
+        c.wait_ready()
+        yield c
+
+
+def test_one_face_health_stats_and_landblocks(client: Client) -> None:
+    (health,) = client.health()  # one reply for the whole service
+    assert health["status"] == "ok" and health["workers"] == 2 and health["workers_ok"] == 2
+    procs = health["worker_processes"]
+    assert [p["owned"] for p in procs] == [[0xA9B4, 0xA9B5], [0xAAB4, 0xAAB5]]
+    assert len({p["instance"] for p in procs} | {health["instance"]}) == 3  # three Zenoh sessions
+    (stats,) = client.stats()
+    assert stats["workers"] == 2 and stats.instance == health.instance
+    (lbs,) = client.landblocks()
+    assert lbs["owned"] == "*" and lbs["loaded"] == [0xA9B4, 0xA9B5, 0xAAB4, 0xAAB5]
+
+
+def test_a_mover_walks_across_the_workers_split(client: Client) -> None:
+    (before,) = client.stats()
+    world = demo_world()
+    st, mid = _walk_on_ground(client, world, 180.0, 100.0)
+    assert st.landblock == 0xA9B4
+    got: list[MoverState] = []
+    lock = threading.Lock()
+
+    def on_state(s: MoverState) -> None:
+        with lock:
+            got.append(s)
+
+    path = []
+    with client.subscribe(on_state, st.id):
+        base = prime_states(client, st.id, lambda: list(got))
+        with lock:
+            got.clear()
+        for k, dx in enumerate([1.0] * 25 + [-1.0] * 25):  # east into AAB4 (the other worker), then back west
+            st = client.move(st.id, offset=(dx, 0.0, 0.0), velocity=ZERO)
+            cur = world.mover_state(mid).position
+            direct = world.move(mid, cur.moved(Vec3(dx, 0.0, 0.0)), Vec3(*ZERO))
+            assert st.seq == base + k + 1  # one more per move, whichever worker answered
+            assert comparable(st) == comparable(direct)  # the state carried over unchanged
+            path.append(st.landblock)
+        assert wait_until(lambda: len(got) >= 50, timeout=10.0), len(got)
+    assert 0xAAB4 in path and path[-1] == 0xA9B4
+    assert [s.seq for s in got] == list(range(base + 1, base + 51))  # published in seq order, none twice
+    (after,) = client.stats()
+    assert after["handovers"]["out"] - before["handovers"]["out"] == 2  # west to east and back
+    assert after["handovers"]["in"] - before["handovers"]["in"] == 2
+    assert after["moves"] - before["moves"] >= 50
+    client.remove(st.id)
+
+
+def test_sigterm_stops_every_worker_cleanly() -> None:
+    with ServiceProcess(extra=["--workers", "2"]) as s:
+        with Client([s.endpoint], timeout=10.0) as c:
+            (health,) = c.wait_ready()
+            pids = [p["pid"] for p in health["worker_processes"]]
+            st, _ = _walk_on_ground(c, demo_world(), 30.0, 30.0)
+            assert st.seq == 10
+        assert s.stop(signal.SIGTERM) == 0
+        assert all(_pid_gone(p) for p in pids), pids
+
+
+def test_a_dead_worker_is_reported() -> None:
+    with ServiceProcess(extra=["--workers", "2"]) as s:
+        with Client([s.endpoint], timeout=10.0) as c:
+            (health,) = c.wait_ready()
+            victim = health["worker_processes"][1]
+            os.kill(victim["pid"], signal.SIGKILL)
+            assert wait_until(lambda: c.health()[0]["status"] == "degraded", timeout=10.0)
+            (health,) = c.health()
+            assert health["workers"] == 2 and health["workers_ok"] == 1
+            assert health["worker_processes"][1]["status"] == "dead"
+            assert health["worker_processes"][1]["exit_code"] == -signal.SIGKILL
+            # the other worker still serves its landblocks
+            st, _ = _walk_on_ground(c, demo_world(), 30.0, 30.0)
+            assert st.landblock == 0xA9B4
+        assert wait_until(lambda: any("worker 1" in ln and "died" in ln for ln in s.output), timeout=5.0)
+        assert s.stop(signal.SIGTERM) == 1  # the exit status says a worker failed
+        assert _pid_gone(health["worker_processes"][0]["pid"])
+
+
+def test_x_stripe_instances_hand_over() -> None:
+    """The rule form between two separate instances: X up to A9 on one, AA and up on the other."""
+    with ServiceProcess(own="x=00-A9") as a, ServiceProcess(own="x=AA-FF", connect=[a.endpoint]) as b:
+        with Client([b.endpoint], timeout=10.0) as c:
+            c.wait_ready(instances=2)
+            owned = sorted((lb["owned"]["x_min"], lb["owned"]["x_max"]) for lb in c.landblocks())
+            assert owned == [(0x00, 0xA9), (0xAA, 0xFF)]
+            world = demo_world()
+            st, mid = _walk_on_ground(c, world, 185.0, 60.0)
+            for k in range(12):
+                st = c.move(st.id, offset=(1.0, 0.0, 0.0), velocity=ZERO)
+                cur = world.mover_state(mid).position
+                assert comparable(st) == comparable(world.move(mid, cur.moved(Vec3(1.0, 0.0, 0.0)), Vec3(*ZERO)))
+                assert st.seq == 11 + k
+            assert st.landblock == 0xAAB4
+            assert sum(s["handovers"]["in"] for s in c.stats()) == 1
