@@ -179,6 +179,20 @@ def test_instances_in_two_namespaces_behind_a_router(network: Network) -> None:
         lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
         assert r.returncode == 0 and lines, r.stdout[-3000:] + r.stderr[-3000:]
         res = json.loads(lines[-1][7:])
+        # the command line from the client's machine, as docs/protocol.md shows it
+        stats = subprocess.run(["ip", "netns", "exec", network.ns("client"),
+                                *acphys("stats", "--connect", ROUTER_ENDPOINT, "--json")],
+                               cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=60)
+        assert stats.returncode == 0, stats.stderr
+        assert sorted(s["instance"] for s in json.loads(stats.stdout)) == \
+            sorted(ln.split("instance ")[1].split(",")[0] for p in (west, east) for ln in p.output if "ready" in ln)
+        move = subprocess.run(["ip", "netns", "exec", network.ns("client"),
+                               *acphys("move", "--connect", ROUTER_ENDPOINT, "--start", "A9B40001", "20", "20", "60",
+                                       "--offset", "1", "0", "0", "--json")],
+                              cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=60)
+        assert move.returncode == 0, move.stderr
+        moved = json.loads(move.stdout)
+        assert moved["seq"] == 1 and moved["landblock"] == 0xA9B4
         assert west.stop() == 0 and east.stop() == 0
     assert res["instances"] == 2
     assert res["replies"] == [1] * len(res["replies"]) and len(res["replies"]) == 50  # each answered exactly once
