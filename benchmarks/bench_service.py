@@ -323,9 +323,6 @@ THROUGHPUT_RUNS = [
 
 
 # -- one service, 1 or more engine processes (`serve --workers N`) -----------------------------------------
-#: the landblocks the clients' movers are spread over: the scene's west and east columns (`around()` of A9B4),
-#: which `--workers 2` gives to different workers and `--workers 1` serves alike
-WORKER_LANDBLOCKS = (0xA8B4, 0xAAB4)
 WORKERS_CLIENTS = 4
 WORKERS_BATCH = 100
 
@@ -333,14 +330,20 @@ WORKERS_BATCH = 100
 def workers_scaling(scene: Path, counts: tuple[int, ...] = (1, 2), clients: int = WORKERS_CLIENTS,
                     seconds: float = 4.0) -> list[dict[str, Any]]:
     """The same batched workload (`clients` processes, batches of 100 read as maps, movers spread over
-    WORKER_LANDBLOCKS) against `serve --workers N` for each N; each side's CPU use (cores)."""
+    landblocks that the largest N gives to different workers) against `serve --workers N` for each N; each
+    side's CPU use (cores)."""
+    from service.ownership import Ownership
+    from service.workers import scene_landblocks
+
+    # one landblock of each share of the largest split: every worker gets movers, and each run the same ones
+    spread = tuple(min(p.landblocks or ()) for p in Ownership().split(max(counts), scene_landblocks(str(scene))))
     rows = []
     for n in counts:
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint, "--workers", str(n),
                          "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
         try:
-            row = throughput(endpoint, service, clients, WORKERS_BATCH, seconds, "maps", landblocks=WORKER_LANDBLOCKS)
+            row = throughput(endpoint, service, clients, WORKERS_BATCH, seconds, "maps", landblocks=spread)
         finally:
             service.stop()
         row["workers"] = n
