@@ -135,3 +135,42 @@ def test_x_stripe_instances_hand_over() -> None:
                 assert st.seq == 11 + k
             assert st.landblock == 0xAAB4
             assert sum(s["handovers"]["in"] for s in c.stats()) == 1
+
+
+def test_dat_dir_workers_split_by_x_stripes() -> None:
+    """A dat directory's landblocks are not known in advance: `--own x=A8-AA --workers 2` gives the
+    workers the X stripes A8 and A9-AA, and a mover walking east out of A8B4 changes worker."""
+    from engine import World
+
+    from service_support import SHARED, human, start_on_ground
+
+    dats = SHARED / "dats" / "rolling"
+    if not (dats / "client_cell_1.dat").is_file():
+        pytest.skip(f"no reference dats at {dats}")
+    svc = ServiceProcess(own="x=A8-AA", extra=["--workers", "2"])
+    at = svc.args.index("--scene")
+    svc.args[at:at + 2] = ["--dat-dir", str(dats)]
+    with svc, Client([svc.endpoint], timeout=10.0) as c:
+        (health,) = c.wait_ready()
+        assert [p["owned"] for p in health["worker_processes"]] == [{"x_min": 0xA8, "x_max": 0xA8},
+                                                                    {"x_min": 0xA9, "x_max": 0xAA}]
+        world = World.open_dat_dir(str(dats))
+        x, y = 185.0, 100.0
+        cell = 0xA8B40000 | (int(x // 24) * 8 + int(y // 24) + 1)
+        start = start_on_ground(world, cell, x, y)
+        st = c.register(human(), start)
+        mid = world.add_mover(human(), start)
+        for _ in range(10):
+            st = c.step(st.id, ZERO, 0.2)
+            assert comparable(st) == comparable(world.step(mid, Vec3(*ZERO), 0.2))
+        for k in range(15):
+            st = c.move(st.id, offset=(1.0, 0.0, 0.0), velocity=ZERO)
+            cur = world.mover_state(mid).position
+            assert comparable(st) == comparable(world.move(mid, cur.moved(Vec3(1.0, 0.0, 0.0)), Vec3(*ZERO)))
+            assert st.seq == 11 + k
+        assert st.landblock == 0xA9B4
+        (lbs,) = c.landblocks()
+        w0, w1 = lbs["worker_processes"]
+        assert 0xA9B4 in w1["loaded"] and 0xA9B4 not in w0["loaded"]  # loaded on demand by the worker that owns it
+        (stats,) = c.stats()
+        assert stats["handovers"]["out"] == 1 and stats["handovers"]["in"] == 1
