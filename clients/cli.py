@@ -207,6 +207,12 @@ def _cmd_stats(args: argparse.Namespace) -> int:
         print("  cache         " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("cache", {}).items())))
         h = d.get("handovers", {})
         print(f"  hand-overs    out {h.get('out', 0)}, in {h.get('in', 0)}, failed {h.get('failed', 0)}")
+        procs = d.get("worker_processes") or []
+        if procs:  # a `serve --workers N` service: its engine processes
+            print(f"  workers       {d.get('workers', len(procs))}, {d.get('workers_ok', 0)} answering")
+            for w in procs:
+                code = f", exit code {w['exit_code']}" if w.get("exit_code") is not None else ""
+                print(f"    {w.get('index')}: {w.get('status')}, pid {w.get('pid')}, instance {w.get('instance')}{code}")
     return 0
 
 

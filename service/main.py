@@ -53,7 +53,7 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
 def serve(args: argparse.Namespace, world: Any = None) -> int:
     """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    from .workers import attach_worker, serve_workers, worker_count
+    from .workers import attach_worker, die_with_parent, serve_workers, worker_count
 
     try:
         workers = worker_count(getattr(args, "workers", None))
@@ -63,6 +63,8 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     if workers > 1 and world is None:
         return serve_workers(args, workers)
     worker_info = getattr(args, "worker_info", None)
+    if worker_info and args.worker_parent is not None:
+        die_with_parent(args.worker_parent)  # a worker of `--workers` goes with its parent, even one killed
     if world is None:
         from .world_source import open_world
 
@@ -104,7 +106,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         node.shutdown()
         return 2
-    detach = attach_worker(node, args.worker_parent) if worker_info else None
+    detach = attach_worker(node) if worker_info else None
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
           flush=True)
     while not stop.wait(0.5):

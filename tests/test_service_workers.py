@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import threading
 from collections.abc import Iterator
 
@@ -18,7 +20,7 @@ import pytest
 
 from clients import Client, MoverState
 from engine.geometry import Vec3
-from service_support import ServiceProcess, comparable, demo_world, prime_states, wait_until
+from service_support import ROOT, ServiceProcess, child_env, comparable, demo_world, prime_states, wait_until
 from test_service_scaleout import ZERO, _walk_on_ground
 
 
@@ -53,6 +55,16 @@ def test_one_face_health_stats_and_landblocks(client: Client) -> None:
     assert stats["workers"] == 2 and stats.instance == health.instance
     (lbs,) = client.landblocks()
     assert lbs["owned"] == "*" and lbs["loaded"] == [0xA9B4, 0xA9B5, 0xAAB4, 0xAAB5]
+
+
+def test_acphys_stats_shows_the_workers(service: ServiceProcess, client: Client) -> None:
+    r = subprocess.run([sys.executable, "-m", "clients.cli", "stats", "--connect", service.endpoint], cwd=ROOT,
+                       env=child_env(), capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("instance ") == 1 + 2  # the service, then each worker's line
+    assert "workers       2, 2 answering" in r.stdout
+    pids = [p["pid"] for p in client.health()[0]["worker_processes"]]
+    assert all(f"ok, pid {p}," in r.stdout for p in pids), r.stdout
 
 
 def test_a_mover_walks_across_the_workers_split(client: Client) -> None:
