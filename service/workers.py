@@ -225,7 +225,9 @@ class WorkerSupervisor:
         env["PYTHONUNBUFFERED"] = "1"
         for index, ownership in enumerate(parts):
             w = WorkerProcess(index, ownership, self._worker_argv(index, ownership))
-            w.proc = subprocess.Popen(w.argv, stdout=subprocess.PIPE, stderr=None, text=True, env=env)
+            # a session of its own: a terminal's Ctrl-C reaches the parent only, which stops the workers in order
+            w.proc = subprocess.Popen(w.argv, stdout=subprocess.PIPE, stderr=None, text=True, env=env,
+                                      start_new_session=True)
             threading.Thread(target=self._pump, args=(w,), name=f"acphys-worker-{index}-out", daemon=True).start()
             self.workers.append(w)
         deadline = time.monotonic() + WORKER_START_TIMEOUT

@@ -186,3 +186,28 @@ def test_dat_dir_workers_split_by_x_stripes() -> None:
         assert 0xA9B4 in w1["loaded"] and 0xA9B4 not in w0["loaded"]  # loaded on demand by the worker that owns it
         (stats,) = c.stats()
         assert stats["handovers"]["out"] == 1 and stats["handovers"]["in"] == 1
+
+
+def test_ctrl_c_on_the_terminal_stops_the_service_cleanly() -> None:
+    """Ctrl-C signals the terminal's whole process group: the parent alone is in it and stops the
+    workers itself (none is counted as died), exit status 0."""
+    svc = ServiceProcess(extra=["--workers", "2"])
+    proc = subprocess.Popen(svc.args, cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, start_new_session=True)  # a process group of its own, as a shell job
+    try:
+        assert proc.stdout is not None
+        lines = []
+        for line in proc.stdout:  # bounded: the service prints a few lines, then its ready line or exits
+            lines.append(line)
+            if "acphys service ready" in line or len(lines) > 200:
+                break
+        assert "acphys service ready" in lines[-1], "".join(lines)
+        with Client([svc.endpoint], timeout=10.0) as c:
+            pids = [p["pid"] for p in c.wait_ready()[0]["worker_processes"]]
+        os.killpg(proc.pid, signal.SIGINT)
+        assert proc.wait(30) == 0
+        assert all(_pid_gone(p) for p in pids)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
