@@ -239,10 +239,11 @@ class WorkerSupervisor:
                                        + "".join(w.output[-20:]))
         self._wait_routed(deadline)
         s = self.session
+        # indirect: each answer waits on a query to the workers, which must not hold up Zenoh's own threads
         self._declared = [
-            s.declare_queryable(self.keys.health, self._answer("health", self._health)),
-            s.declare_queryable(self.keys.stats, self._answer("stats", self._stats)),
-            s.declare_queryable(self.keys.landblocks, self._answer("landblocks", self._landblocks)),
+            s.declare_queryable(key, zenoh.handlers.Callback(self._answer(op, build), indirect=True))
+            for key, op, build in ((self.keys.health, "health", self._health), (self.keys.stats, "stats", self._stats),
+                                   (self.keys.landblocks, "landblocks", self._landblocks))
         ]
         for w in self.workers:
             log.info("worker %d: pid %d, instance %s, owns %s", w.index, w.proc.pid if w.proc else -1, w.instance,
