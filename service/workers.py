@@ -33,6 +33,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -153,7 +154,7 @@ class WorkerProcess:
     instance: str | None = None
     ready: threading.Event = field(default_factory=threading.Event)
     died: bool = False  # exited while the service was running
-    output: list[str] = field(default_factory=list)
+    output: deque[str] = field(default_factory=lambda: deque(maxlen=50))  # its latest stdout lines, for errors
 
     def view(self) -> WorkerView:
         code = self.proc.poll() if self.proc is not None else None
@@ -236,7 +237,7 @@ class WorkerSupervisor:
                 assert w.proc is not None
                 if w.proc.poll() is not None or time.monotonic() > deadline:
                     raise RuntimeError(f"worker {w.index} did not start (exit code {w.proc.poll()})"
-                                       + "".join(w.output[-20:]))
+                                       + "".join(w.output))
         self._wait_routed(deadline)
         s = self.session
         # indirect: each answer waits on a query to the workers, which must not hold up Zenoh's own threads
