@@ -2,7 +2,8 @@
 
 `acphys serve` (clients/cli.py) and `python -m service` both end up in
 `serve()`. SIGINT and SIGTERM stop taking requests, finish what is queued,
-undeclare and exit 0.
+undeclare and exit 0. `--workers N` (N > 1) hands over to service/workers.py,
+which runs this same entry point in N worker processes behind a router.
 """
 
 from __future__ import annotations
