@@ -20,7 +20,16 @@ import pytest
 
 from clients import Client, MoverState
 from engine.geometry import Vec3
-from service_support import ROOT, ServiceProcess, child_env, comparable, demo_world, prime_states, wait_until
+from service_support import (
+    ROOT,
+    ServiceProcess,
+    child_env,
+    comparable,
+    demo_world,
+    free_port,
+    prime_states,
+    wait_until,
+)
 from test_service_scaleout import ZERO, _walk_on_ground
 
 
@@ -211,3 +220,13 @@ def test_ctrl_c_on_the_terminal_stops_the_service_cleanly() -> None:
         if proc.poll() is None:
             proc.kill()
             proc.wait(10)
+
+
+def test_a_worker_that_cannot_start_fails_the_service(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """An empty directory is no dat directory: the workers exit, the parent says so and exits 2."""
+    r = subprocess.run([sys.executable, "-m", "service", "--dat-dir", str(tmp_path), "--workers", "2",
+                        "--listen", f"tcp/127.0.0.1:{free_port()}", "--log-level", "WARNING"],
+                       cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "cannot start the workers: worker" in r.stderr and "did not start" in r.stderr
+    assert "acphys service ready" not in r.stdout
