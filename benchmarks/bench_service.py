@@ -15,6 +15,12 @@
   with a subscriber process on every state key and on `P/states` (it
   counts what arrives), the batches sent with `"publish": "each"` (one
   publication per move, the default) or `"batch"` (one per request);
+- throughput of one service with 1 and 2 engine processes (`--workers`), the
+  same batched workload (4 client processes, batches of 100, their movers
+  spread over two landblocks that `--workers 2` gives to different workers),
+  with each side's CPU use in cores (service: the parent router and its
+  workers; clients: their own CPU time). `python3 -m benchmarks.bench_service
+  workers --workers 1,2,4 --clients 8` repeats it on a bigger machine;
 - the service's own handling of one move without the network (its query
   callback called with a stand-in query, in a child process), back to back
   and with idle gaps between moves as in a round trip: on this machine the
@@ -60,6 +66,28 @@ def child_env(engine_root: Path | None = None) -> dict[str, str]:
     return env
 
 
+def _proc_cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def process_tree_cpu_seconds(pid: int) -> float:
+    """user + system CPU time of `pid` and of its children that are still running (read from /proc)."""
+    total = _proc_cpu_seconds(pid)
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children", encoding="ascii") as f:
+            children = [int(c) for c in f.read().split()]
+    except OSError:  # a kernel without the children file: the parent alone
+        children = []
+    for child in children:
+        try:
+            total += _proc_cpu_seconds(child)
+        except OSError:  # it exited meanwhile
+            pass
+    return total
+
+
 class Child:
     """A subprocess that prints `marker` when ready; stopped by SIGINT, then killed."""
 
@@ -85,10 +113,8 @@ class Child:
                 raise RuntimeError(f"{args[:4]} did not start:\n" + "".join(self.output[-30:]))
 
     def cpu_seconds(self) -> float:
-        """user + system CPU time of the process so far."""
-        with open(f"/proc/{self.proc.pid}/stat", encoding="ascii") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        """user + system CPU time so far of the process and its live children (`--workers`' engines)."""
+        return process_tree_cpu_seconds(self.proc.pid)
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -133,13 +159,15 @@ def scene_file() -> Path:
     return path
 
 
-def start_position(index: int) -> Any:
+def start_position(index: int, lb: int | None = None) -> Any:
+    """Mover `index`'s start, in landblock `lb` (XXYY; default the scene's centre)."""
     from engine.geometry import Position, Vec3
 
     from .scenes import LB, cell_at
 
+    block = LB if lb is None else lb << 16
     x, y = 20.0 + 15.0 * (index % 10), 20.0 + 15.0 * (index // 10)
-    return Position.at(cell_at(LB, x, y), Vec3(x, y, 50.0))
+    return Position.at(cell_at(block, x, y), Vec3(x, y, 50.0))
 
 
 def _walker() -> Any:
@@ -156,14 +184,14 @@ CLIENT_MODES = {
 
 
 def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds: float, mode: str = "objects",
-                publish: str = "each") -> None:
+                publish: str = "each", lb: int | None = None) -> None:
     """Register a mover, wait for `start_at` (time.time()), then move it back and
     forth for `seconds` in requests of `batch` moves; print a JSON report (with this
     process's CPU time per move over the timed loop)."""
     from clients import Client, Move
 
     with Client([endpoint], timeout=30.0) as c:
-        mid = c.register(_walker(), start_position(index + 10)).id
+        mid = c.register(_walker(), start_position(index + 10, lb)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         time.sleep(max(0.0, start_at - time.time()))
         cpu0 = time.process_time()
@@ -227,12 +255,15 @@ def watcher_main(endpoint: str) -> None:
 
 
 def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float,
-               mode: str = "objects", watched: bool = False, publish: str = "each") -> dict[str, Any]:
+               mode: str = "objects", watched: bool = False, publish: str = "each",
+               landblocks: tuple[int, ...] = ()) -> dict[str, Any]:
+    """Client processes moving one mover each for `seconds`; client i's mover in landblocks[i % n] when given."""
     watcher = Child([sys.executable, "-m", "benchmarks.bench_service", "watcher", endpoint], "watcher ready") \
         if watched else None
     start_at = time.time() + 2.5  # every worker has registered by then (and the watcher's subscription is known)
     procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_service", "worker", endpoint, str(i), str(batch),
-                               repr(start_at), repr(seconds), mode, publish],
+                               repr(start_at), repr(seconds), mode, publish,
+                               f"{landblocks[i % len(landblocks)]:04X}" if landblocks else "-"],
                               cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for i in range(processes)]
     time.sleep(max(0.0, start_at - time.time()))
@@ -251,6 +282,7 @@ def throughput(endpoint: str, service: Child, processes: int, batch: int, second
                 raise RuntimeError(f"throughput worker failed ({p.returncode}):\n{err[-2000:]}")
             reports.append(json.loads(lines[-1][7:]))
         cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
+        cpu_wall = time.time() - start_at
     finally:
         received = None
         if watcher is not None:
@@ -267,6 +299,8 @@ def throughput(endpoint: str, service: Child, processes: int, batch: int, second
            "moves": moves, "seconds": wall, "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
            "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None,
            "client_cpu_us_per_move": sum(r["cpu_seconds"] for r in reports) / moves * 1e6 if moves else None,
+           # CPU in cores (CPU seconds per second of the run): what each side takes of the machine
+           "service_cores": cpu / cpu_wall, "client_cores": sum(r["cpu_seconds"] for r in reports) / wall,
            "states_received": received}
     log(f"service: {processes} proc x batch {batch:3d} ({row['client']}, publish {row['publish']}"
         f"{', state subscriber' if watched else ''}): "
@@ -446,6 +480,52 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
             "step_m": ISSUE_STEP, "forms": ISSUE_FORMS}
 
 
+# -- one service, 1 or more engine processes (`serve --workers N`) -----------------------------------------
+WORKERS_CLIENTS = 4
+WORKERS_BATCH = 100
+
+
+def workers_scaling(scene: Path, counts: tuple[int, ...] = (1, 2), clients: int = WORKERS_CLIENTS,
+                    seconds: float = 4.0) -> list[dict[str, Any]]:
+    """The same batched workload (`clients` processes, batches of 100 read as maps, movers spread over
+    landblocks that the largest N gives to different workers) against `serve --workers N` for each N; each
+    side's CPU use (cores)."""
+    from service.ownership import Ownership
+    from service.workers import scene_landblocks
+
+    # one landblock of each share of the largest split: every worker gets movers, and each run the same ones
+    spread = tuple(min(p.landblocks or ()) for p in Ownership().split(max(counts), scene_landblocks(str(scene))))
+    rows = []
+    for n in counts:
+        endpoint = f"tcp/127.0.0.1:{free_port()}"
+        service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint, "--workers", str(n),
+                         "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
+        try:
+            row = throughput(endpoint, service, clients, WORKERS_BATCH, seconds, "maps", landblocks=spread)
+        finally:
+            service.stop()
+        row["workers"] = n
+        log(f"service: --workers {n}: {row['moves_per_s']:9.0f} moves/s with {clients} client processes; "
+            f"service {row['service_cores']:.2f} cores, clients {row['client_cores']:.2f} cores "
+            f"({os.cpu_count()} CPUs)")
+        rows.append(row)
+    return rows
+
+
+def workers_cli(argv: list[str]) -> None:
+    """`python3 -m benchmarks.bench_service workers [--workers 1,2,4] [--clients 8] [--seconds 6]`: the workers
+    rows alone, printed as JSON (to repeat on a machine with more cores)."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python3 -m benchmarks.bench_service workers")
+    p.add_argument("--workers", default="1,2", help="worker counts to run (default %(default)s)")
+    p.add_argument("--clients", type=int, default=WORKERS_CLIENTS, help="client processes (default %(default)s)")
+    p.add_argument("--seconds", type=float, default=4.0, help="seconds per run (default %(default)s)")
+    a = p.parse_args(argv)
+    rows = workers_scaling(scene_file(), tuple(int(n) for n in a.workers.split(",")), a.clients, a.seconds)
+    print(json.dumps(rows, indent=2))
+
+
 # -- the service's own handling, without the network ---------------------------------------------------
 class _Payload:
     def __init__(self, data: bytes) -> None:
@@ -608,7 +688,9 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
         if echo is not None:
             echo.stop()
     issue = issue_workload(quick, engine_root)
-    return {"latency": lat, "throughput": rows, "issue10_columns": issue, "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off",
+    workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
+    return {"latency": lat, "throughput": rows, "issue10_columns": issue, "workers": workers,
+            "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off",
             "engine_root": str(engine_root) if engine_root else None}
 
 
@@ -619,7 +701,9 @@ if __name__ == "__main__":
         handling_main(int(sys.argv[2]))
     elif sys.argv[1] == "worker":
         worker_main(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]), sys.argv[7],
-                    sys.argv[8])
+                    sys.argv[8], None if len(sys.argv) < 10 or sys.argv[9] == "-" else int(sys.argv[9], 16))
+    elif sys.argv[1] == "workers":
+        workers_cli(sys.argv[2:])
     elif sys.argv[1] == "issue-worker":
         issue_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
     elif sys.argv[1] == "issue-engine":

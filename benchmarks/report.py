@@ -620,6 +620,26 @@ _THROUGHPUT_TEXT = (
     "`P/states`).")
 
 
+WORKERS_TEXT = (
+    "One service with 1 and 2 engine processes (`acphys serve --workers N`: a Zenoh router in the parent, the "
+    "landblocks split between the workers), the same batched workload: 4 client processes, batches of 100 moves "
+    "read as maps, no State subscriber, the movers spread over two landblocks that 2 workers serve apart. CPU in "
+    "cores: CPU seconds per second of the run, the service's (parent and workers, from /proc) and the clients' "
+    "(their own). Clients and service share this machine's cores, so the row with 2 workers cannot show the "
+    "scaling a machine with spare cores gives; `python3 -m benchmarks.bench_service workers --workers 1,2,4 "
+    "--clients 8` repeats it (clients on other machines show it best).")
+
+
+def workers_table(rows: list[dict[str, Any]]) -> list[str]:
+    """The `--workers` rows: throughput and each side's CPU use."""
+    out = ["| engine processes | client processes | moves/s | service CPU, cores | client CPU, cores "
+           "| service CPU µs per move | errors |", "|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        out.append(f"| {r['workers']} | {r['processes']} | {r['moves_per_s']:,.0f} | {r['service_cores']:.2f} "
+                   f"| {r['client_cores']:.2f} | {_f(r['service_cpu_us_per_move'], 0)} | {r['errors']} |")
+    return out
+
+
 def _handling(lat: dict[str, Any]) -> list[str]:
     """The service's handling of one move without the network, back to back and after idle gaps."""
     hd = lat.get("handling_us")
@@ -678,6 +698,8 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
             f"{_f(_nan(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
             _THROUGHPUT_TEXT, "", *_throughput_table(svc["throughput"])]
     out += _issue10(svc.get("issue10_columns"), "the working tree's engine")
+    if svc.get("workers"):
+        out += ["", WORKERS_TEXT, "", *workers_table(svc["workers"])]
     comp = svc.get("compiled")
     if comp and "latency" in comp:
         cl = comp["latency"]

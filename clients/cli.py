@@ -5,6 +5,7 @@
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
     acphys view                       # a live map of the movers on http://127.0.0.1:8765/
+    acphys router --listen tcp/0.0.0.0:7447   # a Zenoh router for instances on several machines
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import sys
 from typing import Any
 
 from service.main import add_serve_arguments, serve
+from service.router import add_router_arguments, run_router
 from service.wire import DEFAULT_PREFIX
 
 from .landblock_cmd import add_landblock_commands
@@ -48,6 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("serve", help="run the service (the built-in demo world unless --scene/--dat-dir)")
     add_serve_arguments(s)
+
+    r = sub.add_parser("router", help="run a Zenoh router (router mode) for instances and clients to connect to")
+    add_router_arguments(r)
+    r.set_defaults(func=run_router)
 
     m = sub.add_parser("move", help="send one move and print the result")
     _conn_args(m)
@@ -240,6 +246,12 @@ def _cmd_stats(args: argparse.Namespace) -> int:
         print("  cache         " + ", ".join(f"{k} {v}" for k, v in sorted(d.get("cache", {}).items())))
         h = d.get("handovers", {})
         print(f"  hand-overs    out {h.get('out', 0)}, in {h.get('in', 0)}, failed {h.get('failed', 0)}")
+        procs = d.get("worker_processes") or []
+        if procs:  # a `serve --workers N` service: its engine processes
+            print(f"  workers       {d.get('workers', len(procs))}, {d.get('workers_ok', 0)} answering")
+            for w in procs:
+                code = f", exit code {w['exit_code']}" if w.get("exit_code") is not None else ""
+                print(f"    {w.get('index')}: {w.get('status')}, pid {w.get('pid')}, instance {w.get('instance')}{code}")
     return 0
 
 

@@ -2,7 +2,8 @@
 
 `acphys serve` (clients/cli.py) and `python -m service` both end up in
 `serve()`. SIGINT and SIGTERM stop taking requests, finish what is queued,
-undeclare and exit 0.
+undeclare and exit 0. `--workers N` (N > 1) hands over to service/workers.py,
+which runs this same entry point in N worker processes behind a router.
 """
 
 from __future__ import annotations
@@ -42,11 +43,29 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--queue", type=int, default=1024, metavar="N", help="queued requests before 'busy' (default %(default)s)")
     p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S", help="seconds to wait for a hand-over")
     p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+    p.add_argument("--workers", default="1", metavar="N",
+                   help="engine processes behind one router (service/workers.py): a count or 'auto' (the CPUs); "
+                        "default 1, one process")
+    # set by `--workers` on the processes it starts (service/workers.py); not for people
+    p.add_argument("--worker-info", metavar="PREFIX", help=argparse.SUPPRESS)
+    p.add_argument("--worker-parent", type=int, metavar="PID", help=argparse.SUPPRESS)
 
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
     """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from .workers import attach_worker, die_with_parent, serve_workers, worker_count
+
+    try:
+        workers = worker_count(getattr(args, "workers", None))
+    except argparse.ArgumentTypeError as e:
+        print(f"acphys serve: {e}", file=sys.stderr)
+        return 2
+    if workers > 1 and world is None:
+        return serve_workers(args, workers)
+    worker_info = getattr(args, "worker_info", None)
+    if worker_info and args.worker_parent is not None:
+        die_with_parent(args.worker_parent)  # a worker of `--workers` goes with its parent, even one killed
     if world is None:
         from .world_source import open_world
 
@@ -56,6 +75,8 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             print(f"acphys serve: cannot open the world: {e}", file=sys.stderr)
             return 2
     listen = args.listen
+    if worker_info and listen is None:
+        listen = []  # a worker only connects to its parent's router
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
     try:
@@ -68,7 +89,8 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
         return 2
     options = NodeOptions(
-        prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout
+        prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
+        info_prefix=worker_info,
     )
     stop = threading.Event()
 
@@ -85,10 +107,13 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         node.shutdown()
         return 2
+    detach = attach_worker(node) if worker_info else None
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
           flush=True)
     while not stop.wait(0.5):
         pass
+    if detach is not None:
+        detach()
     node.shutdown()
     log.info("stopped")
     return 0

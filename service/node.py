@@ -73,6 +73,9 @@ class NodeOptions:
     #: thread per queryable. Measured no faster here (docs/performance.md), and a long callback would stall
     #: Zenoh's network thread, so off by default
     direct_callbacks: bool = False
+    #: where this instance answers health, stats and the landblock list: the public prefix (None), or a worker's
+    #: private prefix that only its parent (`serve --workers`, service/workers.py) queries
+    info_prefix: str | None = None
 
     @property
     def keys(self) -> Keys:
@@ -120,9 +123,10 @@ class ServiceNode:
             for op in LB_QUERY_OPS:
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
             self._declared.append(s.declare_subscriber(self.keys.push(part), self._callback(self._on_push)))
-        self._declared.append(s.declare_queryable(self.keys.health, self._callback(self._on_health)))
-        self._declared.append(s.declare_queryable(self.keys.stats, self._callback(self._on_stats)))
-        self._declared.append(s.declare_queryable(self.keys.landblocks, self._callback(self._on_landblocks)))
+        info = Keys(self.options.info_prefix) if self.options.info_prefix else self.keys
+        self._declared.append(s.declare_queryable(info.health, self._callback(self._on_health)))
+        self._declared.append(s.declare_queryable(info.stats, self._callback(self._on_stats)))
+        self._declared.append(s.declare_queryable(info.landblocks, self._callback(self._on_landblocks)))
         log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
 
     @property
@@ -400,6 +404,7 @@ class ServiceNode:
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
             "movers": len(core.movers) if core else 0,
+            "workers": 1,
         })
 
     def _on_stats(self, query: zenoh.Query) -> None:
@@ -414,6 +419,7 @@ class ServiceNode:
             "movers": len(core.movers) if core else 0,
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
+            "workers": 1,
         })
 
     def _on_landblocks(self, query: zenoh.Query) -> None:

@@ -78,6 +78,11 @@ class ServiceStats:
             self.latency.extend(latency)
             self.engine_time.extend(engine)
 
+    def samples(self) -> dict[str, list[float]]:
+        """The latency and engine-time samples kept (seconds), copied: for a parent merging workers' stats."""
+        with self._lock:
+            return {"latency_s": list(self.latency._samples), "engine_s": list(self.engine_time._samples)}
+
     def bump(self, counter: str, key: str) -> None:
         with self._lock:
             getattr(self, counter)[key] += 1

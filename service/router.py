@@ -1,0 +1,74 @@
+"""A Zenoh router in a Python process: `acphys router --listen ENDPOINT`.
+
+A zenoh-python session opened in **router** mode is a full Zenoh router
+(the same routing code as `zenohd`): instances and clients connect to it
+in client or peer mode and it routes every key between them. `acphys
+serve --workers N` opens one of these in front of its worker processes;
+`acphys router` runs one on its own, for a deployment across machines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+from typing import Any
+
+import zenoh
+
+from .zconfig import DEFAULT_ENDPOINT, make_config
+
+__all__ = ["add_router_arguments", "router_config", "run_router"]
+
+log = logging.getLogger("acphys.router")
+
+
+def router_config(listen: list[str] | None, connect: list[str] | None = None, config_file: str | None = None,
+                  multicast: bool | None = None) -> zenoh.Config:
+    """A zenoh.Config for a router: the service's defaults (loopback, no multicast) in router mode.
+
+    A router that is the only way between its clients must not be bypassed: peers that reach it
+    are not told to connect to each other (gossip off), so every message takes Zenoh's routes through it.
+    """
+    cfg = make_config(config_file=config_file, listen=listen, connect=connect, mode="router", multicast=multicast)
+    if not config_file:
+        cfg.insert_json5("scouting/gossip/enabled", json.dumps(False))
+    return cfg
+
+
+def add_router_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--listen", metavar="ENDPOINT", action="append",
+                   help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT} unless --zenoh-config)")
+    p.add_argument("--connect", metavar="ENDPOINT", action="append", help="another router to connect to (repeatable)")
+    p.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file (its mode is set to router)")
+    p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+
+
+def run_router(args: argparse.Namespace) -> int:
+    """Run a router until SIGINT/SIGTERM; 0 on a clean stop, 2 when it cannot start."""
+    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    listen = args.listen
+    if listen is None and not args.zenoh_config:
+        listen = [DEFAULT_ENDPOINT]
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        log.info("signal %d: stopping the router", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    try:
+        session = zenoh.open(router_config(listen, args.connect, args.zenoh_config))
+    except Exception as e:
+        print(f"acphys router: cannot start: {e}", file=sys.stderr)
+        return 2
+    print(f"acphys router ready: {session.zid()}, listening on {', '.join(listen or ['(config file)'])}", flush=True)
+    while not stop.wait(0.5):
+        pass
+    session.close()
+    log.info("router stopped")
+    return 0

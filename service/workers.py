@@ -1,0 +1,403 @@
+"""`acphys serve --workers N`: N engine processes behind one service face.
+
+The parent process holds no mover and runs no physics. It opens a Zenoh
+session in **router** mode (a real Zenoh router, service/router.py)
+listening on the public endpoint(s) and on a private loopback endpoint,
+and starts N workers, each an ordinary `python -m service` in client mode
+connected to the private endpoint and owning a share of the landblocks
+(Ownership.split: contiguous runs of a scene's landblocks, or X stripes of
+a dat directory's map). Zenoh's routing sends each landblock's keys to its
+worker; a mover crossing between workers is handed over exactly as between
+separate instances (core.ServiceCore._hand_over).
+
+Workers answer health, stats and the landblock list under private keys,
+`P/@workers/<parent id>/<index>/...` (a `@` chunk is verbatim in Zenoh:
+no wildcard such as `P/**` reaches it), and the parent answers the public
+`P/health`, `P/stats` and `P/landblocks` once for the whole service
+(service/aggregate.py). It watches the workers: one that dies is logged and
+Health says `degraded`. SIGINT/SIGTERM to the parent stops every worker
+(each finishes its queue), then the router.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import logging
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import msgpack
+import zenoh
+
+from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
+from .errors import ProtocolError
+from .frames import pack
+from .ownership import Ownership
+from .requests import PUBLISH_MODES
+from .router import router_config
+from .stats import ServiceStats
+from .wire import PROTOCOL_VERSION, ErrorKind, Keys
+from .zconfig import DEFAULT_ENDPOINT
+
+__all__ = ["worker_count", "serve_workers", "attach_worker", "die_with_parent", "WorkerSupervisor"]
+
+log = logging.getLogger("acphys.workers")
+
+#: seconds for a worker to print its ready line (it loads the whole world first)
+WORKER_START_TIMEOUT = 120.0
+#: seconds a worker gets to finish its queue after SIGTERM before it is killed
+WORKER_STOP_TIMEOUT = 30.0
+#: seconds the parent waits for the workers' answers to a health query (they answer off the engine thread, in
+#: well under a millisecond when idle), and to a stats or landblocks query (stats carry the latency samples)
+HEALTH_TIMEOUT = 0.5
+INFO_TIMEOUT = 2.0
+_READY = re.compile(r"acphys service ready: instance (\S+),")
+_PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+_PR_SET_PDEATHSIG = 1
+
+
+def worker_count(text: str | int | None) -> int:
+    """`--workers`: a positive count, or `auto` for the CPUs this process may run on."""
+    if text is None:
+        return 1
+    if isinstance(text, int):
+        n = text
+    elif text.strip().lower() == "auto":
+        try:
+            n = len(os.sched_getaffinity(0))
+        except AttributeError:  # not Linux
+            n = os.cpu_count() or 1
+    else:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"--workers takes a positive count or 'auto', not {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"--workers must be at least 1, not {n}")
+    return n
+
+
+def private_prefix(prefix: str, parent: str) -> str:
+    return f"{prefix}/@workers/{parent}"
+
+
+def scene_landblocks(scene: str) -> list[int]:
+    """The landblock ids an acphys-scene/1 file holds (read without building the world)."""
+    with open(scene, encoding="utf-8") as f:
+        data = json.load(f)
+    try:
+        return [int(str(lb["id"]), 16) for lb in data["landblocks"]]
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{scene}: no readable landblock list ({e})") from None
+
+
+def _free_loopback_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+# -- the worker's side -------------------------------------------------------------------------
+def attach_worker(node: Any) -> Callable[[], None]:
+    """In a worker, after `node.start()`: answer the parent's latency-sample query beside the node's private
+    health/stats. Returns what undoes it (call before `node.shutdown()`)."""
+    assert node.session is not None and node.options.info_prefix
+    key = f"{node.options.info_prefix}/samples"
+
+    def on_samples(query: zenoh.Query) -> None:
+        try:
+            query.reply(query.key_expr, pack({"instance": node.instance, **node.stats.samples()}))
+        finally:
+            query.drop()
+
+    queryable = node.session.declare_queryable(key, on_samples)
+
+    def detach() -> None:
+        try:
+            queryable.undeclare()
+        except Exception:  # the session is already closed: nothing to undo
+            pass
+
+    return detach
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Ask Linux for SIGTERM when the parent goes (a parent killed by SIGKILL leaves no orphan worker)."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):  # not Linux: the parent's own shutdown still stops the workers
+        return
+    if os.getppid() != parent_pid:  # the parent went before prctl took effect
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+# -- the parent's side -------------------------------------------------------------------------
+@dataclass(slots=True)
+class WorkerProcess:
+    index: int
+    ownership: Ownership
+    argv: list[str]
+    proc: subprocess.Popen[str] | None = None
+    instance: str | None = None
+    ready: threading.Event = field(default_factory=threading.Event)
+    died: bool = False  # exited while the service was running
+    output: deque[str] = field(default_factory=lambda: deque(maxlen=50))  # its latest stdout lines, for errors
+
+    def view(self) -> WorkerView:
+        code = self.proc.poll() if self.proc is not None else None
+        return WorkerView(self.index, self.ownership.to_wire(), self.proc.pid if self.proc else None,
+                          self.proc is not None and code is None, self.instance, code)
+
+
+class WorkerSupervisor:
+    """The parent: a router, N worker processes, and the service's one health/stats/landblocks face."""
+
+    def __init__(self, args: argparse.Namespace, count: int) -> None:
+        self.args = args
+        self.keys = Keys(args.prefix)
+        self.wanted = count
+        self.stats = ServiceStats()
+        self.session: zenoh.Session | None = None
+        self.instance = "?"
+        self.workers: list[WorkerProcess] = []
+        self.draining = False
+        self._declared: list[Any] = []
+        self._private_endpoint = ""
+        self.listen: list[str] | None = None
+
+    # -- planning -------------------------------------------------------------------------------
+    def plan(self) -> list[Ownership]:
+        """Each worker's landblocks: the `--own` given (default all) split into contiguous parts."""
+        own = Ownership.parse(self.args.own)
+        known: list[int] = []
+        if own.everything and self.args.scene is not None:
+            known = scene_landblocks(self.args.scene)
+        parts = own.split(self.wanted, known)
+        if len(parts) < self.wanted:
+            log.warning("%d workers asked for, but only %d share(s) of landblocks to give: starting %d",
+                        self.wanted, len(parts), len(parts))
+        return parts
+
+    def _worker_argv(self, index: int, ownership: Ownership) -> list[str]:
+        a = self.args
+        argv = [sys.executable, "-m", "service"]
+        argv += ["--scene", a.scene] if a.scene is not None else ["--dat-dir", a.dat_dir]
+        argv += ["--own", ownership.to_text(), "--mode", "client", "--connect", self._private_endpoint,
+                 "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
+                 "--log-level", a.log_level,
+                 "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
+        return argv
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Open the router, start the workers, wait until each serves through the router, answer the face."""
+        parts = self.plan()
+        a = self.args
+        if a.zenoh_config and not a.listen:
+            # the workers' private endpoint is added to the listen list, which then replaces the file's
+            raise ValueError("--workers with --zenoh-config needs --listen too (the workers' private endpoint joins it)")
+        self.listen = a.listen or [DEFAULT_ENDPOINT]
+        for attempt in range(5):  # the free port may be taken between finding and binding it
+            self._private_endpoint = f"tcp/127.0.0.1:{_free_loopback_port()}"
+            try:
+                self.session = zenoh.open(router_config([*self.listen, self._private_endpoint], a.connect,
+                                                        a.zenoh_config, a.multicast_scouting))
+                break
+            except Exception:
+                if attempt == 4:
+                    raise
+        assert self.session is not None
+        self.instance = str(self.session.zid())
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE_ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+        env["PYTHONUNBUFFERED"] = "1"
+        for index, ownership in enumerate(parts):
+            w = WorkerProcess(index, ownership, self._worker_argv(index, ownership))
+            # a session of its own: a terminal's Ctrl-C reaches the parent only, which stops the workers in order
+            w.proc = subprocess.Popen(w.argv, stdout=subprocess.PIPE, stderr=None, text=True, env=env,
+                                      start_new_session=True)
+            threading.Thread(target=self._pump, args=(w,), name=f"acphys-worker-{index}-out", daemon=True).start()
+            self.workers.append(w)
+        deadline = time.monotonic() + WORKER_START_TIMEOUT
+        for w in self.workers:
+            while not w.ready.wait(0.05):
+                assert w.proc is not None
+                if w.proc.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"worker {w.index} did not start (exit code {w.proc.poll()})"
+                                       + "".join(w.output))
+        self._wait_routed(deadline)
+        s = self.session
+        # indirect: each answer waits on a query to the workers, which must not hold up Zenoh's own threads
+        self._declared = [
+            s.declare_queryable(key, zenoh.handlers.Callback(self._answer(op, build), indirect=True))
+            for key, op, build in ((self.keys.health, "health", self._health), (self.keys.stats, "stats", self._stats),
+                                   (self.keys.landblocks, "landblocks", self._landblocks))
+        ]
+        for w in self.workers:
+            log.info("worker %d: pid %d, instance %s, owns %s", w.index, w.proc.pid if w.proc else -1, w.instance,
+                     w.ownership.to_text())
+
+    def _pump(self, w: WorkerProcess) -> None:
+        """Read a worker's stdout: its ready line (kept to ourselves), the rest shown with its index."""
+        assert w.proc is not None and w.proc.stdout is not None
+        for line in w.proc.stdout:
+            m = _READY.search(line)
+            if m and not w.ready.is_set():
+                w.instance = m.group(1)
+                w.ready.set()
+                continue
+            w.output.append(line)
+            print(f"[worker {w.index}] {line}", end="", flush=True)
+
+    def _wait_routed(self, deadline: float) -> None:
+        """Until every worker answers its private health through the router (its keys are declared there)."""
+        want = {w.index for w in self.workers}
+        while True:
+            got = set(self._ask("health"))
+            if want <= got:
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"workers {sorted(want - got)} do not answer through the router")
+            time.sleep(0.05)
+
+    def watch(self) -> None:
+        """Log a worker that has exited while the service runs (called periodically)."""
+        for w in self.workers:
+            if w.proc is not None and not w.died and not self.draining and w.proc.poll() is not None:
+                w.died = True
+                log.error("worker %d (pid %d, instance %s) died with exit code %s; landblocks %s are not served",
+                          w.index, w.proc.pid, w.instance, w.proc.returncode, w.ownership.to_text())
+
+    def shutdown(self) -> int:
+        """Stop every worker (SIGTERM: each answers its queue), then the router; 0 when all went cleanly."""
+        self.draining = True
+        clean = True
+        for w in self.workers:
+            if w.proc is not None and w.proc.poll() is None:
+                w.proc.send_signal(signal.SIGTERM)
+        for w in self.workers:
+            if w.proc is None:
+                continue
+            try:
+                code = w.proc.wait(WORKER_STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                log.error("worker %d (pid %d) did not stop in %.0f s: killed", w.index, w.proc.pid, WORKER_STOP_TIMEOUT)
+                w.proc.kill()
+                code = w.proc.wait(10)
+            if code != 0 or w.died:
+                clean = False
+                log.error("worker %d exited with code %s%s", w.index, code, " (it had died)" if w.died else "")
+        for d in self._declared:
+            try:
+                d.undeclare()
+            except Exception:  # gone with the session
+                pass
+        self._declared.clear()
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+        return 0 if clean else 1
+
+    # -- the service's face -----------------------------------------------------------------------
+    def _ask(self, what: str) -> dict[int, dict[str, Any]]:
+        """Every worker's answer on its private `what` key, by worker index (those that answered)."""
+        session = self.session
+        if session is None:
+            return {}
+        out: dict[int, dict[str, Any]] = {}
+        by_instance = {w.instance: w.index for w in self.workers}
+        prefix = private_prefix(self.keys.prefix, self.instance)
+        try:
+            replies = session.get(f"{prefix}/*/{what}", target=zenoh.QueryTarget.ALL,
+                                  consolidation=zenoh.ConsolidationMode.NONE,
+                                  timeout=HEALTH_TIMEOUT if what == "health" else INFO_TIMEOUT)
+            for r in replies:
+                if r.ok is None:
+                    continue
+                msg = msgpack.unpackb(r.ok.payload.to_bytes(), raw=False, strict_map_key=False)
+                # a reply comes on the query's key (a wildcard): the worker's instance id says whose it is
+                index = by_instance.get(msg.get("instance")) if isinstance(msg, dict) else None
+                if index is not None:
+                    out[index] = msg
+        except Exception:  # the session is closing, or a reply is unreadable: answer with what came
+            log.debug("asking the workers for %s failed", what, exc_info=True)
+        return out
+
+    def _base(self) -> dict[str, Any]:
+        return {"instance": self.instance, "protocol": PROTOCOL_VERSION, "publish": list(PUBLISH_MODES),
+                "uptime_s": time.monotonic() - self.stats.started}
+
+    def _views(self) -> list[WorkerView]:
+        return [w.view() for w in self.workers]
+
+    def _health(self) -> dict[str, Any]:
+        return merge_health(self._base(), self._ask("health"), self._views(), self.draining)
+
+    def _stats(self) -> dict[str, Any]:
+        replies, samples = self._ask("stats"), self._ask("samples")
+        snap = self.stats.snapshot()
+        parent = {"requests": snap["requests"], "errors": snap["errors"]}
+        return merge_stats(self._base(), parent, replies, samples, self._views(), self.draining)
+
+    def _landblocks(self) -> dict[str, Any]:
+        own = Ownership.parse(self.args.own)
+        return merge_landblocks({"instance": self.instance, "owned": own.to_wire()}, self._ask("landblocks"),
+                                self._views())
+
+    def _answer(self, op: str, build: Callable[[], dict[str, Any]]) -> Callable[[zenoh.Query], None]:
+        def handler(query: zenoh.Query) -> None:
+            self.stats.request(op)
+            try:  # the payload is not read, as a single instance does not read it
+                query.reply(query.key_expr, pack(build()))
+            except Exception as e:  # never let it reach zenoh's thread
+                log.exception("answering %s failed", op)
+                self.stats.error(ErrorKind.INTERNAL)
+                query.reply_err(pack({"error": ProtocolError(ErrorKind.INTERNAL, f"internal error: {e}").to_wire()}))
+            finally:
+                query.drop()
+
+        return handler
+
+
+def serve_workers(args: argparse.Namespace, count: int) -> int:
+    """`serve --workers N` (N > 1): run until SIGINT/SIGTERM; 0 on a clean stop, 1 when a worker
+    failed, 2 when the service cannot start."""
+    if args.mode not in (None, "router"):
+        print("acphys serve: --workers runs a Zenoh router in front of the workers; --mode must be router or absent",
+              file=sys.stderr)
+        return 2
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: Any) -> None:
+        log.info("signal %d: stopping the workers", signum)
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    sup = WorkerSupervisor(args, count)
+    try:
+        sup.start()
+    except Exception as e:
+        print(f"acphys serve: cannot start the workers: {e}", file=sys.stderr)
+        sup.shutdown()
+        return 2
+    print(f"acphys service ready: instance {sup.instance}, listening on {', '.join(sup.listen or ['(config file)'])}, "
+          f"{len(sup.workers)} workers", flush=True)
+    while not stop.wait(0.2):
+        sup.watch()
+    code = sup.shutdown()
+    log.info("stopped")
+    return code
