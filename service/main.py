@@ -15,6 +15,8 @@ import threading
 from typing import Any
 
 from .node import NodeOptions, ServiceNode
+from .persistence import Persistence, add_state_arguments
+from .security import add_security_arguments, security_setup
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
@@ -42,6 +44,8 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--queue", type=int, default=1024, metavar="N", help="queued requests before 'busy' (default %(default)s)")
     p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S", help="seconds to wait for a hand-over")
     p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+    add_security_arguments(p)
+    add_state_arguments(p)
 
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
@@ -64,11 +68,14 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             multicast=args.multicast_scouting,
         )
         ownership = Ownership.parse(args.own)
+        cluster = security_setup(config, args)
+        persistence = Persistence.from_args(args)
     except Exception as e:
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
         return 2
     options = NodeOptions(
-        prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout
+        prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
+        accept_handovers=cluster is not None,
     )
     stop = threading.Event()
 
@@ -80,16 +87,18 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     node = ServiceNode(world, config, options)
     try:
-        node.start()
+        node.start(restore=persistence.restore)
     except Exception as e:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         node.shutdown()
         return 2
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
           flush=True)
-    while not stop.wait(0.5):
-        pass
+    while not stop.wait(persistence.tick):
+        persistence.maybe_save(node)
     node.shutdown()
+    if not persistence.save(node):
+        return 1  # the movers could not be written: say so rather than exit as if they were
     log.info("stopped")
     return 0
 

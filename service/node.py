@@ -255,10 +255,11 @@ class ServiceNode:
     def _key_lb(self, key: str, op: str) -> int | None:
         """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none."""
         part = key.rsplit("/", 2)[-2]
-        if op == "handover" and key != self.keys.lb(part, op):
-            # only on its literal key: Zenoh's access control matches a query's key by inclusion, so a
-            # wildcard query (`P/lb/XXYY/*`, `P/**`) is not caught by the rule on `P/lb/*/handover`
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: a hand-over goes to P/lb/XXYY/handover exactly")
+        if key != self.keys.lb(part, op):
+            # one request, one operation: `P/lb/XXYY/*` would reach every operation's queryable at once. And
+            # Zenoh's access control matches a query's key by inclusion, so a wildcard query is not caught by
+            # the rule on `P/lb/*/handover`: a hand-over also needs a literal landblock (below)
+            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: the operation must be named: {self.keys.lb('XXYY', op)}")
         try:
             return parse_lb_hex(part)
         except ValueError:
