@@ -75,7 +75,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         return 2
     options = NodeOptions(
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
-        accept_handovers=cluster is not None,
+        accept_handovers=cluster is not None, on_handover_in=persistence.save_locked if persistence.path else None,
     )
     stop = threading.Event()
 
@@ -87,7 +87,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     node = ServiceNode(world, config, options)
     try:
-        node.start(restore=persistence.restore)
+        node.start(restore=persistence.restorer(node))
     except Exception as e:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         node.shutdown()

@@ -76,6 +76,9 @@ class NodeOptions:
     #: at shutdown, keep the keys declared until no request has arrived for this long (seconds), so every
     #: request Zenoh has already delivered gets its answer (see `shutdown`)
     drain_quiet: float = 0.5
+    #: called with the core (engine lock held) after a hand-over is taken and before it is answered: the
+    #: state file is written there, so the sender never forgets a mover this instance could still lose
+    on_handover_in: Callable[[ServiceCore], None] | None = None
 
     @property
     def keys(self) -> Keys:
@@ -287,6 +290,8 @@ class ServiceNode:
             def job() -> None:
                 try:
                     content = work()
+                    if op == "handover" and self.options.on_handover_in is not None and self.core is not None:
+                        self.options.on_handover_in(self.core)
                 except ProtocolError as e:
                     self._reply_err(query, e)
                     return
@@ -440,6 +445,35 @@ class ServiceNode:
             "owned": self.options.ownership.to_wire(),
             "loaded": list(core.loaded),
         })
+
+    def held_elsewhere(self, mover_ids: list[int], timeout: float = 2.0) -> set[int]:
+        """Which of `mover_ids` another instance holds now (asked before this one declares its keys, so
+        every answer is another's): a restart must not bring back a mover handed over since its save."""
+        assert self.session is not None
+        held: set[int] = set()
+        lock = threading.Lock()
+        pending = threading.Semaphore(0)
+
+        def ask(mover_id: int) -> None:
+            def on_reply(r: zenoh.Reply) -> None:
+                if r.ok is not None:
+                    with lock:
+                        held.add(mover_id)
+
+            self.session.get(  # type: ignore[union-attr]
+                self.keys.lb("*", "get"), zenoh.handlers.Callback(on_reply, pending.release),
+                payload=pack({"id": mover_id}), target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout,
+            )
+
+        for mover_id in mover_ids:
+            ask(mover_id)
+        deadline = time.monotonic() + timeout + 1.0
+        for _ in mover_ids:
+            if not pending.acquire(timeout=max(0.0, deadline - time.monotonic())):
+                break
+        with lock:
+            return set(held)
 
     # -- BusPort (called by the core on the engine thread) -------------------------
     def _put(self, key: str, content: dict[str, Any]) -> None:

@@ -15,7 +15,7 @@ import logging
 import sys
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 from .core import ServiceCore
 from .state_file import SavedMover, StateFileError, read_state, restore, set_aside, write_state
@@ -73,8 +73,23 @@ class Persistence:
             log.warning("%s; set aside as %s, starting with no movers", e, aside)
             self._saved = None
 
+    def restorer(self, node: Any) -> Callable[[ServiceCore], None]:
+        """What ServiceNode.start runs before declaring any key: put the saved movers back, except those
+        another instance of the cluster holds now (handed over after this file was written)."""
+
+        def run(core: ServiceCore) -> None:
+            if self._saved and node.options.accept_handovers:
+                elsewhere = node.held_elsewhere([m.handover.id for m in self._saved])
+                for m in self._saved:
+                    if m.handover.id in elsewhere:
+                        log.warning("mover %X is held by another instance now: not restored here", m.handover.id)
+                self._saved = [m for m in self._saved if m.handover.id not in elsewhere]
+            self.restore(core)
+
+        return run
+
     def restore(self, core: ServiceCore) -> None:
-        """Put the saved movers back (run by ServiceNode.start before any key is declared)."""
+        """Put the saved movers back (all, or none and StateFileError)."""
         saved = self._saved
         if not saved:
             return
@@ -88,6 +103,15 @@ class Persistence:
             aside = set_aside(self.path or "")
             log.warning("%s; set aside as %s, starting with no movers", e, aside)
         self._saved = None
+
+    def save_locked(self, core: ServiceCore) -> None:
+        """Write the file from the engine thread (lock held), right after a hand-over came in."""
+        if self.path is None:
+            return
+        try:
+            write_state(self.path, core.snapshot_movers(), core.instance)
+        except Exception as e:  # the mover is held in memory all the same; the next save retries
+            log.error("cannot write the state file %s after a hand-over: %s", self.path, e)
 
     def _handovers(self, node: Any) -> int:
         h = node.stats.handovers
