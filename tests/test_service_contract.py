@@ -135,3 +135,40 @@ def test_a_step_that_changes_nothing_still_counts(session: zenoh.Session) -> Non
     # the second step moves it: with the speed the first gave (v = g dt) and gravity over dt,
     # v dt + g dt^2 / 2 = 9.8 * 0.2 * 0.2 + 9.8 * 0.04 / 2 = 0.588 m down
     assert second["state"]["position"]["origin"][2] == pytest.approx(80.0 - 0.588, abs=1e-3)
+
+
+# "too_large: payload over 4 MiB" for a push too: answered on P/errors and counted, however large, once it
+# arrives; the Python client refuses to send one (Zenoh's default DROP congestion control may lose it unseen)
+def test_an_oversized_push_is_answered_and_counted(session: zenoh.Session) -> None:
+    import threading
+
+    from clients import Move, ServiceError
+    from service_support import wait_until
+
+    st = _mover(session)
+    errors: list[dict] = []  # type: ignore[type-arg]
+    lock = threading.Lock()
+
+    def on_error(sample: zenoh.Sample) -> None:
+        with lock:
+            errors.append(msgpack.unpackb(sample.payload.to_bytes(), raw=False))
+
+    sub = session.declare_subscriber("acphys/errors", on_error)
+    try:
+        ok, before = raw_query(session, "acphys/stats", None)
+        # 50 MiB: Zenoh's own limit (transport/link/rx/max_message_size) is 1 GiB, so it reaches the service
+        # when sent with congestion control BLOCK
+        session.put("acphys/lb/A9B4/push", b"\x00" * (50 << 20), congestion_control=zenoh.CongestionControl.BLOCK)
+        assert wait_until(lambda: bool(errors), timeout=20.0)
+        assert errors[0]["error"]["kind"] == "too_large" and errors[0]["key"] == "acphys/lb/A9B4/push"
+        ok, after = raw_query(session, "acphys/stats", None)
+        assert after["errors"]["too_large"] == before["errors"]["too_large"] + 1
+        assert after["requests"]["push"] == before["requests"]["push"] + 1
+        with Client(session=session) as c:
+            big = [Move(st["id"], offset=(0.0, 0.0, 0.0), tag="t" * 250) for _ in range(20000)]  # > 4 MiB
+            with pytest.raises(ServiceError) as e:
+                c.push(big)
+            assert e.value.kind == "too_large"
+            assert c.get(st["id"])[0].seq == 0  # nothing of it was sent
+    finally:
+        sub.undeclare()
