@@ -446,35 +446,6 @@ class ServiceNode:
             "loaded": list(core.loaded),
         })
 
-    def held_elsewhere(self, mover_ids: list[int], timeout: float = 2.0) -> set[int]:
-        """Which of `mover_ids` another instance holds now (asked before this one declares its keys, so
-        every answer is another's): a restart must not bring back a mover handed over since its save."""
-        assert self.session is not None
-        held: set[int] = set()
-        lock = threading.Lock()
-        pending = threading.Semaphore(0)
-
-        def ask(mover_id: int) -> None:
-            def on_reply(r: zenoh.Reply) -> None:
-                if r.ok is not None:
-                    with lock:
-                        held.add(mover_id)
-
-            self.session.get(  # type: ignore[union-attr]
-                self.keys.lb("*", "get"), zenoh.handlers.Callback(on_reply, pending.release),
-                payload=pack({"id": mover_id}), target=zenoh.QueryTarget.ALL,
-                consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout,
-            )
-
-        for mover_id in mover_ids:
-            ask(mover_id)
-        deadline = time.monotonic() + timeout + 1.0
-        for _ in mover_ids:
-            if not pending.acquire(timeout=max(0.0, deadline - time.monotonic())):
-                break
-        with lock:
-            return set(held)
-
     # -- BusPort (called by the core on the engine thread) -------------------------
     def _put(self, key: str, content: dict[str, Any]) -> None:
         if self.session is not None:

@@ -13,14 +13,19 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import zenoh
+
 from .core import ServiceCore
+from .frames import pack
+from .wire import Keys
 from .state_file import SavedMover, StateFileError, read_state, restore, set_aside, write_state
 
-__all__ = ["Persistence", "add_state_arguments"]
+__all__ = ["Persistence", "add_state_arguments", "held_elsewhere"]
 
 log = logging.getLogger("acphys.service")
 
@@ -79,7 +84,7 @@ class Persistence:
 
         def run(core: ServiceCore) -> None:
             if self._saved and node.options.accept_handovers:
-                elsewhere = node.held_elsewhere([m.handover.id for m in self._saved])
+                elsewhere = held_elsewhere(node.session, node.keys, [m.handover.id for m in self._saved])
                 for m in self._saved:
                     if m.handover.id in elsewhere:
                         log.warning("mover %X is held by another instance now: not restored here", m.handover.id)
@@ -142,3 +147,30 @@ class Persistence:
             self._last_save = time.monotonic()
         self._handovers_saved = handovers
         return True
+
+
+def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:
+    """Which of `mover_ids` an instance answering on `session` holds now (asked before this instance
+    declares its keys, so every answer is another's). Only instances connected by then are asked."""
+    held: set[int] = set()
+    lock = threading.Lock()
+    pending = threading.Semaphore(0)
+
+    def ask(mover_id: int) -> None:
+        def on_reply(r: zenoh.Reply) -> None:
+            if r.ok is not None:
+                with lock:
+                    held.add(mover_id)
+
+        session.get(keys.lb("*", "get"), zenoh.handlers.Callback(on_reply, pending.release),
+                    payload=pack({"id": mover_id}), target=zenoh.QueryTarget.ALL,
+                    consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout)
+
+    for mover_id in mover_ids:
+        ask(mover_id)
+    deadline = time.monotonic() + timeout + 1.0
+    for _ in mover_ids:  # every query ends (Zenoh calls its drop callback), at the latest at its timeout
+        if not pending.acquire(timeout=max(0.0, deadline - time.monotonic())):
+            break
+    with lock:
+        return set(held)
