@@ -36,7 +36,7 @@ from typing import Any
 import zenoh
 
 __all__ = [
-    "ClusterConfig", "ClusterConfigError", "PLAIN_LINK_PROTOCOLS", "access_control", "apply_security",
+    "ClusterConfig", "ClusterConfigError", "PLAIN_LINK_PROTOCOLS", "access_control", "merged_access_control", "apply_security",
     "add_security_arguments", "security_setup",
 ]
 
@@ -110,9 +110,22 @@ def access_control(prefix: str) -> dict[str, Any]:
     }
 
 
+def merged_access_control(cfg: zenoh.Config, prefix: str) -> dict[str, Any]:
+    """Ours, added to an `access_control` block the config (a `--zenoh-config` file) already enables: its
+    rules, subjects, policies and default permission stay."""
+    ours = access_control(prefix)
+    theirs = json.loads(cfg.get_json("access_control") or "null")
+    if not isinstance(theirs, dict) or not theirs.get("enabled"):
+        return ours
+    merged = dict(theirs)
+    for part in ("rules", "subjects", "policies"):
+        merged[part] = list(theirs.get(part) or []) + ours[part]
+    return merged
+
+
 def apply_security(cfg: zenoh.Config, prefix: str, cluster: ClusterConfig | None) -> None:
     """Put the access-control block in `cfg`, and with a cluster its TLS links and endpoints."""
-    cfg.insert_json5("access_control", json.dumps(access_control(prefix)))
+    cfg.insert_json5("access_control", json.dumps(merged_access_control(cfg, prefix)))
     if cluster is None:
         return
     cfg.insert_json5("transport/link/tls", json.dumps({

@@ -8,6 +8,7 @@ no hand-over at all.
 
 from __future__ import annotations
 
+import json
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -165,3 +166,55 @@ def test_a_tls_session_without_the_clusters_certificate_gets_nothing(tmp_path: P
             assert not wait_until(lambda: bool(list(s.get("acphys/health", timeout=1.0))), timeout=2.0)
         finally:
             s.close()
+
+
+def test_access_control_of_a_config_file_is_kept_and_ours_added(tmp_path: Path) -> None:
+    # an operator's own rule (here: nobody may query P/stats) stays beside the service's
+    from service_support import endpoint, free_port
+
+    ep = endpoint(free_port())
+    cfg = tmp_path / "zenoh.json5"
+    cfg.write_text("""{ mode: "peer", listen: { endpoints: ["%s"] }, scouting: { multicast: { enabled: false } },
+      access_control: { enabled: true, default_permission: "allow",
+        rules: [{ id: "no-stats", permission: "deny", flows: ["ingress"], messages: ["query"],
+                  key_exprs: ["acphys/stats"] }],
+        subjects: [{ id: "everyone-tcp", link_protocols: ["tcp"] }],
+        policies: [{ id: "ops", rules: ["no-stats"], subjects: ["everyone-tcp"] }] } }""" % ep)
+    svc = ServiceProcess(extra=["--zenoh-config", str(cfg)])
+    svc.args.remove("--listen")
+    svc.args.remove(svc.endpoint)
+    svc.endpoint = ep
+    with svc:
+        s = raw_session(ep)
+        try:
+            assert wait_until(lambda: bool(list(s.get("acphys/health", timeout=1.0))), timeout=10.0)
+            assert list(s.get("acphys/stats", timeout=1.0)) == []  # theirs
+            with Client(session=s) as c:  # everything else as usual
+                cell, x, y = global_to_cell(40.0, 40.0)
+                st = c.register(human(), Position.at(cell, Vec3(x, y, 60.0)))
+                assert c.move(st.id, offset=(0.1, 0.0, 0.0)).seq == 1
+        finally:
+            s.close()
+
+
+def test_the_services_rules_are_added_to_a_config_files_own() -> None:
+    from service.security import apply_security
+
+    cfg = zenoh.Config()
+    cfg.insert_json5("access_control", """{ enabled: true, default_permission: "allow",
+        rules: [{ id: "no-stats", permission: "deny", flows: ["ingress"], messages: ["query"],
+                  key_exprs: ["acphys/stats"] }],
+        subjects: [{ id: "everyone-tcp", link_protocols: ["tcp"] }],
+        policies: [{ id: "ops", rules: ["no-stats"], subjects: ["everyone-tcp"] }] }""")
+    apply_security(cfg, "acphys", None)
+    acl = json.loads(cfg.get_json("access_control"))
+    rules = {r["id"]: r for r in acl["rules"]}
+    assert "no-stats" in rules  # theirs
+    assert rules["instance-queries"]["key_exprs"] == ["acphys/lb/*/handover"]  # ours
+    assert rules["instance-queries"]["permission"] == "deny" and rules["instance-queries"]["flows"] == ["ingress"]
+    assert {p["id"] for p in acl["policies"]} == {"ops", "clients"}
+    plain = next(sub for sub in acl["subjects"] if sub["id"] == "plain-links")
+    assert "tcp" in plain["link_protocols"] and "tls" not in plain["link_protocols"]
+    cfg.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')  # loopback only, nothing scouted
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    zenoh.open(cfg).close()  # and Zenoh takes the merged block
