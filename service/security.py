@@ -14,7 +14,8 @@ Zenoh matches a rule's key expression against a message's by inclusion, so
 a wildcard query such as `P/lb/XXYY/*` is not caught by the hand-over rule;
 the service therefore answers hand-overs on their literal key only
 (service/node.py). An instance started without a cluster file takes no
-hand-over at all (it does not declare the key).
+hand-over at all (it does not declare the key). An `access_control` block
+of a `--zenoh-config` file is kept, ours added to it.
 
 The cluster file (`acphys serve --cluster FILE`) is JSON:
 
