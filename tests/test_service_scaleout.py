@@ -110,6 +110,7 @@ def test_old_owner_answers_moved(client: Client, pair: tuple[ServiceProcess, Ser
     assert not ok and reply["error"]["kind"] == "moved" and reply["error"]["landblock"] == 0xAAB4
     # a client that still thinks the mover is in A9B4 follows the redirect
     with Client([a.endpoint]) as other:
+        other.wait_ready(instances=2)  # it reaches B once Zenoh's gossip has told it B's endpoint
         other.locate(st.id, 0xA9B4)
         again = other.move(st.id, offset=(0.1, 0.0, 0.0))
         assert again.seq == st.seq + 1 and again.landblock == 0xAAB4
