@@ -23,7 +23,7 @@ import zenoh
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec
 from service.codec import encode_mover_spec, encode_plane, encode_position, encode_vec
-from service.wire import DEFAULT_PREFIX, PROTOCOL_VERSION, ErrorKind, Keys
+from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind, Keys
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
 from .batch import BatchResults, move_batch
@@ -368,11 +368,20 @@ class Client:
             if lb is None:
                 lb = self._push_route[m.id] = self.landblock_of(m.id)
             groups.setdefault(lb, []).append(m.to_wire())
+        bodies = []
         for lb, items in groups.items():
             body: dict[str, Any] = {"move": items[0]} if len(items) == 1 else {"moves": items}
             if publish is not None:
                 body["publish"] = publish
-            self.session.put(self.keys.push(lb), _pack(body))
+            payload = _pack(body)
+            if len(payload) > MAX_PAYLOAD:
+                # the service would refuse it; and a put this large may be dropped on the way by Zenoh's
+                # congestion control (DROP, the default for puts) without anyone hearing of it
+                raise ServiceError(ErrorKind.TOO_LARGE, f"push of {len(payload)} bytes exceeds {MAX_PAYLOAD}; "
+                                   "send fewer moves per push")
+            bodies.append((lb, payload))
+        for lb, payload in bodies:  # all checked first: nothing of a refused push is sent
+            self.session.put(self.keys.push(lb), payload)
 
     # -- subscriptions -------------------------------------------------------------------
     def subscribe(self, callback: Callable[[MoverState], None], mover_id: int | None = None) -> Subscription:

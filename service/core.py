@@ -385,6 +385,33 @@ class ServiceCore:
         log.info("took mover %X from %s in %s", req.id, req.source, lb_hex(lb))
         return {"id": rec.id, "accepted": True}
 
+    # -- durability (service/state_file.py) -----------------------------------------
+    def snapshot_movers(self) -> list[dict[str, Any]]:
+        """Every mover as a hand-over map plus what a restart also needs: the spec as registered and the
+        velocity (a mover falling when the instance stops falls on after the restart)."""
+        out = []
+        for rec in self.movers.values():
+            entry = self._handover_payload(rec)
+            entry["registered_mover"] = encode_mover_spec(rec.spec)
+            entry["velocity"] = encode_vec(self.world.mover(rec.engine_id).velocity)
+            out.append(entry)
+        return out
+
+    def restore_mover(self, req: HandoverRequest, spec: MoverSpec, velocity: Vec3 | None) -> None:
+        """Put back a mover read from a state file (before any request is served); ProtocolError if the
+        world or this instance's ownership cannot take it."""
+        self._check_owner(req.position.landblock, "the saved position")
+        if req.id in self.movers:
+            raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {req.id:X} appears twice", "id")
+        if req.position.landblock not in set(self.world.loaded_landblocks()):
+            self.load(req.position.landblock)
+        rec = self._add(req.id, req.spec, req.position, req.contact_plane, req.contact_plane_cell, req.seq,
+                        req.sliding_normal, req.water_contact)
+        rec.spec = spec
+        if velocity is not None:
+            self.world.mover(rec.engine_id).set_velocity(velocity)
+        self._refresh()
+
     # -- landblocks -----------------------------------------------------------
     def load(self, lb: int) -> dict[str, Any]:
         if lb in set(self.world.loaded_landblocks()):

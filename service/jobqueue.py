@@ -50,6 +50,17 @@ class JobQueue:
             self._unfinished += 1
             self._cond.notify()
 
+    def offer_priority(self, job: Job) -> bool:
+        """Queue a job on the priority lane unless closed (a request from another instance: once closed,
+        the engine thread may already be gone, so it is refused rather than left unanswered)."""
+        with self._cond:
+            if self._closed:
+                return False
+            self._priority.append(job)
+            self._unfinished += 1
+            self._cond.notify()
+            return True
+
     def close(self) -> None:
         """Refuse new requests; what is queued is still handed out."""
         with self._cond:

@@ -16,6 +16,8 @@ import threading
 from typing import Any
 
 from .node import NodeOptions, ServiceNode
+from .persistence import Persistence, add_state_arguments
+from .security import add_security_arguments, security_setup
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
@@ -49,6 +51,8 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     # set by `--workers` on the processes it starts (service/workers.py); not for people
     p.add_argument("--worker-info", metavar="PREFIX", help=argparse.SUPPRESS)
     p.add_argument("--worker-parent", type=int, metavar="PID", help=argparse.SUPPRESS)
+    add_security_arguments(p)
+    add_state_arguments(p)
 
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
@@ -85,12 +89,15 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             multicast=args.multicast_scouting,
         )
         ownership = Ownership.parse(args.own)
+        cluster = security_setup(config, args)
+        persistence = Persistence.from_args(args)
     except Exception as e:
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
         return 2
     options = NodeOptions(
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
         info_prefix=worker_info,
+        accept_handovers=cluster is not None, on_handover_in=persistence.save_locked if persistence.path else None,
     )
     stop = threading.Event()
 
@@ -102,7 +109,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     node = ServiceNode(world, config, options)
     try:
-        node.start()
+        node.start(restore=persistence.restorer(node))
     except Exception as e:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         node.shutdown()
@@ -110,11 +117,13 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     detach = attach_worker(node) if worker_info else None
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
           flush=True)
-    while not stop.wait(0.5):
-        pass
+    while not stop.wait(persistence.tick):
+        persistence.maybe_save(node)
     if detach is not None:
         detach()
     node.shutdown()
+    if not persistence.save(node):
+        return 1  # the movers could not be written: say so rather than exit as if they were
     log.info("stopped")
     return 0
 

@@ -76,6 +76,15 @@ class NodeOptions:
     #: where this instance answers health, stats and the landblock list: the public prefix (None), or a worker's
     #: private prefix that only its parent (`serve --workers`, service/workers.py) queries
     info_prefix: str | None = None
+    #: serve `P/lb/XXYY/handover` (only in a cluster whose instances authenticate: service/security.py);
+    #: off, the instance takes no hand-over at all
+    accept_handovers: bool = False
+    #: at shutdown, keep the keys declared until no request has arrived for this long (seconds), so every
+    #: request Zenoh has already delivered gets its answer (see `shutdown`)
+    drain_quiet: float = 0.5
+    #: called with the core (engine lock held) after a hand-over is taken and before it is answered: the
+    #: state file is written there, so the sender never forgets a mover this instance could still lose
+    on_handover_in: Callable[[ServiceCore], None] | None = None
 
     @property
     def keys(self) -> Keys:
@@ -103,14 +112,19 @@ class ServiceNode:
         self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
         self._batch_pub: Any = None  # the publisher on P/states
         self._columns_pub: Any = None  # the publisher on P/state_columns
+        self._last_arrival = time.monotonic()  # when a callback last took a request (shutdown waits for quiet)
 
     # -- lifecycle ------------------------------------------------------------
-    def start(self) -> None:
+    def start(self, restore: Callable[[ServiceCore], None] | None = None) -> None:
+        """Open the session and declare the keys; `restore` (e.g. movers from a state file) runs on the new
+        core before any key is declared, so no request sees the instance half restored."""
         self.session = zenoh.open(self.config)
         instance = str(self.session.zid())
         self.core = ServiceCore(
             self.world, self, ownership=self.options.ownership, instance=instance, stats=self.stats
         )
+        if restore is not None:
+            restore(self.core)
         self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
         self._thread.start()
         s = self.session
@@ -121,6 +135,8 @@ class ServiceNode:
         self._columns_pub = s.declare_publisher(self.keys.state_columns)
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
+                if op == "handover" and not self.options.accept_handovers:
+                    continue
                 self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
             self._declared.append(s.declare_subscriber(self.keys.push(part), self._callback(self._on_push)))
         info = Keys(self.options.info_prefix) if self.options.info_prefix else self.keys
@@ -134,19 +150,26 @@ class ServiceNode:
         return self.core.instance if self.core else "?"
 
     def shutdown(self, timeout: float = 30.0) -> None:
-        """Stop taking requests, finish the queued ones, undeclare, close."""
+        """Answer every request already received (its result, or `shutting_down` for those arriving from
+        now on), then undeclare and close.
+
+        The keys stay declared until no request has arrived for `drain_quiet` seconds: undeclaring drops
+        whatever Zenoh has received but not yet handed to a callback, unanswered."""
         self._draining = True
+        self.queue.close()  # from here on a request is refused with `shutting_down`
+        deadline = time.monotonic() + timeout
+        if self._thread is not None:
+            self._thread.join(timeout)
+        if self._engine_lock.acquire(timeout=max(0.0, deadline - time.monotonic())):
+            self._engine_lock.release()  # a request running in a callback has finished
+        while time.monotonic() < deadline and time.monotonic() - self._last_arrival < self.options.drain_quiet:
+            time.sleep(0.05)
         for d in self._declared:
             try:
                 d.undeclare()
             except Exception:  # already gone with the session: nothing to undo
                 pass
         self._declared.clear()
-        self.queue.close()
-        if self._thread is not None:
-            self._thread.join(timeout)
-        if self._engine_lock.acquire(timeout=timeout):  # a request running in a callback finishes first
-            self._engine_lock.release()
         for pub in (self._state_watch, self._batch_pub, self._columns_pub):
             if pub is not None:
                 try:
@@ -159,7 +182,23 @@ class ServiceNode:
             self.session = None
 
     def _callback(self, fn: Callable[[Any], None]) -> Any:
-        return zenoh.handlers.Callback(fn, indirect=not self.options.direct_callbacks)
+        def arrived(query_or_sample: Any) -> None:
+            self._last_arrival = time.monotonic()
+            fn(query_or_sample)
+
+        return zenoh.handlers.Callback(arrived, indirect=not self.options.direct_callbacks)
+
+    def snapshot(self, what: Callable[[ServiceCore], Any], timeout: float = 30.0) -> Any:
+        """`what(core)` run between two requests (the engine lock held): a consistent view of the movers."""
+        core = self.core
+        if core is None:
+            return None
+        if not self._engine_lock.acquire(timeout=timeout):
+            raise TimeoutError("the engine stayed busy")
+        try:
+            return what(core)
+        finally:
+            self._engine_lock.release()
 
     def _engine_loop(self) -> None:
         while True:
@@ -228,10 +267,15 @@ class ServiceNode:
     def _key_lb(self, key: str, op: str) -> int | None:
         """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none."""
         part = key.rsplit("/", 2)[-2]
+        if key != self.keys.lb(part, op):
+            # one request, one operation: `P/lb/XXYY/*` would reach every operation's queryable at once. And
+            # Zenoh's access control matches a query's key by inclusion, so a wildcard query is not caught by
+            # the rule on `P/lb/*/handover`: a hand-over also needs a literal landblock (below)
+            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: the operation must be named: {self.keys.lb('XXYY', op)}")
         try:
             return parse_lb_hex(part)
         except ValueError:
-            if op not in ("load", "unload") and ("*" in part or "$" in part):
+            if op not in ("load", "unload", "handover") and ("*" in part or "$" in part):
                 return None  # e.g. a `get` sent to every instance to find a mover
             raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: {part!r} is not a landblock id (XXYY)") from None
 
@@ -255,6 +299,8 @@ class ServiceNode:
             def job() -> None:
                 try:
                     content = work()
+                    if op == "handover" and self.options.on_handover_in is not None and self.core is not None:
+                        self.options.on_handover_in(self.core)
                 except ProtocolError as e:
                     self._reply_err(query, e)
                     return
@@ -265,8 +311,9 @@ class ServiceNode:
                 self._reply_ok(query, content)
 
             if op == "handover":
-                # never refused, and served even while this instance waits on its own hand-over
-                self.queue.put_priority(job)
+                # never `busy`, and served even while this instance waits on its own hand-over
+                if not self.queue.offer_priority(job):
+                    self._refuse(query)
             elif not self._submit(job, small):
                 self._refuse(query)
 
@@ -391,8 +438,20 @@ class ServiceNode:
                 self.publish_error(item.id, ItemError(err, item.id, item.tag).to_wire())
 
     # -- per-instance queries (answered on the callback thread) -------------------------
+    def _instance_request(self, query: zenoh.Query, op: str) -> bool:
+        """Count and check a health/stats/landblocks request: an empty payload or a valid envelope (`v` 1);
+        anything else is answered with its error here (False)."""
+        self.stats.request(op)
+        try:
+            decode_envelope(self._payload(query), allow_empty=True)
+        except ProtocolError as e:
+            self._reply_err(query, e)
+            return False
+        return True
+
     def _on_health(self, query: zenoh.Query) -> None:
-        self.stats.request("health")
+        if not self._instance_request(query, "health"):
+            return
         core = self.core
         self._reply_ok(query, {
             "instance": self.instance,
@@ -408,7 +467,8 @@ class ServiceNode:
         })
 
     def _on_stats(self, query: zenoh.Query) -> None:
-        self.stats.request("stats")
+        if not self._instance_request(query, "stats"):
+            return
         core = self.core
         snap = self.stats.snapshot()
         snap["cache"] = {**snap.pop("landblock_cache"), **(core.engine_cache if core else {})}
@@ -423,7 +483,8 @@ class ServiceNode:
         })
 
     def _on_landblocks(self, query: zenoh.Query) -> None:
-        self.stats.request("landblocks")
+        if not self._instance_request(query, "landblocks"):
+            return
         core = self.core
         assert core is not None
         self._reply_ok(query, {

@@ -49,7 +49,7 @@ class Ownership:
         for part in text.split(","):
             part = part.strip()
             if part:
-                ids.add(parse_lb_hex(part))
+                ids.add(parse_lb_hex(part.upper()))  # the command line may say a9b4
         if not ids:
             raise ValueError(f"no landblocks in {text!r}")
         return cls(frozenset(ids))

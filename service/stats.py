@@ -8,7 +8,13 @@ import time
 from collections import Counter, deque
 from typing import Any
 
-__all__ = ["LatencyWindow", "ServiceStats"]
+from .wire import ErrorKind
+
+__all__ = ["LatencyWindow", "ServiceStats", "REQUEST_OPS"]
+
+#: Every operation counted in `requests` (each listed, 0 when none came: docs/protocol.md, Stats).
+REQUEST_OPS = ("move", "push", "register", "update", "remove", "get", "load", "unload", "handover", "health",
+               "stats", "landblocks")
 
 
 class LatencyWindow:
@@ -91,9 +97,9 @@ class ServiceStats:
         with self._lock:
             return {
                 "uptime_s": time.monotonic() - self.started,
-                "requests": dict(self.requests),
+                "requests": {op: self.requests.get(op, 0) for op in (*REQUEST_OPS, *sorted(self.requests.keys() - set(REQUEST_OPS)))},
                 "moves": self.moves,
-                "errors": dict(self.errors),
+                "errors": {k: self.errors.get(k, 0) for k in (*ErrorKind.ALL, *sorted(self.errors.keys() - set(ErrorKind.ALL)))},
                 "latency_ms": self.latency.summary_ms(),
                 "engine_ms": self.engine_time.summary_ms(),
                 "handovers": {k: self.handovers.get(k, 0) for k in ("out", "in", "failed")},

@@ -71,9 +71,14 @@ def lb_hex(lb: int) -> str:
     return f"{lb & 0xFFFF:04X}"
 
 
+_UPPER_HEX = frozenset("0123456789ABCDEF")
+
+
 def parse_lb_hex(text: str) -> int:
-    if len(text) != 4:
-        raise ValueError(f"landblock {text!r} is not four hex digits")
+    """A landblock id from its key form: exactly four upper-case hex digits (`a9b4` is refused, so each
+    landblock has one key)."""
+    if len(text) != 4 or not _UPPER_HEX.issuperset(text):
+        raise ValueError(f"landblock {text!r} is not four upper-case hex digits")
     return int(text, 16)
 
 

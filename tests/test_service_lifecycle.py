@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import signal
 import threading
-import time
 from typing import Any
 
 import msgpack
@@ -76,10 +75,11 @@ def test_shutdown_answers_every_queued_request() -> None:
         with Client(session=session) as c:
             c.wait_ready()
             mover = _register(c)
-        col = Collector()
-        for n in range(6):
-            col.send(session, n, "acphys/lb/A9B4/move", _batch(mover, 1500))
-        time.sleep(0.3)  # all six are queued; the engine is busy with the first
+            col = Collector()
+            for n in range(6):
+                col.send(session, n, "acphys/lb/A9B4/move", _batch(mover, 1500))
+            # all six received: the engine busy with the first, five queued (decoding takes a while on a busy machine)
+            assert wait_until(lambda: c.health()[0]["queue_depth"] == 5, timeout=30.0)
         svc.proc.send_signal(signal.SIGTERM)  # type: ignore[union-attr]
         assert wait_until(lambda: len(col.finished) == 6, timeout=60.0)
         assert svc.proc.wait(30) == 0  # type: ignore[union-attr]

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from cluster_support import cluster_pair
 from clients import Client, Move, MoverState, ServiceError
 from clients.demo_walk import global_xy
 from clients.demo_world import global_to_cell
@@ -32,9 +33,11 @@ ZERO = (0.0, 0.0, 0.0)
 
 
 @pytest.fixture(scope="module")
-def pair() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
-    with ServiceProcess(own="A9B4,A9B5") as a:
-        with ServiceProcess(own="AAB4,AAB5", connect=[a.endpoint]) as b:
+def pair(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
+    # a cluster: the instances reach each other over mutual TLS (service/security.py), clients over tcp
+    a_args, b_args = cluster_pair(tmp_path_factory.mktemp("cluster"))
+    with ServiceProcess(own="A9B4,A9B5", extra=a_args) as a:
+        with ServiceProcess(own="AAB4,AAB5", extra=b_args) as b:  # joined to A over TLS only
             yield a, b
 
 
@@ -107,6 +110,7 @@ def test_old_owner_answers_moved(client: Client, pair: tuple[ServiceProcess, Ser
     assert not ok and reply["error"]["kind"] == "moved" and reply["error"]["landblock"] == 0xAAB4
     # a client that still thinks the mover is in A9B4 follows the redirect
     with Client([a.endpoint]) as other:
+        other.wait_ready(instances=2)  # it reaches B once Zenoh's gossip has told it B's endpoint
         other.locate(st.id, 0xA9B4)
         again = other.move(st.id, offset=(0.1, 0.0, 0.0))
         assert again.seq == st.seq + 1 and again.landblock == 0xAAB4

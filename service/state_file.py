@@ -1,0 +1,145 @@
+"""The movers of an instance on disk (`acphys serve --state FILE`), so a restart loses none.
+
+The file is one msgpack map:
+
+    {"format": "acphys-state", "v": 1, "saved_at": unix seconds, "instance": zenoh id,
+     "count": number of movers, "sha256": hex digest of `movers`, "movers": bin}
+
+where `movers` is a msgpack array of maps, each a hand-over map
+(docs/protocol.md: id, seq, mover, position, contact_plane,
+contact_plane_cell, sliding_normal, water_contact) plus `registered_mover`
+(the spec as registered or last updated) and `velocity`. The digest makes a
+truncated or damaged file an error rather than a partial restore.
+
+It is written whole, to a temporary file in the same directory that is
+flushed and fsynced and then renamed over the old one (and the directory
+fsynced), so a crash leaves either the old file or the new one. Reading
+checks everything and either restores every mover or raises
+`StateFileError`; it never keeps some movers and drops others.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import msgpack
+
+from engine.geometry import Vec3
+from engine.world.types import MoverSpec
+
+from .codec import decode_mover_spec
+from .core import ServiceCore
+from .errors import ProtocolError
+from .requests import HandoverRequest, parse_handover
+from .validate import as_vec3
+
+__all__ = ["FORMAT", "VERSION", "SavedMover", "StateFileError", "write_state", "read_state", "restore", "set_aside"]
+
+log = logging.getLogger("acphys.service")
+
+FORMAT = "acphys-state"
+VERSION = 1
+
+
+class StateFileError(ValueError):
+    """A state file that cannot be restored in full (unreadable, truncated, corrupt, or movers the world
+    or this instance cannot take)."""
+
+
+@dataclass(slots=True)
+class SavedMover:
+    handover: HandoverRequest  # where and how it is, as a hand-over would carry it
+    spec: MoverSpec  # as registered or last updated
+    velocity: Vec3 | None
+
+
+def write_state(path: str | Path, movers: list[dict[str, Any]], instance: str) -> None:
+    """Write `movers` (ServiceCore.snapshot_movers) atomically: temp file, fsync, rename, fsync the dir."""
+    path = Path(path)
+    body = msgpack.packb(movers, use_bin_type=True)
+    data = msgpack.packb({
+        "format": FORMAT, "v": VERSION, "saved_at": time.time(), "instance": instance, "count": len(movers),
+        "sha256": hashlib.sha256(body).hexdigest(), "movers": body,
+    }, use_bin_type=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    dir_fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)  # the rename itself survives a crash
+    finally:
+        os.close(dir_fd)
+
+
+def read_state(path: str | Path) -> list[SavedMover] | None:
+    """The movers saved in `path`; None when there is no file (a first start); StateFileError when it
+    cannot be read in full."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        raise StateFileError(f"state file {path}: {e}") from None
+    what = f"state file {path}"
+    try:
+        top = msgpack.unpackb(data, raw=False)
+    except Exception as e:  # msgpack raises several unrelated types
+        raise StateFileError(f"{what} is not readable msgpack (truncated or corrupt?): {type(e).__name__}: {e}") from None
+    if not isinstance(top, dict) or top.get("format") != FORMAT:
+        raise StateFileError(f"{what} is not an {FORMAT} file")
+    if top.get("v") != VERSION:
+        raise StateFileError(f"{what} has version {top.get('v')!r}; this service reads version {VERSION}")
+    body = top.get("movers")
+    if not isinstance(body, bytes) or hashlib.sha256(body).hexdigest() != top.get("sha256"):
+        raise StateFileError(f"{what}: the movers do not match their checksum (corrupt)")
+    try:
+        raw = msgpack.unpackb(body, raw=False, strict_map_key=False)
+    except Exception as e:
+        raise StateFileError(f"{what}: movers unreadable: {type(e).__name__}: {e}") from None
+    if not isinstance(raw, list) or len(raw) != top.get("count"):
+        raise StateFileError(f"{what}: expected {top.get('count')!r} movers")
+    out = []
+    for i, entry in enumerate(raw):
+        try:
+            if not isinstance(entry, dict):
+                raise ProtocolError("wrong_type", "not a map")
+            handover = parse_handover(entry)
+            spec = decode_mover_spec(entry.get("registered_mover"), "registered_mover")
+            vel = entry.get("velocity")
+            velocity = None if vel is None else Vec3(*as_vec3(vel, "velocity"))
+        except ProtocolError as e:
+            raise StateFileError(f"{what}: mover {i}: {e.message}") from None
+        out.append(SavedMover(handover, spec, velocity))
+    return out
+
+
+def restore(core: ServiceCore, movers: list[SavedMover], source: str | Path) -> None:
+    """Put every saved mover back; StateFileError (naming the mover) if one cannot be."""
+    for m in movers:
+        try:
+            core.restore_mover(m.handover, m.spec, m.velocity)
+        except ProtocolError as e:
+            raise StateFileError(f"state file {source}: mover {m.handover.id:X} cannot be restored: {e.message}") from None
+    log.info("restored %d mover(s) from %s", len(movers), source)
+
+
+def set_aside(path: str | Path) -> Path:
+    """Rename a bad state file out of the way (kept for inspection, never deleted); the new name."""
+    path = Path(path)
+    aside = path.with_name(f"{path.name}.bad-{time.strftime('%Y%m%dT%H%M%S')}-{os.getpid()}")
+    os.replace(path, aside)
+    return aside

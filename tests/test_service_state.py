@@ -1,0 +1,156 @@
+"""Durability: `--state FILE` keeps every mover across a restart; a damaged file stops the start."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import msgpack
+import pytest
+
+from clients import Client, ServiceError
+from clients.demo_world import global_to_cell
+from engine.geometry import Position, Vec3
+from service.codec import encode_plane, encode_position
+from service.state_file import read_state
+from service_support import (
+    DEMO_SCENE,
+    ROOT,
+    ServiceProcess,
+    child_env,
+    comparable,
+    demo_world,
+    human,
+    start_on_ground,
+    wait_until,
+)
+
+ZERO = (0.0, 0.0, 0.0)
+
+
+def _state_args(path: Path, *more: str) -> list[str]:
+    return ["--state", str(path), *more]
+
+
+def test_restart_keeps_movers_seq_contact_and_velocity(tmp_path: Path) -> None:
+    state = tmp_path / "movers.state"
+    world = demo_world()  # the engine alongside: what the movers must be after the restart
+    cell, x, y = global_to_cell(60.0, 60.0)
+    ground = start_on_ground(world, cell, x, y)
+    cell2, x2, y2 = global_to_cell(100.0, 40.0)
+    high = Position.at(cell2, Vec3(x2, y2, world.terrain_height(cell2, x2, y2) + 30.0))
+    with ServiceProcess(extra=_state_args(state)) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            walker = c.register(human(), ground, mover_id=0x5001)
+            faller = c.register(human(), high, mover_id=0x5002)
+            w, f = world.add_mover(human(), ground), world.add_mover(human(), high)
+            for _ in range(8):  # the walker lands and walks; the faller falls (it has speed when we stop)
+                walker = c.step(walker.id, (0.0, 1.0, 0.0), 0.2)
+                world.step(w, Vec3(0.0, 1.0, 0.0), 0.2)
+            for _ in range(3):
+                faller = c.step(faller.id, ZERO, 0.2)
+                world.step(f, Vec3(*ZERO), 0.2)
+            assert walker.on_walkable and not faller.contact
+        assert svc.stop(signal.SIGTERM) == 0
+    saved = read_state(state)
+    assert saved is not None and sorted(m.handover.id for m in saved) == [0x5001, 0x5002]
+    with ServiceProcess(extra=_state_args(state)) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            got_w, spec_w = c.get(0x5001)
+            got_f, _ = c.get(0x5002)
+            assert (got_w.seq, got_f.seq) == (walker.seq, faller.seq) == (8, 3)
+            assert encode_position(got_w.position) == encode_position(walker.position)
+            assert encode_position(got_f.position) == encode_position(faller.position)
+            assert got_w.contact and got_w.on_walkable and encode_plane(got_w.contact_plane) == encode_plane(walker.contact_plane)
+            assert spec_w["state"] == ["IsPlayer"]  # the spec as registered, not the contact it had
+            # the next steps are the uninterrupted engine's: velocity (still falling) and contact came back
+            for _ in range(3):
+                assert comparable(c.step(0x5001, (0.0, 1.0, 0.0), 0.2)) == \
+                    comparable(world.step(w, Vec3(0.0, 1.0, 0.0), 0.2))
+                assert comparable(c.step(0x5002, ZERO, 0.2)) == comparable(world.step(f, Vec3(*ZERO), 0.2))
+            assert c.get(0x5002)[0].seq == 6
+
+
+def test_state_is_written_at_the_interval_so_a_kill_loses_no_mover(tmp_path: Path) -> None:
+    state = tmp_path / "movers.state"
+    cell, x, y = global_to_cell(40.0, 40.0)
+    with ServiceProcess(extra=_state_args(state, "--state-interval", "0.3")) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            st = c.register(human(), Position.at(cell, Vec3(x, y, 60.0)), mover_id=0x6001)
+            st = c.move(st.id, offset=(0.5, 0.0, 0.0))
+            assert wait_until(lambda: state.exists() and [m.handover.seq for m in read_state(state) or []] == [1],
+                              timeout=10.0)
+        svc.kill()  # SIGKILL: no shutdown save
+    with ServiceProcess(extra=_state_args(state)) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            got, _ = c.get(0x6001)
+            assert got.seq == 1 and encode_position(got.position) == encode_position(st.position)
+
+
+def _serve(state: Path, *more: str) -> subprocess.CompletedProcess[str]:
+    """Start a service that must refuse to start (it would otherwise run until the timeout)."""
+    args = [sys.executable, "-m", "service", "--scene", str(DEMO_SCENE), "--listen", "tcp/127.0.0.1:0",
+            "--log-level", "WARNING", "--state", str(state), *more]
+    return subprocess.run(args, cwd=ROOT, env=child_env(), capture_output=True, text=True, timeout=60)
+
+
+def _saved_file(tmp_path: Path) -> Path:
+    state = tmp_path / "movers.state"
+    cell, x, y = global_to_cell(40.0, 40.0)
+    with ServiceProcess(extra=_state_args(state)) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            for k in range(3):
+                c.register(human(), Position.at(cell, Vec3(x + k, y, 60.0)), mover_id=0x7000 + k)
+    assert read_state(state) is not None
+    return state
+
+
+@pytest.mark.parametrize("damage", ["truncated", "flipped", "not_msgpack", "other_version"])
+def test_a_damaged_state_file_stops_the_start(tmp_path: Path, damage: str) -> None:
+    state = _saved_file(tmp_path)
+    data = state.read_bytes()
+    if damage == "truncated":
+        data = data[: len(data) * 2 // 3]
+    elif damage == "flipped":  # one byte inside a mover: only the checksum can tell
+        i = len(data) - 40
+        data = data[:i] + bytes([data[i] ^ 0x01]) + data[i + 1:]
+    elif damage == "not_msgpack":
+        data = b"\xc1" + data
+    else:
+        top = msgpack.unpackb(data, raw=False)
+        top["v"] = 2
+        data = msgpack.packb(top, use_bin_type=True)
+    state.write_bytes(data)
+    run = _serve(state)
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert str(state) in run.stderr and "--state-discard-bad" in run.stderr
+    assert "ready" not in run.stdout
+    assert state.read_bytes() == data  # left as it was, for whoever repairs it
+
+
+def test_discard_bad_starts_empty_and_keeps_the_bad_file_aside(tmp_path: Path) -> None:
+    state = _saved_file(tmp_path)
+    data = state.read_bytes()[:-10]
+    state.write_bytes(data)
+    with ServiceProcess(extra=_state_args(state, "--state-discard-bad")) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            with pytest.raises(ServiceError) as e:
+                c.get(0x7000)
+            assert e.value.kind in ("unknown_mover",)
+    aside = [p for p in tmp_path.iterdir() if p.name.startswith("movers.state.bad-")]
+    assert len(aside) == 1 and aside[0].read_bytes() == data
+
+
+def test_a_mover_the_instance_cannot_take_stops_the_start(tmp_path: Path) -> None:
+    # saved by an instance owning everything, restarted owning only AAB4: the movers in A9B4 have no home here
+    state = _saved_file(tmp_path)
+    run = _serve(state, "--own", "AAB4")
+    assert run.returncode == 2 and "7000" in run.stderr and "does not own" in run.stderr, run.stderr
