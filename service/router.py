@@ -5,6 +5,12 @@ A zenoh-python session opened in **router** mode is a full Zenoh router
 in client or peer mode and it routes every key between them. `acphys
 serve --workers N` opens one of these in front of its worker processes;
 `acphys router` runs one on its own, for a deployment across machines.
+
+A router carries the service's access-control rules (service/security.py)
+for its prefix, so what only instances may do is refused to clients where
+they enter; with a cluster file it also listens (and connects) on the
+cluster's TLS endpoints, where the instances reach it with their
+certificates. A router without one relays no hand-over at all.
 """
 
 from __future__ import annotations
@@ -19,6 +25,8 @@ from typing import Any
 
 import zenoh
 
+from .security import ClusterConfig, apply_security
+from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
 
 __all__ = ["add_router_arguments", "router_config", "run_router"]
@@ -27,8 +35,10 @@ log = logging.getLogger("acphys.router")
 
 
 def router_config(listen: list[str] | None, connect: list[str] | None = None, config_file: str | None = None,
-                  multicast: bool | None = None) -> zenoh.Config:
-    """A zenoh.Config for a router: the service's defaults (loopback, no multicast) in router mode.
+                  multicast: bool | None = None, *, prefix: str = DEFAULT_PREFIX,
+                  cluster: ClusterConfig | None = None) -> zenoh.Config:
+    """A zenoh.Config for a router: the service's defaults (loopback, no multicast) in router mode, with
+    the access-control rules of `prefix` and, given a cluster, its TLS links.
 
     A router that is the only way between its clients must not be bypassed: peers that reach it
     are not told to connect to each other (gossip off), so every message takes Zenoh's routes through it.
@@ -36,6 +46,7 @@ def router_config(listen: list[str] | None, connect: list[str] | None = None, co
     cfg = make_config(config_file=config_file, listen=listen, connect=connect, mode="router", multicast=multicast)
     if not config_file:
         cfg.insert_json5("scouting/gossip/enabled", json.dumps(False))
+    apply_security(cfg, prefix, cluster)
     return cfg
 
 
@@ -44,6 +55,10 @@ def add_router_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT} unless --zenoh-config)")
     p.add_argument("--connect", metavar="ENDPOINT", action="append", help="another router to connect to (repeatable)")
     p.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file (its mode is set to router)")
+    p.add_argument("--cluster", metavar="FILE",
+                   help="cluster file (as `acphys serve --cluster`): instances reach the router over mutual TLS on its "
+                        "`listen` endpoints; without one the router relays no hand-over")
+    p.add_argument("--prefix", default=DEFAULT_PREFIX, help="the service's key prefix (default %(default)s)")
     p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
 
@@ -62,7 +77,8 @@ def run_router(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     try:
-        session = zenoh.open(router_config(listen, args.connect, args.zenoh_config))
+        cluster = ClusterConfig.load(args.cluster) if args.cluster else None
+        session = zenoh.open(router_config(listen, args.connect, args.zenoh_config, prefix=args.prefix, cluster=cluster))
     except Exception as e:
         print(f"acphys router: cannot start: {e}", file=sys.stderr)
         return 2

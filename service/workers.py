@@ -2,9 +2,14 @@
 
 The parent process holds no mover and runs no physics. It opens a Zenoh
 session in **router** mode (a real Zenoh router, service/router.py)
-listening on the public endpoint(s) and on a private loopback endpoint,
-and starts N workers, each an ordinary `python -m service` in client mode
-connected to the private endpoint and owning a share of the landblocks
+listening on the public endpoint(s) and on a private loopback TLS
+endpoint, and starts N workers, each an ordinary `python -m service` in
+client mode connected to the private endpoint and owning a share of the
+landblocks. The workers are a cluster (service/security.py): they reach the
+router over mutual TLS with certificates of a throwaway CA the parent makes
+at start (service/certificates.py; or the `--cluster` file's, when one is
+given, whose `listen`/`connect` endpoints the router then serves too), so
+hand-overs pass between them while the router refuses them to clients
 (Ownership.split: contiguous runs of a scene's landblocks, or X stripes of
 a dat directory's map). Zenoh's routing sends each landblock's keys to its
 worker; a mover crossing between workers is handed over exactly as between
@@ -29,8 +34,10 @@ import os
 import re
 import signal
 import socket
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
@@ -46,7 +53,9 @@ from .errors import ProtocolError
 from .frames import pack
 from .ownership import Ownership
 from .requests import PUBLISH_MODES
+from .certificates import INSTANCE_CN, make_certificates
 from .router import router_config
+from .security import ClusterConfig
 from .stats import ServiceStats
 from .wire import PROTOCOL_VERSION, ErrorKind, Keys
 from .zconfig import DEFAULT_ENDPOINT
@@ -176,6 +185,8 @@ class WorkerSupervisor:
         self.draining = False
         self._declared: list[Any] = []
         self._private_endpoint = ""
+        self._cluster_dir: Path | None = None  # the throwaway certificates and the workers' cluster file
+        self._worker_cluster: Path | None = None
         self.listen: list[str] | None = None
 
     # -- planning -------------------------------------------------------------------------------
@@ -195,11 +206,37 @@ class WorkerSupervisor:
         a = self.args
         argv = [sys.executable, "-m", "service"]
         argv += ["--scene", a.scene] if a.scene is not None else ["--dat-dir", a.dat_dir]
-        argv += ["--own", ownership.to_text(), "--mode", "client", "--connect", self._private_endpoint,
+        argv += ["--own", ownership.to_text(), "--mode", "client", "--cluster", str(self._worker_cluster),
                  "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
                  "--log-level", a.log_level,
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
+        if getattr(a, "state", None):
+            # each worker keeps its own movers: one file per worker of this split (the same --workers and
+            # world give the same split, so a restart finds each mover in the file of its landblock's worker)
+            argv += ["--state", f"{a.state}.worker-{index}-of-{self.wanted}",
+                     "--state-interval", str(a.state_interval)]
+            if a.state_discard_bad:
+                argv.append("--state-discard-bad")
         return argv
+
+    def _cluster(self, private: str) -> ClusterConfig:
+        """The router's cluster (its private TLS endpoint for the workers, plus a `--cluster` file's
+        endpoints), and the workers' cluster file, connecting to `private`."""
+        given = ClusterConfig.load(self.args.cluster) if getattr(self.args, "cluster", None) else None
+        if self._cluster_dir is None:
+            self._cluster_dir = Path(tempfile.mkdtemp(prefix="acphys-workers-"))
+            if given is None:
+                make_certificates(self._cluster_dir)
+        d = self._cluster_dir
+        if given is not None:
+            ca, cert, key = given.ca.resolve(), given.cert.resolve(), given.key.resolve()
+        else:
+            ca, cert, key = d / "ca.pem", d / f"{INSTANCE_CN}.pem", d / f"{INSTANCE_CN}-key.pem"
+        self._worker_cluster = d / "worker.json"
+        self._worker_cluster.write_text(json.dumps({"ca": str(ca), "cert": str(cert), "key": str(key),
+                                                    "connect": [private]}))
+        return ClusterConfig(ca, cert, key, [private, *(given.listen if given else [])],
+                             list(given.connect) if given else [])
 
     # -- lifecycle ------------------------------------------------------------------------------
     def start(self) -> None:
@@ -211,10 +248,11 @@ class WorkerSupervisor:
             raise ValueError("--workers with --zenoh-config needs --listen too (the workers' private endpoint joins it)")
         self.listen = a.listen or [DEFAULT_ENDPOINT]
         for attempt in range(5):  # the free port may be taken between finding and binding it
-            self._private_endpoint = f"tcp/127.0.0.1:{_free_loopback_port()}"
+            self._private_endpoint = f"tls/127.0.0.1:{_free_loopback_port()}"
             try:
-                self.session = zenoh.open(router_config([*self.listen, self._private_endpoint], a.connect,
-                                                        a.zenoh_config, a.multicast_scouting))
+                self.session = zenoh.open(router_config(list(self.listen), a.connect, a.zenoh_config,
+                                                        a.multicast_scouting, prefix=a.prefix,
+                                                        cluster=self._cluster(self._private_endpoint)))
                 break
             except Exception:
                 if attempt == 4:
@@ -309,6 +347,9 @@ class WorkerSupervisor:
         if self.session is not None:
             self.session.close()
             self.session = None
+        if self._cluster_dir is not None:
+            shutil.rmtree(self._cluster_dir, ignore_errors=True)
+            self._cluster_dir = None
         return 0 if clean else 1
 
     # -- the service's face -----------------------------------------------------------------------

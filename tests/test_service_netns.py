@@ -4,8 +4,9 @@ The test builds its own network: a hub namespace with a bridge, and four
 namespaces wired to it by veth pairs, with addresses in 10.213.7.0/24 that
 exist only inside them. `acphys router` runs in one (10.213.7.1), a service
 instance in each of two more (the demo world split west A9B4,A9B5 / east
-AAB4,AAB5, both in client mode connected to the router), and a client in
-the fourth, which walks a mover across the split and back. Every request
+AAB4,AAB5, both in client mode connected to the router over mutual TLS,
+with certificates of a CA the test makes: a cluster, service/security.py),
+and a client, with no credentials, over plain tcp in the fourth, which walks a mover across the split and back. Every request
 must be answered exactly once and every state arrive, in seq order, on the
 client's `P/obj/*/state` subscription. The commands are those of
 docs/protocol.md, "Across machines" (`acphys` run as `python3 -m clients.cli`).
@@ -25,16 +26,19 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Any
 
 import pytest
 
+from cluster_support import cluster_file, make_certificates
 from service_support import DEMO_SCENE, ROOT, TESTS, child_env
 
 SUBNET = "10.213.7"
 ROUTER_ADDR = f"{SUBNET}.1"
 ROUTER_ENDPOINT = f"tcp/{ROUTER_ADDR}:7447"
+ROUTER_TLS = f"tls/{ROUTER_ADDR}:7450"
 #: (role, host number in the /24)
 ROLES = (("router", 1), ("east", 2), ("west", 3), ("client", 4))
 START_TIMEOUT = 60.0
@@ -166,15 +170,19 @@ def acphys(*args: str) -> list[str]:
     return [sys.executable, "-m", "clients.cli", *args]
 
 
-def service(own: str) -> list[str]:
+def service(own: str, member: Path) -> list[str]:
     return [sys.executable, "-m", "service", "--scene", str(DEMO_SCENE), "--own", own, "--mode", "client",
-            "--connect", ROUTER_ENDPOINT, "--log-level", "WARNING"]
+            "--cluster", str(member), "--log-level", "WARNING"]
 
 
-def test_instances_in_two_namespaces_behind_a_router(network: Network) -> None:
-    with NsProcess(network.ns("router"), acphys("router", "--listen", ROUTER_ENDPOINT), "acphys router ready"), \
-         NsProcess(network.ns("west"), service("A9B4,A9B5"), "acphys service ready") as west, \
-         NsProcess(network.ns("east"), service("AAB4,AAB5"), "acphys service ready") as east:
+def test_instances_in_two_namespaces_behind_a_router(network: Network, tmp_path: Path) -> None:
+    make_certificates(tmp_path)  # ca.pem and one instance certificate, shared by the router and the instances
+    router = cluster_file(tmp_path, "router", [ROUTER_TLS], [])
+    member = cluster_file(tmp_path, "member", [], [ROUTER_TLS])
+    with NsProcess(network.ns("router"), acphys("router", "--listen", ROUTER_ENDPOINT, "--cluster", str(router)),
+                   "acphys router ready"), \
+         NsProcess(network.ns("west"), service("A9B4,A9B5", member), "acphys service ready") as west, \
+         NsProcess(network.ns("east"), service("AAB4,AAB5", member), "acphys service ready") as east:
         code = ("import json, sys; sys.path.insert(0, {tests!r}); from test_service_netns import client_main; "
                 "print('RESULT ' + json.dumps(client_main({ep!r})))").format(tests=str(TESTS), ep=ROUTER_ENDPOINT)
         r = subprocess.run(["ip", "netns", "exec", network.ns("client"), sys.executable, "-c", code], cwd=ROOT,
@@ -206,6 +214,7 @@ def test_instances_in_two_namespaces_behind_a_router(network: Network) -> None:
     lbs = res["landblocks"]
     assert lbs[0] == 0xA9B4 and 0xAAB4 in lbs and lbs[-1] == 0xA9B4  # it crossed to the east instance and back
     assert res["handovers_in"] == 2
+    assert res["forged_replies"] == 0 and res["handovers_in_after_forgery"] == 2
 
 
 def client_main(router: str) -> dict[str, Any]:
@@ -273,6 +282,11 @@ def client_main(router: str) -> dict[str, Any]:
             with lock:
                 out["published"] = [s for s in published if s > out["base_seq"]]
             out["handovers_in"] = sum(s["handovers"]["in"] for s in c.stats())
+            # a forged hand-over from this plain client: the router's access control drops it where it enters
+            forged = {"id": 0x5151, "seq": 99, "from": "forger", "mover": encode_mover_spec(human()),
+                      "position": encode_position(Position.at(cell, Vec3(x, y, 80.0)))}
+            out["forged_replies"] = len(query(f"acphys/lb/{cell >> 16:04X}/handover", forged))
+            out["handovers_in_after_forgery"] = sum(s["handovers"]["in"] for s in c.stats())
             sub.undeclare()
     finally:
         session.close()

@@ -218,3 +218,32 @@ def test_the_services_rules_are_added_to_a_config_files_own() -> None:
     cfg.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')  # loopback only, nothing scouted
     cfg.insert_json5("scouting/multicast/enabled", "false")
     zenoh.open(cfg).close()  # and Zenoh takes the merged block
+
+
+def test_a_workers_router_refuses_a_plain_clients_handover_and_still_hands_over_between_its_workers() -> None:
+    """`serve --workers 2`: the workers reach the router over mutual TLS (a throwaway CA of the parent's),
+    clients over plain tcp; the router's access control drops a client's forged hand-over where it enters,
+    while a mover walking across the split is handed from worker to worker."""
+    with ServiceProcess(extra=["--workers", "2"]) as svc:
+        session = raw_session(svc.endpoint)
+        try:
+            with Client(session=session, timeout=10.0) as c:
+                c.wait_ready()
+                world = demo_world()
+                cell, x, y = global_to_cell(170.0, 100.0)  # west of the split (A9B4 | AAB4 at global x 192)
+                mine = c.register(human(), start_on_ground(world, cell, x, y))
+                before = _handovers_in(c)
+                for lb, gx in (("A9B4", 20.0), ("AAB4", 200.0)):
+                    answers = _answers(session, f"acphys/lb/{lb}/handover", _forged(0x52, gx))
+                    assert answers == [], answers  # dropped by the router: no worker ever saw it
+                with pytest.raises(ServiceError) as e:
+                    c.find(0x52, timeout=3.0)
+                assert e.value.kind in ("unknown_mover", "no_service")
+                assert _handovers_in(c) == before
+                st = mine
+                for _ in range(30):  # east across the border: one hand-over between the workers
+                    st = c.move(mine.id, offset=(1.0, 0.0, 0.0))
+                assert st.landblock == 0xAAB4 and st.seq == 30
+                assert _handovers_in(c) == before + 1
+        finally:
+            session.close()

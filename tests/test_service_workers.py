@@ -15,10 +15,12 @@ import subprocess
 import sys
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from clients import Client, MoverState
+from cluster_support import cluster_pair
 from engine.geometry import Vec3
 from service_support import (
     ROOT,
@@ -140,9 +142,10 @@ def test_a_dead_worker_is_reported() -> None:
         assert _pid_gone(health["worker_processes"][0]["pid"])
 
 
-def test_x_stripe_instances_hand_over() -> None:
-    """The rule form between two separate instances: X up to A9 on one, AA and up on the other."""
-    with ServiceProcess(own="x=00-A9") as a, ServiceProcess(own="x=AA-FF", connect=[a.endpoint]) as b:
+def test_x_stripe_instances_hand_over(tmp_path: Path) -> None:
+    """The rule form between two separate instances of a cluster: X up to A9 on one, AA and up on the other."""
+    a_args, b_args = cluster_pair(tmp_path)
+    with ServiceProcess(own="x=00-A9", extra=a_args), ServiceProcess(own="x=AA-FF", extra=b_args) as b:
         with Client([b.endpoint], timeout=10.0) as c:
             c.wait_ready(instances=2)
             owned = sorted((lb["owned"]["x_min"], lb["owned"]["x_max"]) for lb in c.landblocks())
