@@ -19,14 +19,16 @@ import pytest
 
 from clients import Client
 from clients.demo_world import global_to_cell
+from cluster_support import cluster_pair
 from engine.geometry import Vec3
 from service_support import ServiceProcess, demo_world, human, start_on_ground, wait_until
 
 
 @pytest.fixture(scope="module")
-def pair() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
-    with ServiceProcess(own="A9B4,A9B5") as a:
-        with ServiceProcess(own="AAB4,AAB5", connect=[a.endpoint]) as b:
+def pair(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
+    a_args, b_args = cluster_pair(tmp_path_factory.mktemp("cluster"))  # instances hand over only in a cluster
+    with ServiceProcess(own="A9B4,A9B5", extra=a_args) as a:
+        with ServiceProcess(own="AAB4,AAB5", extra=b_args) as b:
             yield a, b
 
 
