@@ -553,8 +553,68 @@ class _StandInQuery:
         pass
 
 
+class _NoEngine:
+    """A World stand-in for timing the service's own handling: every move resolves to `result`."""
+
+    def __init__(self, world: Any, result: Any) -> None:
+        self._world = world
+        self._result = result
+
+    def move(self, _engine_id: int, _target: Any, _velocity: Any = None) -> Any:
+        return self._result
+
+    def __getattr__(self, name: str) -> Any:  # everything else (landblocks, cache stats) from the real world
+        return getattr(self._world, name)
+
+
+class _StandInReply:
+    def __init__(self, payload: bytes) -> None:
+        self.ok = self
+        self.err = None
+        self.payload = _Payload(payload)
+
+
+class _StandInSession:
+    """What `Client.move` uses of a zenoh.Session: `get` answers with one prepared reply."""
+
+    def __init__(self, reply: bytes) -> None:
+        self._replies = [_StandInReply(reply)]
+
+    def get(self, _key: Any, **_kwargs: Any) -> Any:
+        return iter(self._replies)
+
+    def is_closed(self) -> bool:
+        return False
+
+
+def _client_part(moves: int) -> dict[str, Any]:
+    """The client library's part of one move (`Client.move`: the request packed, the State decoded), its
+    session replaced by a stand-in that answers with a State as the service packs it."""
+    from clients import Client
+    from engine.geometry import Position, Vec3
+    from engine.world.types import MoveResult
+    from service.codec import pack_state
+    from service.frames import state_message
+
+    start = start_position(0)
+    result = MoveResult(True, Position.at(start.cell_id, Vec3(20.0, 20.0, 50.0)), "OK", True, True, None,
+                        start.cell_id, None, None, False, 0, ["Contact", "OnWalkable"], [])
+    client = Client(session=_StandInSession(state_message(pack_state(7, 1, result, []))))  # type: ignore[arg-type]
+    client.locate(7, start.landblock)
+    for _ in range(200):
+        client.move(7, offset=(0.2, 0.0, 0.0))
+    times = []
+    for _ in range(moves):
+        t0 = time.perf_counter()
+        client.move(7, offset=(0.2, 0.0, 0.0))
+        times.append(time.perf_counter() - t0)
+    return summary(times, 1e6)
+
+
 def handling_main(moves: int) -> None:
-    """Time the service's move callback with stand-in queries: back to back, then with idle gaps."""
+    """Time the service's move callback with stand-in queries: back to back, then with idle gaps; then back
+    to back with the engine replaced by a stand-in (the service's own handling alone: decode, checks,
+    stats, publication check, pack, reply); and the client library's part of a move."""
     import msgpack
 
     from clients import Move
@@ -592,8 +652,21 @@ def handling_main(moves: int) -> None:
                 assert q.replies == 1
             engine = list(node.stats.engine_time._samples)[engine0:]
             out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
+        # the engine replaced: every move resolves to the mover's current state (what the service adds)
+        real_world = core.world
+        core.world = _NoEngine(real_world, core.movers[mid].last)
+        times = []
+        for i in range(moves):
+            q = _StandInQuery(key, payloads[i % 2])
+            t0 = time.perf_counter()
+            handler(q)
+            times.append(time.perf_counter() - t0)
+            assert q.replies == 1
+        core.world = real_world
+        out["no_engine"] = {"handler": summary(times, 1e6)}
     finally:
         node.shutdown()
+    out["client"] = {"handler": _client_part(moves)}
     print("HANDLING " + json.dumps(out), flush=True)
 
 
@@ -606,8 +679,15 @@ def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
         raise RuntimeError(f"handling run failed ({p.returncode}):\n{p.stderr[-2000:]}")
     out: dict[str, Any] = json.loads(lines[-1][9:])
     for k, v in out.items():
-        log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
-            f"(engine {v['engine']['median']:5.0f} µs)")
+        if k == "no_engine":
+            log(f"service: one move handled without the network, engine replaced by a stand-in: median "
+                f"{v['handler']['median']:6.1f} µs (the service's own part)")
+        elif k == "client":
+            log(f"service: the client library's part of one move (Client.move, stand-in session): median "
+                f"{v['handler']['median']:6.1f} µs")
+        else:
+            log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
+                f"(engine {v['engine']['median']:5.0f} µs)")
     return out
 
 
