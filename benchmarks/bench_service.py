@@ -699,13 +699,19 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     from clients import Client, Move
     from service.zconfig import make_config
 
-    samples: dict[str, list[float]] = {"echo": [], "move": [], "batch10": [], "batch100": []}
+    # health: a bare get the service answers from its callback with no engine (its floor per request);
+    # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part)
+    samples: dict[str, list[float]] = {"echo": [], "health": [], "raw_move": [], "move": [], "batch10": [],
+                                       "batch100": []}
     clock = time.perf_counter
     with Client([endpoint], timeout=30.0) as c:
         mid = c.register(_walker(), start_position(0)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         # what one move request looks like on the wire: the echo carries as many bytes
         probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+        raw_moves = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+                     for d in (0.2, -0.2)]
+        move_key, health_key, health_probe = c.keys.move(start_position(0).landblock), c.keys.health, msgpack.packb({"v": 1})
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
         try:
             for _ in range(50):  # warm both routes
@@ -717,6 +723,16 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
                     t0 = clock()
                     replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
                     samples["echo"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
+                for _ in range(block):
+                    t0 = clock()
+                    replies = list(c.session.get(health_key, payload=health_probe, timeout=10.0))
+                    samples["health"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
+                for i in range(block):
+                    t0 = clock()
+                    replies = list(c.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0))
+                    samples["raw_move"].append(clock() - t0)
                     assert replies and replies[0].ok is not None
                 for _ in range(block):
                     t0 = clock()
@@ -739,9 +755,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     out["service_engine_ms"] = stats.get("engine_ms")
     out["service_latency_ms"] = stats.get("latency_ms")
     out["probe_bytes"] = len(probe)
-    for k in ("echo", "move", "batch10", "batch100"):
+    out["ratio_health_to_echo"] = out["health"]["median"] / out["echo"]["median"]
+    out["ratio_raw_move_to_echo"] = out["raw_move"]["median"] / out["echo"]["median"]
+    for k in ("echo", "health", "raw_move", "move", "batch10", "batch100"):
         log(f"service: round trip {k:9s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
-    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f}")
+    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} (health / echo {out['ratio_health_to_echo']:.2f}, "
+        f"raw_move / echo {out['ratio_raw_move_to_echo']:.2f})")
     return out
 
 
