@@ -46,6 +46,7 @@ from typing import Any
 
 from . import common
 from .common import log, summary
+from .standins import NoEngine, StandInQuery, StandInSession
 
 ECHO_KEY = "acphys-bench/echo"
 START_TIMEOUT = 30.0
@@ -527,66 +528,6 @@ def workers_cli(argv: list[str]) -> None:
 
 
 # -- the service's own handling, without the network ---------------------------------------------------
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class _StandInQuery:
-    """What the service's query callback uses of a zenoh.Query."""
-
-    def __init__(self, key: str, payload: bytes) -> None:
-        self.key_expr = key
-        self.payload = _Payload(payload)
-        self.replies = 0
-
-    def reply(self, _key: Any, _payload: bytes) -> None:
-        self.replies += 1
-
-    def reply_err(self, payload: bytes) -> None:
-        raise AssertionError(f"error reply: {payload!r}")
-
-    def drop(self) -> None:
-        pass
-
-
-class _NoEngine:
-    """A World stand-in for timing the service's own handling: every move resolves to `result`."""
-
-    def __init__(self, world: Any, result: Any) -> None:
-        self._world = world
-        self._result = result
-
-    def move(self, _engine_id: int, _target: Any, _velocity: Any = None) -> Any:
-        return self._result
-
-    def __getattr__(self, name: str) -> Any:  # everything else (landblocks, cache stats) from the real world
-        return getattr(self._world, name)
-
-
-class _StandInReply:
-    def __init__(self, payload: bytes) -> None:
-        self.ok = self
-        self.err = None
-        self.payload = _Payload(payload)
-
-
-class _StandInSession:
-    """What `Client.move` uses of a zenoh.Session: `get` answers with one prepared reply."""
-
-    def __init__(self, reply: bytes) -> None:
-        self._replies = [_StandInReply(reply)]
-
-    def get(self, _key: Any, **_kwargs: Any) -> Any:
-        return iter(self._replies)
-
-    def is_closed(self) -> bool:
-        return False
-
-
 def _client_part(moves: int) -> dict[str, Any]:
     """The client library's part of one move (`Client.move`: the request packed, the State decoded), its
     session replaced by a stand-in that answers with a State as the service packs it."""
@@ -599,7 +540,7 @@ def _client_part(moves: int) -> dict[str, Any]:
     start = start_position(0)
     result = MoveResult(True, Position.at(start.cell_id, Vec3(20.0, 20.0, 50.0)), "OK", True, True, None,
                         start.cell_id, None, None, False, 0, ["Contact", "OnWalkable"], [])
-    client = Client(session=_StandInSession(state_message(pack_state(7, 1, result, []))))  # type: ignore[arg-type]
+    client = Client(session=StandInSession(state_message(pack_state(7, 1, result, []))))  # type: ignore[arg-type]
     client.locate(7, start.landblock)
     for _ in range(200):
         client.move(7, offset=(0.2, 0.0, 0.0))
@@ -637,7 +578,7 @@ def handling_main(moves: int) -> None:
         handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
         payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
         for i in range(200):
-            handler(_StandInQuery(key, payloads[i % 2]))
+            handler(StandInQuery(key, payloads[i % 2]))
         out: dict[str, Any] = {}
         for gap in (0.0, 0.0004, 0.002):
             engine0 = len(node.stats.engine_time._samples)
@@ -645,7 +586,7 @@ def handling_main(moves: int) -> None:
             for i in range(moves):
                 if gap:
                     time.sleep(gap)
-                q = _StandInQuery(key, payloads[i % 2])
+                q = StandInQuery(key, payloads[i % 2])
                 t0 = time.perf_counter()
                 handler(q)
                 times.append(time.perf_counter() - t0)
@@ -654,10 +595,10 @@ def handling_main(moves: int) -> None:
             out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
         # the engine replaced: every move resolves to the mover's current state (what the service adds)
         real_world = core.world
-        core.world = _NoEngine(real_world, core.movers[mid].last)
+        core.world = NoEngine(real_world, core.movers[mid].last)
         times = []
         for i in range(moves):
-            q = _StandInQuery(key, payloads[i % 2])
+            q = StandInQuery(key, payloads[i % 2])
             t0 = time.perf_counter()
             handler(q)
             times.append(time.perf_counter() - t0)
