@@ -53,8 +53,8 @@ log = logging.getLogger("acphys.service")
 
 #: Most state keys kept as parsed key expressions (one per mover seen lately).
 _KEY_CACHE = 100_000
-#: Most request keys kept with their landblock read (every landblock's key of every operation fits).
-_LB_KEY_CACHE = 16 * 65536
+#: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
+_LB_KEY_CACHE = 65536
 
 
 @dataclass(slots=True)
