@@ -46,6 +46,7 @@ from typing import Any
 
 from . import common
 from .common import log, summary
+from .standins import NoEngine, StandInQuery, StandInSession
 
 ECHO_KEY = "acphys-bench/echo"
 START_TIMEOUT = 30.0
@@ -527,34 +528,34 @@ def workers_cli(argv: list[str]) -> None:
 
 
 # -- the service's own handling, without the network ---------------------------------------------------
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.data = data
+def _client_part(moves: int) -> dict[str, Any]:
+    """The client library's part of one move (`Client.move`: the request packed, the State decoded), its
+    session replaced by a stand-in that answers with a State as the service packs it."""
+    from clients import Client
+    from engine.geometry import Position, Vec3
+    from engine.world.types import MoveResult
+    from service.codec import pack_state
+    from service.frames import state_message
 
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class _StandInQuery:
-    """What the service's query callback uses of a zenoh.Query."""
-
-    def __init__(self, key: str, payload: bytes) -> None:
-        self.key_expr = key
-        self.payload = _Payload(payload)
-        self.replies = 0
-
-    def reply(self, _key: Any, _payload: bytes) -> None:
-        self.replies += 1
-
-    def reply_err(self, payload: bytes) -> None:
-        raise AssertionError(f"error reply: {payload!r}")
-
-    def drop(self) -> None:
-        pass
+    start = start_position(0)
+    result = MoveResult(True, Position.at(start.cell_id, Vec3(20.0, 20.0, 50.0)), "OK", True, True, None,
+                        start.cell_id, None, None, False, 0, ["Contact", "OnWalkable"], [])
+    client = Client(session=StandInSession(state_message(pack_state(7, 1, result, []))))  # type: ignore[arg-type]
+    client.locate(7, start.landblock)
+    for _ in range(200):
+        client.move(7, offset=(0.2, 0.0, 0.0))
+    times = []
+    for _ in range(moves):
+        t0 = time.perf_counter()
+        client.move(7, offset=(0.2, 0.0, 0.0))
+        times.append(time.perf_counter() - t0)
+    return summary(times, 1e6)
 
 
 def handling_main(moves: int) -> None:
-    """Time the service's move callback with stand-in queries: back to back, then with idle gaps."""
+    """Time the service's move callback with stand-in queries: back to back, then with idle gaps; then back
+    to back with the engine replaced by a stand-in (the service's own handling alone: decode, checks,
+    stats, publication check, pack, reply); and the client library's part of a move."""
     import msgpack
 
     from clients import Move
@@ -577,7 +578,7 @@ def handling_main(moves: int) -> None:
         handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
         payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
         for i in range(200):
-            handler(_StandInQuery(key, payloads[i % 2]))
+            handler(StandInQuery(key, payloads[i % 2]))
         out: dict[str, Any] = {}
         for gap in (0.0, 0.0004, 0.002):
             engine0 = len(node.stats.engine_time._samples)
@@ -585,15 +586,28 @@ def handling_main(moves: int) -> None:
             for i in range(moves):
                 if gap:
                     time.sleep(gap)
-                q = _StandInQuery(key, payloads[i % 2])
+                q = StandInQuery(key, payloads[i % 2])
                 t0 = time.perf_counter()
                 handler(q)
                 times.append(time.perf_counter() - t0)
                 assert q.replies == 1
             engine = list(node.stats.engine_time._samples)[engine0:]
             out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
+        # the engine replaced: every move resolves to the mover's current state (what the service adds)
+        real_world = core.world
+        core.world = NoEngine(real_world, core.movers[mid].last)
+        times = []
+        for i in range(moves):
+            q = StandInQuery(key, payloads[i % 2])
+            t0 = time.perf_counter()
+            handler(q)
+            times.append(time.perf_counter() - t0)
+            assert q.replies == 1
+        core.world = real_world
+        out["no_engine"] = {"handler": summary(times, 1e6)}
     finally:
         node.shutdown()
+    out["client"] = {"handler": _client_part(moves)}
     print("HANDLING " + json.dumps(out), flush=True)
 
 
@@ -606,8 +620,15 @@ def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
         raise RuntimeError(f"handling run failed ({p.returncode}):\n{p.stderr[-2000:]}")
     out: dict[str, Any] = json.loads(lines[-1][9:])
     for k, v in out.items():
-        log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
-            f"(engine {v['engine']['median']:5.0f} µs)")
+        if k == "no_engine":
+            log(f"service: one move handled without the network, engine replaced by a stand-in: median "
+                f"{v['handler']['median']:6.1f} µs (the service's own part)")
+        elif k == "client":
+            log(f"service: the client library's part of one move (Client.move, stand-in session): median "
+                f"{v['handler']['median']:6.1f} µs")
+        else:
+            log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
+                f"(engine {v['engine']['median']:5.0f} µs)")
     return out
 
 
@@ -619,13 +640,19 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     from clients import Client, Move
     from service.zconfig import make_config
 
-    samples: dict[str, list[float]] = {"echo": [], "move": [], "batch10": [], "batch100": []}
+    # health: a bare get the service answers from its callback with no engine (its floor per request);
+    # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part)
+    samples: dict[str, list[float]] = {"echo": [], "health": [], "raw_move": [], "move": [], "batch10": [],
+                                       "batch100": []}
     clock = time.perf_counter
     with Client([endpoint], timeout=30.0) as c:
         mid = c.register(_walker(), start_position(0)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         # what one move request looks like on the wire: the echo carries as many bytes
         probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+        raw_moves = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+                     for d in (0.2, -0.2)]
+        move_key, health_key, health_probe = c.keys.move(start_position(0).landblock), c.keys.health, msgpack.packb({"v": 1})
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
         try:
             for _ in range(50):  # warm both routes
@@ -637,6 +664,16 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
                     t0 = clock()
                     replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
                     samples["echo"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
+                for _ in range(block):
+                    t0 = clock()
+                    replies = list(c.session.get(health_key, payload=health_probe, timeout=10.0))
+                    samples["health"].append(clock() - t0)
+                    assert replies and replies[0].ok is not None
+                for i in range(block):
+                    t0 = clock()
+                    replies = list(c.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0))
+                    samples["raw_move"].append(clock() - t0)
                     assert replies and replies[0].ok is not None
                 for _ in range(block):
                     t0 = clock()
@@ -659,9 +696,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     out["service_engine_ms"] = stats.get("engine_ms")
     out["service_latency_ms"] = stats.get("latency_ms")
     out["probe_bytes"] = len(probe)
-    for k in ("echo", "move", "batch10", "batch100"):
+    out["ratio_health_to_echo"] = out["health"]["median"] / out["echo"]["median"]
+    out["ratio_raw_move_to_echo"] = out["raw_move"]["median"] / out["echo"]["median"]
+    for k in ("echo", "health", "raw_move", "move", "batch10", "batch100"):
         log(f"service: round trip {k:9s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
-    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f}")
+    log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} (health / echo {out['ratio_health_to_echo']:.2f}, "
+        f"raw_move / echo {out['ratio_raw_move_to_echo']:.2f})")
     return out
 
 

@@ -652,6 +652,14 @@ def _handling(lat: dict[str, Any]) -> list[str]:
         if k in hd:
             h, e = hd[k]["handler"], hd[k]["engine"]
             out.append(f"| {label} | {h['median']:.0f} | {e['median']:.0f} | {h['p99']:.0f} |")
+    if "no_engine" in hd:
+        h = hd["no_engine"]["handler"]
+        out.append(f"| none, the engine replaced by a stand-in (the service's own part) | {h['median']:.1f} | - | "
+                   f"{h['p99']:.0f} |")
+    if "client" in hd:
+        h = hd["client"]["handler"]
+        out.append(f"| none: the client library's part (`Client.move`, stand-in session) | {h['median']:.1f} | - | "
+                   f"{h['p99']:.0f} |")
     return out
 
 
@@ -687,8 +695,12 @@ def _service(svc: dict[str, Any], plot: str | None) -> list[str]:
             f"({lat['probe_bytes']} bytes, the size of a one-move request), queried the same way in the same run, "
             "interleaved block by block with the service round trips. Peer mode, TCP on 127.0.0.1, multicast scouting off."), "",
             "| round trip | n | median µs | p99 µs | median µs per move |", "|---|---:|---:|---:|---:|"]
-    for k, label, per in (("echo", "bare Zenoh echo", 1), ("move", "one move", 1), ("batch10", "batch of 10 moves", 10),
-                          ("batch100", "batch of 100 moves", 100)):
+    for k, label, per in (("echo", "bare Zenoh echo", 1),
+                          ("health", "health (a bare get the service answers with no engine)", 1),
+                          ("raw_move", "one move as a bare get (no client library)", 1), ("move", "one move", 1),
+                          ("batch10", "batch of 10 moves", 10), ("batch100", "batch of 100 moves", 100)):
+        if k not in lat:  # results saved before the row was measured
+            continue
         s = lat[k]
         out.append(f"| {label} | {s['n']} | {s['median']:.0f} | {s['p99']:.0f} | {s['median'] / per:.0f} |")
     out += _handling(lat)

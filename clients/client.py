@@ -37,6 +37,8 @@ log = logging.getLogger("acphys.client")
 #: Error kinds that say "ask again at landblock `landblock`".
 _REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
 _MAX_REDIRECTS = 4
+#: most per-landblock request keys kept parsed (`Client._lb_key`)
+_KEY_CACHE = 4096
 
 
 def _pack(content: dict[str, Any]) -> bytes:
@@ -92,6 +94,8 @@ class Client:
         # in order, where switching keys mid-stream could overtake moves still in flight
         self._push_route: dict[int, int] = {}
         self._lock = threading.Lock()
+        # per-landblock request keys as parsed key expressions: Zenoh parses a string key on every get
+        self._lb_keys: dict[tuple[int, str], zenoh.KeyExpr] = {}
 
     # -- lifecycle ------------------------------------------------------------------
     def close(self) -> None:
@@ -139,7 +143,19 @@ class Client:
             raise errors[0]
         raise NoServiceError(f"no service instance answers for mover {mover_id:X}")
 
-    def _replies(self, key: str, content: dict[str, Any] | None, timeout: float | None, *, all_instances: bool) -> list[Any]:
+    def _lb_key(self, lb: int, op: str) -> zenoh.KeyExpr:
+        """`P/lb/XXYY/op`, parsed once."""
+        key = self._lb_keys.get((lb, op))
+        if key is None:
+            if len(self._lb_keys) >= _KEY_CACHE:
+                self._lb_keys.clear()
+            key = self._lb_keys[lb, op] = zenoh.KeyExpr(self.keys.lb(lb, op))
+        return key
+
+    def _replies(self, key: str | zenoh.KeyExpr, content: dict[str, Any] | None, timeout: float | None, *,
+                 all_instances: bool) -> list[Any]:
+        if not all_instances and content is not None:  # the common case (every per-landblock request): no kwargs map
+            return list(self.session.get(key, payload=_pack(content), timeout=self.timeout if timeout is None else timeout))
         kwargs: dict[str, Any] = {"timeout": self.timeout if timeout is None else timeout}
         if content is not None:
             kwargs["payload"] = _pack(content)
@@ -148,7 +164,7 @@ class Client:
             kwargs["consolidation"] = zenoh.ConsolidationMode.NONE
         return list(self.session.get(key, **kwargs))
 
-    def _request(self, key: str, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
+    def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
         """One request to the instance serving `key`: its reply map, or an exception."""
         replies = self._replies(key, content, timeout, all_instances=False)
         if not replies:
@@ -174,7 +190,7 @@ class Client:
         """A per-landblock request, following `moved` / `wrong_landblock` redirects."""
         for _ in range(_MAX_REDIRECTS):
             try:
-                return self._request(self.keys.lb(lb, op), content, timeout)
+                return self._request(self._lb_key(lb, op), content, timeout)
             except ServiceError as e:
                 target = e.details.get("landblock")
                 if e.kind not in _REDIRECTS or not isinstance(target, int) or target == lb:
@@ -307,7 +323,7 @@ class Client:
                 if publish is not None:
                     body["publish"] = publish
                 try:
-                    reply = self._request(self.keys.move(lb), body, timeout)
+                    reply = self._request(self._lb_key(lb, "move"), body, timeout)
                 except AcphysError as e:
                     for i in idx:
                         results[i] = e

@@ -326,42 +326,35 @@ def _vec_bytes(v: Vec3 | None) -> bytes:
 def pack_state(mover_id: int, seq: int, r: MoveResult, collide_ids: list[int], tag: int | str | None = None) -> bytes:
     """`msgpack.packb(encode_state(...))` without building the map: the same map when decoded (floats as
     float64, as the service always sends them; ids, seq, cell and landblock in fixed-width integers, as
-    msgpack allows), in a few Struct calls instead of a dict and its packing."""
+    msgpack allows), in a few Struct calls instead of a dict and its packing. One `join` of one tuple
+    (no list grown part by part): this runs once per move."""
     pos = r.position
     o, q = pos.frame.origin, pos.frame.orientation
     cell = pos.cell_id
     c = _HC if tag is None else _HC_TAGGED
-    parts = [
+    cp, cpc, fsf = r.contact_plane, r.contact_plane_cell, r.frames_stationary_fall
+    ts = r.transition_state
+    names = r.transient_state
+    packed = b"".join((
         (_HEAD if tag is None else _HEAD_TAGGED).pack(
             c[0], mover_id, c[1], seq, c[2], 0xC3 if r.ok else 0xC2, c[3], cell, c[4], o.x, c[5], o.y, c[6], o.z,
             c[7], q.w, c[8], q.x, c[9], q.y, c[10], q.z, c[11], (cell >> 16) & 0xFFFF, c[12]),
-        _str(r.transition_state),
+        _STRINGS.get(ts) or _str(ts),
         _CONTACT[r.contact, r.on_walkable],
-    ]
-    cp = r.contact_plane
-    if cp is None:
-        parts.append(_NIL)
-    else:
-        n = cp.normal
-        parts.append(_PLANE.pack(_PC[0], n.x, _PC[1], n.y, _PC[2], n.z, _PC[3], cp.d))
-    cpc = r.contact_plane_cell
-    parts.append(_K_PLANE_CELL + _NIL if cpc is None else _PLANE_CELL.pack(_K_PLANE_CELL + _U32, cpc))
-    parts.append(_K_COLLISION)
-    parts.append(_vec_bytes(r.collision_normal))
-    parts.append(_K_SLIDING)
-    parts.append(_vec_bytes(r.sliding_normal))
-    parts.append(_WATER[r.water_contact])
-    fsf = r.frames_stationary_fall
-    parts.append(_NIL if fsf is None else _uint(fsf) if fsf >= 0 else bytes(msgpack.packb(fsf)))
-    parts.append(_names(r.transient_state))
-    if collide_ids:
-        parts.append(_K_COLLIDE + bytes(msgpack.packb(collide_ids)))
-    else:
-        parts.append(_NO_COLLISIONS)
-    if tag is not None:
-        parts.append(_K_TAG)
-        parts.append(bytes(msgpack.packb(tag, use_bin_type=True)))
-    return b"".join(parts)
+        _NIL if cp is None else _PLANE.pack(_PC[0], cp.normal.x, _PC[1], cp.normal.y, _PC[2], cp.normal.z, _PC[3], cp.d),
+        _K_PLANE_CELL + _NIL if cpc is None else _PLANE_CELL.pack(_K_PLANE_CELL + _U32, cpc),
+        _K_COLLISION,
+        _vec_bytes(r.collision_normal),
+        _K_SLIDING,
+        _vec_bytes(r.sliding_normal),
+        _WATER[r.water_contact],
+        _NIL if fsf is None else _uint(fsf) if fsf >= 0 else bytes(msgpack.packb(fsf)),
+        _NAME_LISTS.get(tuple(names)) or _names(names),
+        _K_COLLIDE + bytes(msgpack.packb(collide_ids)) if collide_ids else _NO_COLLISIONS,
+    ))
+    if tag is None:
+        return packed
+    return packed + _K_TAG + bytes(msgpack.packb(tag, use_bin_type=True))
 
 
 def _vec_or_none(v: Any, path: str) -> Vec3 | None:

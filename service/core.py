@@ -261,9 +261,18 @@ class ServiceCore:
     def move_one(self, item: MoveItem, received: float, publish: bool | None = None, batch_mode: bool = False) -> bytes:
         """Apply one move; its State packed (published too when anyone subscribes), or raises. `publish`
         given: whether to publish on the mover's key (the caller asked); else asked here."""
-        each, collect = (publish, False) if publish is not None else self._publishing(batch_mode)
+        if publish is not None:
+            each, collect = publish, False
+        elif batch_mode:
+            each, collect = False, self.bus.batch_watched()
+        else:
+            each, collect = self.bus.states_watched(), False
         packed, engine = self._move(item, each)
-        self._done([monotonic() - received], [engine])
+        # `_done` for one sample, written out: this is every single-move request's path
+        now = monotonic()
+        self.stats.move_done(now - received, engine)
+        if now - self._cache_read_at > 1.0:
+            self._refresh()
         if collect:
             self.bus.publish_batch([packed])
         return packed

@@ -15,10 +15,11 @@ import msgpack
 
 from .wire import PROTOCOL_VERSION
 
-__all__ = ["pack", "state_message", "results_message", "states_message", "array_header"]
+__all__ = ["STATE_HEAD", "pack", "state_message", "results_message", "states_message", "array_header"]
 
 _V = msgpack.packb("v") + msgpack.packb(PROTOCOL_VERSION)
-_STATE_HEAD = b"\x82" + _V + msgpack.packb("state")
+#: `{"v": 1, "state": ` packed: a State's bytes after it make the whole message
+STATE_HEAD = b"\x82" + _V + msgpack.packb("state")
 _RESULTS_HEAD = b"\x82" + _V + msgpack.packb("results")
 _STATES_HEAD = b"\x82" + _V + msgpack.packb("states")
 
@@ -30,7 +31,7 @@ def pack(content: dict[str, Any]) -> bytes:
 
 def state_message(packed_state: bytes) -> bytes:
     """`{"v": 1, "state": State}` from the packed State."""
-    return _STATE_HEAD + packed_state
+    return STATE_HEAD + packed_state
 
 
 def array_header(n: int) -> bytes:

@@ -31,7 +31,7 @@ from .column_request import column_count, is_column_request, parse_column_reques
 from .columns import MOVE_FORMS
 from .core import ServiceCore
 from .errors import ProtocolError
-from .frames import pack, results_message, state_message, states_message
+from .frames import STATE_HEAD, pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
 from .ownership import Ownership
 from .requests import (
@@ -53,6 +53,8 @@ log = logging.getLogger("acphys.service")
 
 #: Most state keys kept as parsed key expressions (one per mover seen lately).
 _KEY_CACHE = 100_000
+#: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
+_LB_KEY_CACHE = 65536
 
 
 @dataclass(slots=True)
@@ -109,6 +111,8 @@ class ServiceNode:
         self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
         self._inline = self.options.inline and self.options.ownership.everything
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
+        self._key_lbs: dict[str, int | None] = {}  # request keys already checked by `_key_lb`: their landblock
+        self._publish_states = self.options.publish_states
         self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
         self._batch_pub: Any = None  # the publisher on P/states
         self._columns_pub: Any = None  # the publisher on P/state_columns
@@ -137,7 +141,9 @@ class ServiceNode:
             for op in LB_QUERY_OPS:
                 if op == "handover" and not self.options.accept_handovers:
                     continue
-                self._declared.append(s.declare_queryable(self.keys.lb(part, op), self._callback(self._query_handler(op))))
+                # the handler stamps `_last_arrival` itself (no wrapper call per request)
+                handler = zenoh.handlers.Callback(self._query_handler(op), indirect=not self.options.direct_callbacks)
+                self._declared.append(s.declare_queryable(self.keys.lb(part, op), handler))
             self._declared.append(s.declare_subscriber(self.keys.push(part), self._callback(self._on_push)))
         info = Keys(self.options.info_prefix) if self.options.info_prefix else self.keys
         self._declared.append(s.declare_queryable(info.health, self._callback(self._on_health)))
@@ -182,6 +188,7 @@ class ServiceNode:
             self.session = None
 
     def _callback(self, fn: Callable[[Any], None]) -> Any:
+        """`fn` as a Zenoh callback that first stamps `_last_arrival` (what shutdown waits on)."""
         def arrived(query_or_sample: Any) -> None:
             self._last_arrival = time.monotonic()
             fn(query_or_sample)
@@ -265,7 +272,19 @@ class ServiceNode:
         return None if p is None else p.to_bytes()
 
     def _key_lb(self, key: str, op: str) -> int | None:
-        """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none."""
+        """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none.
+        A key read once is remembered: a mover's requests come on the same key again and again."""
+        try:
+            return self._key_lbs[key]
+        except KeyError:
+            pass
+        lb = self._read_key_lb(key, op)
+        if len(self._key_lbs) >= _LB_KEY_CACHE:
+            self._key_lbs.clear()
+        self._key_lbs[key] = lb
+        return lb
+
+    def _read_key_lb(self, key: str, op: str) -> int | None:
         part = key.rsplit("/", 2)[-2]
         if key != self.keys.lb(part, op):
             # one request, one operation: `P/lb/XXYY/*` would reach every operation's queryable at once. And
@@ -282,11 +301,17 @@ class ServiceNode:
     # -- per-landblock queries -----------------------------------------------------
     def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
         def handler(query: zenoh.Query) -> None:
-            received = time.monotonic()
+            received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
             self.stats.request(op)
             try:
                 lb = self._key_lb(str(query.key_expr), op)
                 msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
+                if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
+                    # one move (the common request): run straight to its reply, without `_work`'s closures
+                    single = self._single_move_job(query, msg, received)
+                    if not self._submit(single, True):
+                        self._refuse(query)
+                    return
                 work, small = self._prepare(op, lb, msg, received)
             except ProtocolError as e:
                 self._reply_err(query, e)
@@ -318,6 +343,33 @@ class ServiceNode:
                 self._refuse(query)
 
         return handler
+
+    def _single_move_job(self, query: zenoh.Query, msg: dict[str, Any], received: float) -> Callable[[], None]:
+        """`{"move": Move}` decoded (ProtocolError here, on the callback thread); the job that runs it and
+        answers: the same decoding, engine call and reply as `_work`'s, with one closure instead of three."""
+        core = self.core
+        assert core is not None
+        batch = parse_moves(msg)
+        item = batch.items[0]
+        assert not isinstance(item, ItemError)  # a single move's error is raised by parse_moves
+        batch_mode = batch.publish_batch
+
+        def job() -> None:
+            try:
+                packed = core.move_one(item, received, batch_mode=batch_mode)
+            except ProtocolError as e:
+                self._reply_err(query, e)
+                return
+            except Exception as e:
+                log.exception("move failed")
+                self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error: {type(e).__name__}: {e}"))
+                return
+            try:
+                query.reply(query.key_expr, STATE_HEAD + packed)  # frames.state_message, inlined
+            finally:
+                query.drop()
+
+        return job
 
     def _prepare(self, op: str, lb: int | None, msg: dict[str, Any],
                  received: float) -> tuple[Callable[[], dict[str, Any] | bytes], bool]:
@@ -499,11 +551,11 @@ class ServiceNode:
             self.session.put(key, pack(content))
 
     def states_watched(self) -> bool:
-        if not self.options.publish_states or self.session is None:
-            return False
         watch = self._state_watch
         if watch is None:
-            return True
+            return self._publish_states and self.session is not None
+        if not self._publish_states:
+            return False
         try:
             # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
             return bool(watch.matching_status.matching)

@@ -75,7 +75,13 @@ class ServiceStats:
             self.errors[kind] += 1
 
     def move_done(self, latency: float, engine: float) -> None:
-        self.moves_done([latency], [engine])
+        """One move resolved (a single-move request's path: no lists built for one sample)."""
+        with self._lock:
+            self.moves += 1
+            self.latency._samples.append(latency)  # LatencyWindow.add, written out (once per move)
+            self.latency.count += 1
+            self.engine_time._samples.append(engine)
+            self.engine_time.count += 1
 
     def moves_done(self, latency: list[float], engine: list[float]) -> None:
         """Moves resolved: each one's latency and time in the engine (one lock for a whole batch)."""

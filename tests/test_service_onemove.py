@@ -1,0 +1,204 @@
+"""The service's single-move path, run in this process: the node's move callback called with stand-in
+queries (no network for the requests), on a node whose session listens on a free loopback port.
+
+What is checked is what docs/protocol.md promises for one move, whichever path runs it: the reply's
+shape, the errors, the stats counts, publication only while someone subscribes; and that a request
+key read once (and remembered) is still refused when it is not a landblock's key.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+import msgpack
+import pytest
+import zenoh
+
+from clients.demo_world import global_to_cell
+from engine import load_scene
+from engine.geometry import Position, Vec3
+from service.codec import encode_mover_spec, encode_position
+from service.errors import ProtocolError
+from service.node import NodeOptions, ServiceNode
+from service.requests import parse_register
+from service.wire import ErrorKind
+from service.zconfig import make_config
+from service_support import DEMO_SCENE, endpoint, free_port, human, raw_session, wait_until
+
+LB = 0xA9B4
+MOVE_KEY = "acphys/lb/A9B4/move"
+
+
+class _Payload:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class StandInQuery:
+    """What the node's query callback uses of a zenoh.Query; keeps what it was answered."""
+
+    def __init__(self, key: str, content: dict[str, Any]) -> None:
+        self.key_expr = key
+        self.payload = _Payload(msgpack.packb(content, use_bin_type=True))
+        self.ok: list[Any] = []
+        self.err: list[Any] = []
+        self.dropped = 0
+
+    def reply(self, _key: Any, payload: bytes) -> None:
+        self.ok.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
+
+    def reply_err(self, payload: bytes) -> None:
+        self.err.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
+
+    def drop(self) -> None:
+        self.dropped += 1
+
+
+def _node(options: NodeOptions) -> tuple[ServiceNode, str]:
+    """A started node on the demo world, listening on a free loopback port (the caller shuts it down)."""
+    where = endpoint(free_port())
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), options)
+    n.start()
+    return n, where
+
+
+_ENDPOINTS: dict[int, str] = {}
+
+
+@pytest.fixture
+def node() -> Iterator[ServiceNode]:
+    n, where = _node(NodeOptions())
+    _ENDPOINTS[id(n)] = where
+    try:
+        yield n
+    finally:
+        _ENDPOINTS.pop(id(n), None)
+        n.shutdown(timeout=5.0)
+
+
+def _register(node: ServiceNode, gx: float = 40.0) -> int:
+    cell, x, y = global_to_cell(gx, 40.0)
+    core = node.core
+    assert core is not None and (cell >> 16) == LB
+    req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
+                          "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
+    return int(core.register(req)["state"]["id"])
+
+
+def _ask(node: ServiceNode, content: dict[str, Any], key: str = MOVE_KEY) -> StandInQuery:
+    q = StandInQuery(key, {"v": 1, **content})
+    node._query_handler("move")(q)  # type: ignore[arg-type]
+    # a single move runs in the callback when the engine is idle; anything queued is waited for
+    assert wait_until(lambda: len(q.ok) + len(q.err) == 1, timeout=10.0)
+    assert q.dropped == 1  # every query is finished (Zenoh's final answer) exactly once
+    return q
+
+
+def test_one_move_is_answered_with_its_state_and_counted(node: ServiceNode) -> None:
+    mid = _register(node)
+    before = node.stats.snapshot()
+    q = _ask(node, {"move": {"id": mid, "offset": [0.5, 0.0, 0.0], "tag": "t1"}})
+    [reply] = q.ok
+    assert set(reply) == {"v", "state"} and reply["v"] == 1
+    state = reply["state"]
+    assert (state["id"], state["seq"], state["tag"], state["landblock"]) == (mid, 1, "t1", LB)
+    after = node.stats.snapshot()
+    assert after["requests"]["move"] == before["requests"]["move"] + 1
+    assert after["moves"] == before["moves"] + 1
+    assert after["latency_ms"]["count"] == before["latency_ms"]["count"] + 1
+    assert after["engine_ms"]["count"] == before["engine_ms"]["count"] + 1
+    # the latency (receipt to result) includes the engine's time
+    assert after["latency_ms"]["max"] >= after["engine_ms"]["max"] > 0.0
+
+
+def test_a_failed_single_move_is_an_error_reply_and_moves_nothing(node: ServiceNode) -> None:
+    mid = _register(node)
+    before = node.stats.snapshot()
+    q = _ask(node, {"move": {"id": mid + 1, "offset": [0.5, 0.0, 0.0]}})
+    assert not q.ok
+    assert q.err[0]["error"]["kind"] == ErrorKind.UNKNOWN_MOVER
+    q = _ask(node, {"move": {"id": mid, "offset": "east"}})  # not an array: the field is named
+    assert q.err[0]["error"]["kind"] == ErrorKind.WRONG_TYPE and q.err[0]["error"]["path"] == "move.offset"
+    after = node.stats.snapshot()
+    assert after["moves"] == before["moves"]
+    assert after["requests"]["move"] == before["requests"]["move"] + 2
+    assert after["errors"][ErrorKind.UNKNOWN_MOVER] == before["errors"][ErrorKind.UNKNOWN_MOVER] + 1
+    assert after["errors"][ErrorKind.WRONG_TYPE] == before["errors"][ErrorKind.WRONG_TYPE] + 1
+    # the mover did not move: its next move is seq 1
+    assert _ask(node, {"move": {"id": mid, "offset": [0.0, 0.0, 0.0]}}).ok[0]["state"]["seq"] == 1
+
+
+def test_move_and_moves_keep_their_meaning_on_every_path(node: ServiceNode) -> None:
+    mid = _register(node)
+    m = {"id": mid, "offset": [0.1, 0.0, 0.0]}
+    # `moves: nil` is an absent batch: a single move, answered as one
+    assert set(_ask(node, {"move": m, "moves": None}).ok[0]) == {"v", "state"}
+    # `move: nil` beside a batch: the batch
+    [reply] = _ask(node, {"move": None, "moves": [m]}).ok
+    assert set(reply) == {"v", "results"} and reply["results"][0]["seq"] == 2
+    # both given: refused, as docs/protocol.md says (exactly one of move or moves)
+    assert _ask(node, {"move": m, "moves": [m]}).err[0]["error"]["kind"] == ErrorKind.BAD_VALUE
+    assert _ask(node, {"move": None}).err[0]["error"]["kind"] == ErrorKind.MISSING_FIELD
+
+
+def test_request_keys_read_once_are_still_checked_every_time() -> None:
+    n = ServiceNode(None, zenoh.Config(), NodeOptions())  # `_key_lb` needs neither a world nor a session
+    for _ in range(3):  # the first read and the remembered ones agree
+        assert n._key_lb(MOVE_KEY, "move") == LB
+        assert n._key_lb("acphys/lb/0102/get", "get") == 0x0102
+        assert n._key_lb("acphys/lb/*/get", "get") is None  # a `get` sent to every instance
+        for key, op in (("acphys/lb/a9b4/move", "move"),  # lower case: not the landblock's one key
+                        ("acphys/lb/*/load", "load"),  # a load names its landblock
+                        ("acphys/lb/A9B4/*", "move"),  # one request, one operation
+                        ("acphys/lb/A9B4/get", "move")):  # another operation's key
+            with pytest.raises(ProtocolError) as e:
+                n._key_lb(key, op)
+            assert e.value.kind == ErrorKind.BAD_VALUE
+
+
+def test_states_are_published_while_someone_subscribes(node: ServiceNode) -> None:
+    mid = _register(node)
+    received: list[dict[str, Any]] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: Any) -> None:
+        with lock:
+            received.append(msgpack.unpackb(sample.payload.to_bytes(), raw=False))
+
+    watcher = raw_session(_ENDPOINTS[id(node)])  # a subscriber that comes after the node started
+    try:
+        sub = watcher.declare_subscriber(f"acphys/obj/{mid:X}/state", on_sample)
+        assert wait_until(node.states_watched, timeout=10.0)
+        _ask(node, {"move": {"id": mid, "offset": [0.2, 0.0, 0.0]}})
+        assert wait_until(lambda: len(received) == 1, timeout=10.0)
+        assert received[0]["v"] == 1 and (received[0]["state"]["id"], received[0]["state"]["seq"]) == (mid, 1)
+        sub.undeclare()
+        assert wait_until(lambda: not node.states_watched(), timeout=10.0)
+        published: list[int] = []
+        real_publish = node.publish_state
+        node.publish_state = lambda mover_id, packed: published.append(mover_id)  # type: ignore[method-assign, assignment]
+        try:
+            assert _ask(node, {"move": {"id": mid, "offset": [0.2, 0.0, 0.0]}}).ok[0]["state"]["seq"] == 2
+        finally:
+            node.publish_state = real_publish  # type: ignore[method-assign, assignment]
+        assert published == []  # nobody subscribes: the State is not put
+    finally:
+        watcher.close()
+
+
+def test_no_state_is_published_when_publication_is_off() -> None:
+    n, _ = _node(NodeOptions(publish_states=False))
+    try:
+        assert not n.states_watched()
+        n2, _ = _node(NodeOptions(skip_unwatched_states=False))
+        try:
+            assert n2.states_watched()  # every State published, whoever listens
+        finally:
+            n2.shutdown(timeout=5.0)
+    finally:
+        n.shutdown(timeout=5.0)
