@@ -19,11 +19,12 @@ from setuptools import setup
 HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
 # The world's per-move part: the mover, its shadows and the move itself.
-WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve")
+WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback")
 
 
 def hot_modules() -> list[str]:
-    mods = ["engine/constants.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
+    # limits: the checks every move passes at the door
+    mods = ["engine/constants.py", "engine/limits.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
     for pkg in HOT_PACKAGES:
         for path in sorted(glob.glob(f"engine/{pkg}/*.py")):
             if not path.endswith("__init__.py") and path not in NOT_COMPILED:

@@ -15,38 +15,42 @@ from .mover import Mover
 
 __all__ = ["MoverSnapshot"]
 
-#: the Mover slots a transition, SetPositionInternal or a physics step writes
-_MUTABLE = (
-    "position",
-    "cell",
-    "transient",
-    "contact_plane",
-    "contact_plane_cell_id",
-    "sliding_normal",
-    "velocity",
-    "acceleration",
-    "missile",
-    "colliding_with_environment",
-    "held_time",
-    "held_motion",
-)
-
-_VELOCITY = _MUTABLE.index("velocity")
-
 
 class MoverSnapshot:
-    """The mutable state of one mover at one moment (all values are immutable or replaced, never edited)."""
+    """The mutable state of one mover at one moment: the slots a transition, SetPositionInternal or a
+    physics step writes. Every value is immutable or replaced, never edited in place, so keeping the
+    references is a full copy. Taken on every move: plain attribute reads, compiled (setup.py)."""
 
-    __slots__ = ("mover", "values")
+    __slots__ = ("mover", "position", "cell", "transient", "contact_plane", "contact_plane_cell_id",
+                 "sliding_normal", "velocity", "acceleration", "missile", "colliding_with_environment",
+                 "held_time", "held_motion")
 
     def __init__(self, mover: Mover) -> None:
         self.mover = mover
-        self.values: tuple[Any, ...] = tuple(getattr(mover, name) for name in _MUTABLE)
-
-    def velocity(self) -> Any:
-        """The mover's velocity when the snapshot was taken."""
-        return self.values[_VELOCITY]
+        self.position = mover.position
+        self.cell: Any = mover.cell
+        self.transient = mover.transient
+        self.contact_plane = mover.contact_plane
+        self.contact_plane_cell_id = mover.contact_plane_cell_id
+        self.sliding_normal = mover.sliding_normal
+        self.velocity = mover.velocity
+        self.acceleration = mover.acceleration
+        self.missile = mover.missile
+        self.colliding_with_environment = mover.colliding_with_environment
+        self.held_time = mover.held_time
+        self.held_motion = mover.held_motion
 
     def restore(self) -> None:
-        for name, value in zip(_MUTABLE, self.values):
-            setattr(self.mover, name, value)
+        m = self.mover
+        m.position = self.position
+        m.cell = self.cell
+        m.transient = self.transient
+        m.contact_plane = self.contact_plane
+        m.contact_plane_cell_id = self.contact_plane_cell_id
+        m.sliding_normal = self.sliding_normal
+        m.velocity = self.velocity
+        m.acceleration = self.acceleration
+        m.missile = self.missile
+        m.colliding_with_environment = self.colliding_with_environment
+        m.held_time = self.held_time
+        m.held_motion = self.held_motion

@@ -212,7 +212,7 @@ class World:
             snapshot.restore()
             raise
         if velocity is not None:
-            mover.velocity = snapshot.velocity()  # the given velocity was this move's only
+            mover.velocity = snapshot.velocity  # the given velocity was this move's only
         return result
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
