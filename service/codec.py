@@ -159,6 +159,7 @@ def decode_mover_spec(value: Any, path: str) -> MoverSpec:
         gravity=_opt(m, "gravity", path, as_bool, True),
         creature=None if creature_raw is None else as_bool(creature_raw, field_path(path, "creature")),
         cyl_spheres=cyls,
+        sledding=_opt(m, "sledding", path, as_bool, False),
     )
     try:  # sizes within the engine's limits (docs/protocol.md, "Limits")
         check_mover_spec(spec, path)
@@ -194,6 +195,7 @@ def encode_mover_spec(s: MoverSpec) -> dict[str, Any]:
         "scale": s.scale,
         "gravity": s.gravity,
         "creature": s.creature,
+        "sledding": s.sledding,
         "cyl_spheres": [{"origin": list(c.origin), "radius": c.radius, "height": c.height} for c in s.cyl_spheres],
     }
 

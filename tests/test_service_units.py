@@ -105,3 +105,19 @@ def test_state_round_trip() -> None:
 def test_mover_spec_round_trip() -> None:
     spec = human()
     assert decode_mover_spec(msgpack.unpackb(msgpack.packb(encode_mover_spec(spec))), "mover") == spec
+
+
+def test_a_sled_keeps_its_sledding_flag_on_the_wire() -> None:
+    from dataclasses import replace
+
+    sled = replace(human(), sledding=True)
+    wire = encode_mover_spec(sled)
+    assert wire["sledding"] is True
+    assert decode_mover_spec(msgpack.unpackb(msgpack.packb(wire)), "mover").sledding is True
+    # absent: not a sled (old clients); a non-boolean is refused with its path
+    del wire["sledding"]
+    assert decode_mover_spec(wire, "mover").sledding is False
+    wire["sledding"] = 1
+    with pytest.raises(ProtocolError) as e:
+        decode_mover_spec(wire, "mover")
+    assert e.value.path == "mover.sledding"
