@@ -273,6 +273,51 @@ def _summary(results: dict[str, Any]) -> list[str]:
     return out + [""]
 
 
+def _summary_issue10(results: dict[str, Any]) -> list[str]:
+    """Issue 10's targets (the service against the engine, every core, memory), from this file's sections."""
+    out = ["## Targets of issue 10: where each stands", "",
+           "| target | measured | verdict |", "|---|---|---|"]
+    svc = results.get("service") or {}
+    issue = svc.get("issue10_columns")
+    if issue:
+        eng = issue["engine"]
+        for row in issue["service"]:
+            out.append(f"| batched throughput ≥ 0.8 of `World.move` in process, same movers and moves ({row['form']}) "
+                       f"| {row['moves_per_s']:,.0f} vs {eng['moves_per_s']:,.0f} moves/s: {row['ratio_to_engine']:.2f} "
+                       f"({row['cpu_ratio_to_engine']:.2f} in CPU per move: {row['service_cpu_us_per_move']:.1f} vs "
+                       f"{eng['cpu_us_per_move']:.1f} µs) | {'met' if row['ratio_to_engine'] >= 0.8 else 'missed'} |")
+    lat = svc.get("latency")
+    if lat:
+        r = lat["ratio_move_to_echo"]
+        out.append(f"| one-move round trip ≤ 1.2x the bare Zenoh echo, interleaved | {lat['move']['median']:.0f} vs "
+                   f"{lat['echo']['median']:.0f} µs: {r:.2f}x | {'met' if r <= 1.2 else 'missed'} |")
+    workers = {w["workers"]: w for w in svc.get("workers") or []}
+    if 1 in workers and len(workers) > 1:
+        one = workers[1]
+        for n, w in sorted(workers.items()):
+            if n == 1:
+                continue
+            ratio = w["moves_per_s"] / one["moves_per_s"]
+            out.append(f"| {n} workers ≥ {0.8 * n:.1f}x one worker's throughput where {n} cores are free | "
+                       f"{w['moves_per_s']:,.0f} vs {one['moves_per_s']:,.0f} moves/s: {ratio:.2f}x, the service using "
+                       f"{w['service_cores']:.2f} vs {one['service_cores']:.2f} cores and the clients "
+                       f"{w['client_cores']:.2f} of the same 2 CPUs | not shown here: no free cores (section 3 gives "
+                       "the command for a bigger machine) |")
+    mem = results.get("memory")
+    if mem and mem["rows"]:
+        m = mem["rows"][0]
+        g = m["growth_after_first_minute_pct"]
+        if g is None:
+            out.append("| RSS flat (within 10 %) after the first minute of a bulk-client soak | the soak ended within a "
+                       "minute | not measured |")
+        else:
+            out.append(f"| RSS flat (within 10 %) after the first minute of a bulk-client soak | "
+                       f"{m['rss_after_first_minute_mib']:.0f} MiB after a minute, {m['rss_end_mib']:.0f} MiB after "
+                       f"{m['moves']:,} moves and {m['sessions']} client sessions: {g:+.1f} % | "
+                       f"{'met' if abs(g) <= 10.0 else 'missed'} |")
+    return out + [""] if len(out) > 4 else []
+
+
 def _limits(results: dict[str, Any]) -> list[str]:
     """What stands between each measured figure and its target, from the numbers of this run."""
     out = ["## What limits each figure", ""]
@@ -827,7 +872,7 @@ Raw results: `docs/performance.json` (each section's latest run); plots: `benchm
 
 
 def write(results: dict[str, Any]) -> None:
-    lines = [HEADER, *_summary(results), *_limits(results)]
+    lines = [HEADER, *_summary(results), *_summary_issue10(results), *_limits(results)]
     if "engine" in results:
         lines += _engine(results["engine"], plot_engine(results["engine"]))
     if "error" in results:
