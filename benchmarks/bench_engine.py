@@ -127,7 +127,7 @@ def profile(name: str, moves: int, top: int = 12) -> dict[str, Any]:
     st = pstats.Stats(prof)
     total = st.total_tt  # type: ignore[attr-defined]
     rows = []
-    for (file, line, func), (cc, nc, tt, ct, _callers) in st.stats.items():  # type: ignore[attr-defined]
+    for (file, line, func), (_cc, nc, tt, ct, _callers) in st.stats.items():  # type: ignore[attr-defined]
         rel = file.replace(str(common.ROOT) + "/", "")
         rows.append({"function": f"{rel}:{line}({func})", "calls_per_move": nc / moves, "own_share": tt / total,
                      "cumulative_share": ct / total})

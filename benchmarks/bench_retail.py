@@ -20,7 +20,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3

@@ -659,7 +659,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
                 list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
                 c.move(mid, offset=(0.0, 0.0, 0.0))
             sign = 1.0
-            for r in range(rounds):
+            for _round in range(rounds):
                 for _ in range(block):
                     t0 = clock()
                     replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))

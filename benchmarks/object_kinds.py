@@ -118,7 +118,7 @@ def _sea_scene() -> dict[str, Any]:
     return scene
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def world(scene: str) -> engine.World:
     if scene == "hills":
         return engine.world_from_scene_dict(S.terrain_scene("kinds-hills", S.hill_heights, S.around()))
@@ -130,7 +130,7 @@ def world(scene: str) -> engine.World:
     return engine.load_scene(common.ORACLE / "scenes" / f"{scene}.json")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def reference_starts(scene: str) -> list[dict[str, Any]]:
     return [c for c in common.load_trace(scene)["cases"] if "movers" not in c and "object" in c]
 

@@ -348,7 +348,6 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     for f in footprints:
         if f.kind in ("building", "object") and f.name != "boulder" or (f.name == "boulder" and f.a[2] > 1.0):
             cx = (f.a[0] + f.a[2]) / 2 if f.shape == "rect" else f.a[0]
-            cy = (f.a[1] + f.a[3]) / 2 if f.shape == "rect" else f.a[1]
             top = f.a[3] if f.shape == "rect" else f.a[1] + f.a[2]
             ax_zoom.text(cx, top + 1.0, f.name, ha="center", va="bottom", fontsize=8, zorder=9,
                          bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})

@@ -37,7 +37,7 @@ def make_certificates(out: Path, names: tuple[str, ...] = (INSTANCE_CN,), ca_cn:
     """`ca.pem` and, per name, `<name>.pem` + `<name>-key.pem` signed by it, in `out` (made if missing),
     valid for `days`; `out`. The CA's own key is not kept: nothing more can be signed."""
     out.mkdir(parents=True, exist_ok=True)
-    now = datetime.datetime.now(datetime.timezone.utc)
+    now = datetime.datetime.now(datetime.UTC)
     valid = (now - datetime.timedelta(hours=1), now + datetime.timedelta(days=days))
     ca_key = ec.generate_private_key(ec.SECP256R1())
     ca = (x509.CertificateBuilder().subject_name(_name(ca_cn)).issuer_name(_name(ca_cn))

@@ -54,5 +54,5 @@ def pytest_terminal_summary(terminalreporter: object, exitstatus: int, config: p
                if MISSING_REASON in str(getattr(r, "longrepr", ""))]
     tests = sum(1 for r in skipped if "::" in getattr(r, "nodeid", ""))
     modules = len(skipped) - tests  # skipped while being collected: every test in them
-    write = getattr(terminalreporter, "write_line")
+    write = terminalreporter.write_line
     write(f"skipped {tests} tests and {modules} whole test modules: {MISSING_REASON}", yellow=True)

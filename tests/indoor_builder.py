@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence
+from typing import Any
+from collections.abc import Iterable, Sequence
 
 import engine
 
@@ -202,7 +203,7 @@ class Solid:
 def box_solid(lo: Sequence[float], hi: Sequence[float]) -> Solid:
     """An axis-aligned box lo..hi with its 6 outward faces."""
     faces = []
-    for name, (axis, sign) in AXES.items():
+    for _name, (axis, sign) in AXES.items():
         n = [0.0, 0.0, 0.0]
         n[axis] = sign
         value = hi[axis] if sign > 0 else lo[axis]
@@ -423,8 +424,8 @@ def room_faces(lo: Point, hi: Point, doors: Sequence[Door] = ()) -> list[Face]:
             if uhi - ulo > 1e-9 and zhi - zlo > 1e-9:
                 a = [0.0, 0.0, 0.0]
                 b = [0.0, 0.0, 0.0]
-                a[u], a[2], b[u], b[2] = ulo, zlo, uhi, zhi
-                walls.append(axis_rect(axis, value, a, b))
+                a[u], a[2], b[u], b[2] = ulo, zlo, uhi, zhi  # noqa: B023 - called at once, in this iteration
+                walls.append(axis_rect(axis, value, a, b))  # noqa: B023
 
         rect(lo[u], hi[u], top, hi[2])
         rect(lo[u], door.lo, sill, top)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable, Sequence
 
 import engine
 from engine import MoverSpec, SphereSpec
@@ -20,7 +20,7 @@ PLAYER = MoverSpec(
 
 
 def world_from_heights(
-    heights: Callable[[int, int, int, int], int], blocks: list[tuple[int, int]] = [(0xA9, 0xB4)], settings=engine.RETAIL
+    heights: Callable[[int, int, int, int], int], blocks: Sequence[tuple[int, int]] = ((0xA9, 0xB4),), settings=engine.RETAIL
 ) -> engine.World:
     """A world whose vertex (x, y) of block (bx, by) has height byte heights(bx, by, x, y)."""
     scene = {

@@ -31,7 +31,6 @@ from service.zconfig import make_config
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "tests"
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
-from support.shared_data import SHARED  # noqa: E402  (one place says where it is)
 START_TIMEOUT = 30.0
 
 
@@ -260,7 +259,7 @@ def prime_states(client: Any, mover_id: int, seen: Any, timeout: float = 10.0) -
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         st = client.move(mover_id, offset=(0.0, 0.0, 0.0))
-        if wait_until(lambda: any(x.seq == st.seq for x in seen()), timeout=0.2):
+        if wait_until(lambda seq=st.seq: any(x.seq == seq for x in seen()), timeout=0.2):
             return int(st.seq)
     raise AssertionError("the state subscription never went live")
 

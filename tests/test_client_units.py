@@ -5,7 +5,6 @@ from __future__ import annotations
 import io
 import json
 
-import pytest
 
 from clients import Move, ServiceError
 from clients.demo_world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height

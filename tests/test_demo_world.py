@@ -36,7 +36,6 @@ from clients.demo_world import (
     PILLAR_RADIUS,
     PLATFORM,
     build_demo_scene,
-    demo_footprints,
     demo_scene_path,
     global_to_cell,
     is_indoor,

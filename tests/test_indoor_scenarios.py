@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -171,8 +169,8 @@ def test_the_builders_physics_bsps_are_valid_and_load() -> None:
         room_struct((-3.0, -2.5, 0.0), (3.0, 2.5, 3.0), [Door("-y", -0.75, 0.75, 2.25)]),
         ramp_struct(0.0, 6.0, -1.0, 1.0, 0.0, -2.5, 3.0),
     ]
-    for st in structs:
-        cs = st.data
+    for struct in structs:
+        cs = struct.data
         _check_physics_bsp(cs["physics_bsp"], cs["vertices"], cs["physics_polygons"])
     shell = gfx_obj(shell_boxes((-3.0, -2.5, 0.0), (3.0, 2.5, 3.0), 0.25, Door("-y", -0.75, 0.75, 2.25)))
     _check_physics_bsp(shell["physics_bsp"], shell["vertices"], shell["physics_polygons"])

@@ -15,7 +15,7 @@ import pytest
 
 import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
-from engine.constants import HUGE_QUANTUM, MIN_QUANTUM
+from engine.constants import HUGE_QUANTUM
 from engine.world.quantum import split_elapsed
 from scenes import PLAYER, world_from_heights
 from test_scenarios import cell_at, standing

@@ -136,7 +136,7 @@ def test_a_request_run_in_the_callback_never_overtakes_a_queued_one() -> None:
                         col.send(session, 3 * r + k, "acphys/lb/A9B4/move", _batch(mover, 600))
                     one = msgpack.packb({"v": 1, "move": {"id": mover, "offset": [0.001, 0.0, 0.0], "tag": r}})
                     col.send(session, 3 * r + 2, "acphys/lb/A9B4/move", one)
-                    assert wait_until(lambda: len(col.finished) == 3 * r + 3, timeout=60.0)
+                    assert wait_until(lambda want=3 * r + 3: len(col.finished) == want, timeout=60.0)
                     for k in range(2):
                         [(ok, batch)] = col.replies[3 * r + k]
                         seq += 600

@@ -123,7 +123,7 @@ def test_fire_and_forget_states_in_order(session: zenoh.Session) -> None:
         # zero moves until the subscription is seen to be live
         for _ in range(50):
             ok, rep = ask(session, f"{P}/lb/A9B4/move", {"v": 1, "move": {"id": mover, "offset": [0, 0, 0]}})
-            if wait_until(lambda: any(m["state"]["seq"] == rep["state"]["seq"] for m in states), timeout=0.2):
+            if wait_until(lambda seq=rep["state"]["seq"]: any(m["state"]["seq"] == seq for m in states), timeout=0.2):
                 break
         base = rep["state"]["seq"]
         states.clear()

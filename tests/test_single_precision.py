@@ -10,14 +10,13 @@ from __future__ import annotations
 import gzip
 import json
 import random
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import engine
 from engine.geometry import Frame, Plane, Position, Sphere, Vec3
-from engine.geometry.f32 import cross_f32, dot_f32, f32, plane_dist_f32
+from engine.geometry.f32 import cross_f32, dot_f32, plane_dist_f32
 from engine.transition.settings import ACE_COMPAT
 from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition

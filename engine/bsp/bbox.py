@@ -6,7 +6,8 @@ that decides which cells an object's parts reach.
 
 from __future__ import annotations
 
-from typing import Final, Iterable, TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
+from collections.abc import Iterable
 
 from ..constants import EPSILON
 from ..geometry.plane import Plane, Side

@@ -10,7 +10,8 @@ negative child only, `BPIN`/`BPnN`/`PORT` both.
 
 from __future__ import annotations
 
-from typing import Any, Final, Mapping
+from typing import Any, Final
+from collections.abc import Mapping
 
 from ..geometry.plane import Plane
 from ..geometry.polygon import Polygon

@@ -28,7 +28,8 @@ passes down (`sphere_intersects_poly`, `sphere_intersects_solid_poly`).
 from __future__ import annotations
 
 import math
-from typing import Iterator, TYPE_CHECKING, Sequence, Final
+from typing import TYPE_CHECKING, Final
+from collections.abc import Iterator, Sequence
 
 from ..constants import CELL_BSP_EPSILON, EPSILON
 from ..geometry.plane import Plane

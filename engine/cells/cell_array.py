@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Final, Iterator
+from typing import Any, Final
+from collections.abc import Iterator
 
 from .obj_cell import ObjCell
 

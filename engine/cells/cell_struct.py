@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 from ..bsp import build_bsp, build_polygons
 from ..bsp.bbox import BBox

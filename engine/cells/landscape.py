@@ -8,7 +8,8 @@ the interpreted facade around it.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError
 from ..geometry.landdefs import cell_in_range

@@ -25,7 +25,8 @@ up)`, `adjust_sphere_to_plane(path, valid_pos, movement)`.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Sequence, Final
+from typing import TYPE_CHECKING, Final
+from collections.abc import Sequence
 
 from ..constants import EPSILON
 from .plane import Plane

@@ -14,7 +14,8 @@ others through the same code.
 
 from __future__ import annotations
 
-from typing import Any, Final, Sequence, TYPE_CHECKING
+from typing import Any, Final, TYPE_CHECKING
+from collections.abc import Sequence
 
 from ..constants import EPSILON
 from ..geometry import ZERO, Frame, Position, Sphere, Vec3

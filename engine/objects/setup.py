@@ -18,7 +18,8 @@ if any part has one, else the cylspheres, else the spheres.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping
+from typing import Any
+from collections.abc import Callable, Mapping
 
 from ..geometry import Frame, Position, Quat, Sphere, Vec3
 from .cylsphere_collision import CylSphere

@@ -7,7 +7,8 @@ world and shared, as the client's caches share them.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 from ..cells.building import BldPortal, BuildingObj
 from ..cells.cell_struct import CellStruct

@@ -8,7 +8,8 @@ objects newest first.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
 
 from ..geometry import Position
 from ..geometry.landdefs import outdoor_cell_id
