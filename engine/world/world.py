@@ -298,6 +298,44 @@ class World:
             cell = self.get_landcell(cell_id)
         return cell
 
+    # -- spatial queries (engine.queries; none of them changes any mover) ----------------
+    def sight(self, a: Position, b: Position, radius: float | None = None, *, target_id: int = 0) -> Any:
+        """Is the line from eye `a` to eye `b` clear? A SightResult (engine.queries.sweep.sight)."""
+        from ..queries import sweep
+
+        return sweep.sight(self, a, b, sweep.SIGHT_RADIUS if radius is None else radius, target_id=target_id)
+
+    def ray(self, start: Position, end: Position, radius: float, *, target_id: int = 0) -> Any:
+        """The first contact of a sphere swept from `start` to `end`: a RayHit (engine.queries.sweep.ray)."""
+        from ..queries import sweep
+
+        return sweep.ray(self, start, end, radius, target_id=target_id)
+
+    def ground(self, position: Position, max_drop: float | None = None) -> Any:
+        """The surface under `position`: a Ground, or None (engine.queries.ground)."""
+        from ..queries.ground import MAX_GROUND_DROP, ground
+
+        return ground(self, position, MAX_GROUND_DROP if max_drop is None else max_drop)
+
+    def sights(self, eyes: Any, targets: Any, radius: float | None = None) -> Any:
+        """`sight` for each pair: a list of SightResult (engine.queries.batch)."""
+        from ..queries import batch, sweep
+
+        return batch.sights(self, eyes, targets, sweep.SIGHT_RADIUS if radius is None else radius)
+
+    def rays(self, starts: Any, ends: Any, radius: float) -> Any:
+        """`ray` for each pair: a list of RayHit (engine.queries.batch)."""
+        from ..queries import batch
+
+        return batch.rays(self, starts, ends, radius)
+
+    def grounds(self, positions: Any, max_drop: float | None = None) -> Any:
+        """`ground` for each position: a list of Ground or None (engine.queries.batch)."""
+        from ..queries import batch
+        from ..queries.ground import MAX_GROUND_DROP
+
+        return batch.grounds(self, positions, MAX_GROUND_DROP if max_drop is None else max_drop)
+
     # -- terrain queries -----------------------------------------------------------------
     def terrain_height(self, cell_id: int, x: float, y: float) -> float:
         """Terrain z under landblock-local (x, y) of the landblock of `cell_id`."""

@@ -1,0 +1,25 @@
+"""Spatial queries on a World: sight, rays, ground (issue 14, the library part).
+
+Each query runs the engine's own transition machinery on a throwaway sweep
+object that no cell knows about, so a query never changes any mover.
+"""
+
+from .results import Blocker, Ground, RayHit, SightResult
+from .sweep import SIGHT_RADIUS, ray, sight
+from .ground import ground
+from .batch import grounds, rays, rays_array, sights
+
+__all__ = [
+    "Blocker",
+    "Ground",
+    "RayHit",
+    "SightResult",
+    "SIGHT_RADIUS",
+    "ray",
+    "sight",
+    "ground",
+    "rays",
+    "rays_array",
+    "sights",
+    "grounds",
+]
