@@ -39,7 +39,7 @@ from .. import limits
 from ..constants import BLOCK_LENGTH
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere, Vec3
-from ..geometry.landdefs import adjust_to_outside
+from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from ..transition.state import OI
 from ..transition.transition import Transition
 from ..world.mover import Mover
@@ -151,8 +151,8 @@ def _sweep(world: Any, start: Position, end: Position, radius: float, target_id:
 def _blocker(world: Any, t: Transition, stop: Position, radius: float) -> Blocker:
     """What stopped the sweep. A mover is named by the transition itself
     (CollisionInfo.collide_object); otherwise the stop is told apart by where
-    it is: an indoor cell's polygon, the terrain when the sphere rests on the
-    terrain triangle under it with that triangle's normal, a building's shell
+    it is: an indoor cell's polygon, the terrain when the sphere rests on (or
+    in) the terrain triangle under it with that triangle's normal, a building's shell
     when a building stands in the cells the sweep touched, else a static
     object (static objects are not recorded by the client's collision info)."""
     ci = t.collision_info
@@ -162,13 +162,20 @@ def _blocker(world: Any, t: Transition, stop: Position, radius: float) -> Blocke
     if (stop.cell_id & 0xFFFF) >= 0x100:
         return Blocker("cell")
     normal = ci.collision_normal
-    land = world.get_landcell(stop.cell_id)
-    if land is not None:
-        low = stop.frame.origin - normal * radius
-        tri = land.find_terrain_poly(low, False)
-        if tri is not None:
-            n = tri.plane.normal
-            if n.dot(normal) > 0.999 and abs(tri.plane.distance(stop.frame.origin) - radius) < 0.02:
+    center = stop.frame.origin
+    low = center - normal * radius
+    for cell in t.cell_array.cells():
+        triangles = getattr(cell, "polygons", None) if cell is not None and (cell.id & 0xFFFF) < 0x100 else None
+        if not triangles:
+            continue
+        offset = get_block_offset(stop.cell_id, cell.id)
+        for tri in triangles:
+            # the terrain: a triangle under the sphere with the collision's normal, the sphere on or in it
+            if (
+                tri.plane.normal.dot(normal) > 0.999
+                and tri.plane.distance(center - offset) <= radius + 0.05
+                and (tri.point_in_poly_2d(center - offset) or tri.point_in_poly_2d(low - offset))
+            ):
                 return Blocker("terrain")
     for cell in t.cell_array.cells():
         if cell is not None and getattr(cell, "building", None) is not None:
