@@ -34,8 +34,8 @@ def at(lb: int, x: float, y: float, z: float) -> Position:
     return Position.at(cell(lb, x, y), Vec3(x, y, z))
 
 
-def flat_world(blocks: list[tuple[int, int]] = [(0xA9, 0xB4)]) -> engine.World:
-    return world_from_heights(lambda bx, by, x, y: FLAT_BYTE, blocks)
+def flat_world(blocks: tuple[tuple[int, int], ...] = ((0xA9, 0xB4),)) -> engine.World:
+    return world_from_heights(lambda bx, by, x, y: FLAT_BYTE, list(blocks))
 
 
 def same_position(a: Position | None, b: Position | None) -> bool:
@@ -69,7 +69,7 @@ def mover_states(world: engine.World) -> dict[str, str]:
 
 
 def test_sight_across_open_flat_ground_is_clear_and_crosses_landblocks() -> None:
-    world = flat_world([(0xA9, 0xB4), (0xAA, 0xB4), (0xAB, 0xB4)])
+    world = flat_world(((0xA9, 0xB4), (0xAA, 0xB4), (0xAB, 0xB4)))
     # 1.5 m above flat ground, from the first landblock into the third (ACE refuses more than one apart)
     assert world.sight(at(0xA9B4, 100.0, 50.0, FLAT_Z + 1.5), at(0xABB4, 80.0, 60.0, FLAT_Z + 1.5)).clear
     assert world.sight(at(0xA9B4, 10.0, 10.0, FLAT_Z + 1.5), at(0xA9B4, 180.0, 170.0, FLAT_Z + 1.5)).clear
@@ -282,7 +282,7 @@ def test_bad_queries_get_clear_errors() -> None:
 
 def test_a_sweep_that_would_cross_unloaded_land_is_refused() -> None:
     # A9B4 and ABB4 loaded, AAB4 between them not
-    world = flat_world([(0xA9, 0xB4), (0xAB, 0xB4)])
+    world = flat_world(((0xA9, 0xB4), (0xAB, 0xB4)))
     with pytest.raises(LandblockNotLoadedError, match="AAB4"):
         world.sight(at(0xA9B4, 100.0, 50.0, 12.0), at(0xABB4, 80.0, 50.0, 12.0))
 

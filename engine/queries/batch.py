@@ -9,7 +9,8 @@ ends, as the service's columnar batches carry them.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 

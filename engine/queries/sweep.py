@@ -38,9 +38,8 @@ from typing import Any, Final
 from .. import limits
 from ..constants import BLOCK_LENGTH
 from ..errors import LandblockNotLoadedError, OutOfRangeError
-from ..geometry import ZERO, Position, Sphere, Vec3
+from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
-from ..transition.state import OI
 from ..transition.transition import Transition
 from ..world.mover import Mover
 from .results import Blocker, RayHit, SightResult
@@ -165,7 +164,9 @@ def _blocker(world: Any, t: Transition, stop: Position, radius: float) -> Blocke
     center = stop.frame.origin
     low = center - normal * radius
     for cell in t.cell_array.cells():
-        triangles = getattr(cell, "polygons", None) if cell is not None and (cell.id & 0xFFFF) < 0x100 else None
+        if cell is None or (cell.id & 0xFFFF) >= 0x100:
+            continue
+        triangles = getattr(cell, "polygons", None)
         if not triangles:
             continue
         offset = get_block_offset(stop.cell_id, cell.id)
