@@ -1,4 +1,4 @@
-"""Spatial queries on a World: sight, rays, ground (issue 14, the library part).
+"""Spatial queries on a World: sight, rays, ground, placement (issue 14, the library part).
 
 Each query runs the engine's own transition machinery on a throwaway sweep
 object that no cell knows about, so a query never changes any mover.
@@ -7,6 +7,7 @@ object that no cell knows about, so a query never changes any mover.
 from .results import Blocker, Ground, RayHit, SightResult
 from .sweep import SIGHT_RADIUS, ray, sight
 from .ground import ground
+from .placement import PlacementResult, place
 from .batch import grounds, rays, rays_array, sights
 
 __all__ = [
@@ -18,6 +19,8 @@ __all__ = [
     "ray",
     "sight",
     "ground",
+    "place",
+    "PlacementResult",
     "rays",
     "rays_array",
     "sights",
