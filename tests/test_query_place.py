@@ -156,3 +156,19 @@ def test_place_refuses_bad_input() -> None:
         world.place(spec, Position.at(0xA9B40035, Vec3(float("nan"), 10.0, 10.0)))
     with pytest.raises(ValueError, match="placement mode"):
         world.place(spec, Position.at(0xA9B40035, Vec3(160.0, 110.0, 160.0)), mode="sideways")
+
+
+def test_the_readme_queries_example_runs(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """README.md's "Spatial queries" example, run as written from the repo root."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "README.md").read_text()
+    section = text.split("### Spatial queries", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    if not (root.parent / "shared" / "oracle").is_dir():
+        code = code.replace("../shared/oracle", str(ORACLE))
+    monkeypatch.chdir(root)
+    exec(compile(code, "README.md", "exec"), {})
+    printed = capsys.readouterr().out.split()
+    assert printed[0] == "True" and printed[1] == "True"  # rolling hills: a clear line, and a ray into the ground
