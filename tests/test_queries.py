@@ -143,6 +143,24 @@ def test_sight_aimed_at_a_target_is_clear_when_it_reaches_the_target() -> None:
     assert world.sight(a, b, target_id=target).clear  # IsDirectVisible: reaching the target is seeing it
 
 
+def test_a_viewers_own_body_does_not_block_its_sight_when_it_is_named() -> None:
+    """An eye 1.6 m up a player is inside its head sphere (centre 1.35 m, radius
+    0.48): the sweep starts in the viewer. Named as the viewer, the sweep
+    starts outside it (0.48 + 0.1 m toward the other eye), as IsDirectVisible does."""
+    from scenes import PLAYER
+
+    world = flat_world()
+    viewer = world.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
+    a, b = at(A9B4, 50.0, 50.0, FLAT_Z + 1.6), at(A9B4, 65.0, 50.0, FLAT_Z + 1.6)
+    blocked = world.sight(a, b)
+    assert not blocked.clear and blocked.blocker == engine.queries.Blocker("object", viewer)
+    assert world.sight(a, b, viewer_id=viewer).clear
+    # a second player in the way still blocks a viewer's sight
+    other = world.add_mover(PLAYER, at(A9B4, 58.0, 50.0, FLAT_Z))
+    seen = world.sight(a, b, viewer_id=viewer)
+    assert not seen.clear and seen.blocker == engine.queries.Blocker("object", other)
+
+
 # -- rays --------------------------------------------------------------------------------------------
 
 

@@ -210,15 +210,50 @@ def _ray_checked(world: Any, start: Position, end: Position, radius: float, targ
     return RayHit(True, stop, stop.cell_id, ci.collision_normal, travelled, _blocker(world, t, stop, radius))
 
 
-def sight(world: Any, a: Position, b: Position, radius: float = SIGHT_RADIUS, *, target_id: int = 0, cache: dict[int, Any] | None = None) -> SightResult:
+def viewer_radius(world: Any, viewer_id: int) -> float:
+    """How far the sight object starts from a viewer's eye: the viewer's
+    horizontal reach (its spheres' farthest edge from its axis, scaled; the
+    client's PhysicsObj.GetPhysicsRadius)."""
+    mover = world.mover(viewer_id)
+    reach = 0.0
+    for s in mover.spheres:
+        reach = max(reach, math.hypot(s.center.x, s.center.y) + s.radius)
+    return reach * mover.scale
+
+
+def start_outside_viewer(world: Any, a: Position, b: Position, radius: float, viewer_id: int) -> Position:
+    """`a` moved toward `b` by the viewer's radius plus the sight object's,
+    so the sweep begins outside the viewer (IsDirectVisible)."""
+    offset = a.get_offset(b)
+    length = offset.length()
+    if length <= 0.0:
+        return a
+    step = min(viewer_radius(world, viewer_id) + radius, length)
+    return Position(a.cell_id, a.frame.with_origin(a.frame.origin + offset * (step / length)))
+
+
+def sight(
+    world: Any,
+    a: Position,
+    b: Position,
+    radius: float = SIGHT_RADIUS,
+    *,
+    target_id: int = 0,
+    viewer_id: int = 0,
+    cache: dict[int, Any] | None = None,
+) -> SightResult:
     """Is the line from eye `a` to eye `b` clear for the sight object?
 
     Clear when the sweep arrives at `b` without a collision, or when what it
     touched is the target mover `target_id` (IsDirectVisible's test: the
-    target among the objects collided with)."""
+    target among the objects collided with). With `viewer_id` (the mover
+    whose eye `a` is) the sweep starts outside that mover, moved toward `b`
+    by its radius plus the sight object's, as IsDirectVisible starts it."""
     check_point(world, a, "a")
     check_point(world, b, "b")
     radius = check_radius(radius)
+    if viewer_id:
+        a = start_outside_viewer(world, a, b, radius, viewer_id)
     check_segment(world, a, b, radius)
     return _sight_checked(world, a, b, radius, target_id, cache)
 

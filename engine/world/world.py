@@ -337,11 +337,12 @@ class World:
         return cell
 
     # -- spatial queries (engine.queries; none of them changes any mover) ----------------
-    def sight(self, a: Position, b: Position, radius: float | None = None, *, target_id: int = 0) -> SightResult:
-        """Is the line from eye `a` to eye `b` clear? A SightResult (engine.queries.sweep.sight)."""
+    def sight(self, a: Position, b: Position, radius: float | None = None, *, target_id: int = 0, viewer_id: int = 0) -> SightResult:
+        """Is the line from eye `a` to eye `b` clear? A SightResult (engine.queries.sweep.sight);
+        `target_id` the mover looked at, `viewer_id` the mover looking."""
         from ..queries import sweep
 
-        return sweep.sight(self, a, b, sweep.SIGHT_RADIUS if radius is None else radius, target_id=target_id)
+        return sweep.sight(self, a, b, sweep.SIGHT_RADIUS if radius is None else radius, target_id=target_id, viewer_id=viewer_id)
 
     def ray(self, start: Position, end: Position, radius: float, *, target_id: int = 0) -> RayHit:
         """The first contact of a sphere swept from `start` to `end`: a RayHit (engine.queries.sweep.ray)."""
