@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings, strategies as st
 import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import EngineError, LandblockNotLoadedError, NonFiniteError, OutOfRangeError, UnknownCellError
-from engine.queries import SIGHT_RADIUS, rays_array
+from engine.queries import SIGHT_RADIUS, grounds_array, rays_array, sights_array
 
 from indoor_builder import GROUND, SceneBuilder, gfx_obj, room_struct, shell_boxes
 from scenes import world_from_heights
@@ -227,6 +227,32 @@ def test_batched_rays_equal_single_rays_and_take_numpy_columns() -> None:
     )
     assert [ray_key(h) for h in columns] == [ray_key(h) for h in singles]
     assert [sight_key(r) for r in world.sights(starts, ends)] == [sight_key(world.sight(s, e)) for s, e in zip(starts, ends)]
+    cols = [
+        np.array([p.cell_id for p in starts], dtype=np.int64),
+        np.array([(p.frame.origin.x, p.frame.origin.y, p.frame.origin.z) for p in starts]),
+        np.array([p.cell_id for p in ends], dtype=np.int64),
+        np.array([(p.frame.origin.x, p.frame.origin.y, p.frame.origin.z) for p in ends]),
+    ]
+    assert [sight_key(r) for r in sights_array(world, *cols)] == [sight_key(world.sight(s, e)) for s, e in zip(starts, ends)]
+    assert grounds_array(world, cols[0], cols[1]) == [world.ground(p) for p in starts]
+    with pytest.raises(ValueError, match="shape"):
+        rays_array(world, cols[0], cols[1][:, :2], cols[2], cols[3], 0.5)
+
+
+def test_batched_sights_take_a_target_and_a_viewer_per_pair() -> None:
+    from scenes import PLAYER
+
+    world = flat_world()
+    viewer = world.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
+    target = world.add_mover(PLAYER, at(A9B4, 65.0, 50.0, FLAT_Z))
+    a, b = at(A9B4, 50.0, 50.0, FLAT_Z + 1.6), at(A9B4, 65.0, 50.0, FLAT_Z + 1.6)
+    got = world.sights([a, a, a], [b, b, b], target_ids=[0, target, target], viewer_ids=[0, 0, viewer])
+    # plain: blocked by the viewer's own head; aimed at a target: every other
+    # creature, the viewer too, is passed (MissileIgnore); named viewer: starts outside it
+    assert [r.clear for r in got] == [False, True, True]
+    assert got[0].blocker == engine.queries.Blocker("object", viewer)
+    with pytest.raises(EngineError, match="query 0"):
+        world.sights([a], [b], viewer_ids=[99])
 
 
 # -- ground ------------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ from .results import Blocker, Ground, RayHit, SightResult
 from .sweep import SIGHT_RADIUS, ray, sight
 from .ground import ground
 from .placement import PlacementResult, place
-from .batch import grounds, rays, rays_array, sights
+from .batch import grounds, grounds_array, rays, rays_array, sights, sights_array
 
 __all__ = [
     "Blocker",
@@ -25,4 +25,6 @@ __all__ = [
     "rays_array",
     "sights",
     "grounds",
+    "grounds_array",
+    "sights_array",
 ]

@@ -19,9 +19,9 @@ from ..errors import EngineError, OutOfRangeError
 from ..geometry import Position, Vec3
 from .ground import MAX_GROUND_DROP, _ground_checked
 from .results import Ground, RayHit, SightResult
-from .sweep import SIGHT_RADIUS, _ray_checked, _sight_checked, check_point, check_radius, check_segment
+from .sweep import SIGHT_RADIUS, _ray_checked, _sight_checked, check_point, check_radius, check_segment, start_outside_viewer
 
-__all__ = ["rays", "rays_array", "sights", "grounds"]
+__all__ = ["rays", "rays_array", "sights", "sights_array", "grounds", "grounds_array", "positions_from_arrays"]
 
 
 def _refuse(index: int, error: EngineError) -> EngineError:
@@ -50,11 +50,37 @@ def rays(world: Any, starts: Sequence[Position], ends: Sequence[Position], radiu
     return [_ray_checked(world, s, e, r, target_id, cache) for s, e in zip(starts, ends)]
 
 
-def sights(world: Any, eyes: Sequence[Position], targets: Sequence[Position], radius: float = SIGHT_RADIUS) -> list[SightResult]:
-    """`sight` for each (eye, target) pair, in order."""
+def sights(
+    world: Any,
+    eyes: Sequence[Position],
+    targets: Sequence[Position],
+    radius: float = SIGHT_RADIUS,
+    *,
+    target_ids: Sequence[int] | None = None,
+    viewer_ids: Sequence[int] | None = None,
+) -> list[SightResult]:
+    """`sight` for each (eye, target) pair, in order; `target_ids` and
+    `viewer_ids` (0 for none) per pair when given."""
     r = _check_pairs(world, eyes, targets, radius)
+    n = len(eyes)
+    for name, ids in (("target_ids", target_ids), ("viewer_ids", viewer_ids)):
+        if ids is not None and len(ids) != n:
+            raise ValueError(f"{name} needs one id per pair ({n} pairs, {len(ids)} ids)")
+    if viewer_ids is not None:
+        for i, viewer in enumerate(viewer_ids):
+            if viewer:
+                try:
+                    world.mover(int(viewer))
+                except EngineError as error:
+                    raise _refuse(i, error) from None
     cache: dict[int, Any] = {}
-    return [_sight_checked(world, a, b, r, 0, cache) for a, b in zip(eyes, targets)]
+    out = []
+    for i, (a, b) in enumerate(zip(eyes, targets)):
+        viewer = int(viewer_ids[i]) if viewer_ids is not None else 0
+        if viewer:
+            a = start_outside_viewer(world, a, b, r, viewer)
+        out.append(_sight_checked(world, a, b, r, int(target_ids[i]) if target_ids is not None else 0, cache))
+    return out
 
 
 def grounds(world: Any, positions: Sequence[Position], max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
@@ -87,3 +113,15 @@ def rays_array(world: Any, start_cells: Any, start_xyz: Any, end_cells: Any, end
     starts = positions_from_arrays(start_cells, start_xyz, "starts")
     ends = positions_from_arrays(end_cells, end_xyz, "ends")
     return rays(world, starts, ends, radius)
+
+
+def sights_array(world: Any, eye_cells: Any, eye_xyz: Any, target_cells: Any, target_xyz: Any, radius: float = SIGHT_RADIUS) -> list[SightResult]:
+    """`sights` on numpy columns: cell ids (n,) and xyz (n, 3) of eyes and targets."""
+    eyes = positions_from_arrays(eye_cells, eye_xyz, "eyes")
+    targets = positions_from_arrays(target_cells, target_xyz, "targets")
+    return sights(world, eyes, targets, radius)
+
+
+def grounds_array(world: Any, cells: Any, xyz: Any, max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
+    """`grounds` on numpy columns: cell ids (n,) and xyz (n, 3)."""
+    return grounds(world, positions_from_arrays(cells, xyz, "positions"), max_drop)

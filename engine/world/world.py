@@ -363,11 +363,20 @@ class World:
 
         return place(self, spec, position, mode, slide)
 
-    def sights(self, eyes: Sequence[Position], targets: Sequence[Position], radius: float | None = None) -> list[SightResult]:
+    def sights(
+        self,
+        eyes: Sequence[Position],
+        targets: Sequence[Position],
+        radius: float | None = None,
+        *,
+        target_ids: Sequence[int] | None = None,
+        viewer_ids: Sequence[int] | None = None,
+    ) -> list[SightResult]:
         """`sight` for each pair: a list of SightResult (engine.queries.batch)."""
         from ..queries import batch, sweep
 
-        return batch.sights(self, eyes, targets, sweep.SIGHT_RADIUS if radius is None else radius)
+        r = sweep.SIGHT_RADIUS if radius is None else radius
+        return batch.sights(self, eyes, targets, r, target_ids=target_ids, viewer_ids=viewer_ids)
 
     def rays(self, starts: Sequence[Position], ends: Sequence[Position], radius: float) -> list[RayHit]:
         """`ray` for each pair: a list of RayHit (engine.queries.batch)."""
