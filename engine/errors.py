@@ -51,3 +51,7 @@ class UnknownMoverError(EngineError, KeyError):
 
 class SceneFormatError(EngineError):
     """A scene or trace file that does not follow its format."""
+
+
+class PlacementFailedError(EngineError):
+    """A mover registered with a placement found no place: it is not registered."""

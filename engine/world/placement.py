@@ -19,7 +19,7 @@ from .types import MoveResult
 if TYPE_CHECKING:
     from .world import World
 
-__all__ = ["place_mover", "PLACEMENT_MODES"]
+__all__ = ["place_mover", "run_placement", "PLACEMENT_MODES"]
 
 PLACEMENT_MODES = ("enter_world", "teleport")
 
@@ -50,6 +50,39 @@ def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[
     return (world.get_landcell(cell_id) if cell_id else None), position
 
 
+def run_placement(world: World, mover: Any, target: Position, mode: str, slide: bool) -> tuple[str, Transition, Position]:
+    """The placement transition for `mover` at `target` (PhysicsObj.SetPosition
+    up to, not including, SetPositionInternal): "OK", "NoValidPosition" or
+    "NoCell(lost)", the transition, and the target re-homed into its cell.
+    Nothing is applied to the mover; `target` is already checked."""
+    if mode not in PLACEMENT_MODES:
+        raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")
+    t = Transition(world, world.settings)
+    # ObjectInfo Default: no EdgeSlide, no contact plane, no sliding normal.
+    t.init_object(mover.object_info(0))
+    t.init_sphere(mover.spheres, mover.scale)
+
+    cell, position = _adjust_position(world, target, t.sphere_path.local_sphere[0].center)
+    if cell is None:
+        return "NoCell(lost)", t, position
+
+    t.init_path(cell, None, position)
+    if not slide:
+        t.sphere_path.placement_allows_sliding = False
+    ok = t.find_valid_position()
+    path = t.sphere_path
+    if ok and not slide:
+        assert path.curr_pos is not None
+        diff = path.curr_pos.frame.origin - position.frame.origin
+        # the client compares the signed differences, so only a shift toward +x/+y is bounded
+        ok = path.curr_pos.cell_id == cell.id and diff.x < 0.05 and diff.y < 0.05
+    if ok and path.curr_cell is None:
+        ok = False
+    if ok and mode == "enter_world" and path.curr_pos is not None and path.curr_pos.cell_id >> 16 != position.cell_id >> 16:
+        ok = False
+    return ("OK" if ok else "NoValidPosition"), t, position
+
+
 def place_mover(world: World, mover_id: int, target: Position, mode: str = "teleport", slide: bool = False) -> MoveResult:
     """Place a mover at `target` as the client places a new or teleported object.
 
@@ -66,34 +99,14 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     mover = world.mover(mover_id)
     world._check_position(target)
 
-    t = Transition(world, world.settings)
-    # ObjectInfo Default: no EdgeSlide, no contact plane, no sliding normal.
-    t.init_object(mover.object_info(0))
-    t.init_sphere(mover.spheres, mover.scale)
-
-    cell, position = _adjust_position(world, target, t.sphere_path.local_sphere[0].center)
-    if cell is None:
+    outcome, t, position = run_placement(world, mover, target, mode, slide)
+    if outcome == "NoCell(lost)":
         mover.position = position
         mover.cell = None
         result = _result(mover, False, "Invalid", t)
         result.placement_result = "NoCell(lost)"  # type: ignore[attr-defined]
         return result
-
-    t.init_path(cell, None, position)
-    if not slide:
-        t.sphere_path.placement_allows_sliding = False
-    ok = t.find_valid_position()
-    path = t.sphere_path
-    if ok and not slide:
-        assert path.curr_pos is not None
-        diff = path.curr_pos.frame.origin - position.frame.origin
-        # the client compares the signed differences, so only a shift toward +x/+y is bounded
-        ok = path.curr_pos.cell_id == cell.id and diff.x < 0.05 and diff.y < 0.05
-    if ok and path.curr_cell is None:
-        ok = False
-    if ok and mode == "enter_world" and path.curr_pos is not None and path.curr_pos.cell_id >> 16 != position.cell_id >> 16:
-        ok = False
-    if not ok:
+    if outcome != "OK":
         result = _result(mover, False, "Invalid", t)
         result.placement_result = "NoValidPosition"  # type: ignore[attr-defined]
         return result

@@ -9,12 +9,12 @@
 from __future__ import annotations
 
 import math
-from typing import Any
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from .. import limits
 from ..constants import MAX_VELOCITY
-from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownMoverError
+from ..errors import LandblockNotLoadedError, NonFiniteError, PlacementFailedError, UnknownMoverError
 from ..geometry import ZERO, Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
@@ -28,6 +28,10 @@ from .resolve import move_mover, move_result
 from .rollback import MoverSnapshot
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
+
+if TYPE_CHECKING:
+    from ..queries.placement import PlacementResult
+    from ..queries.results import Ground, RayHit, SightResult
 
 __all__ = ["World"]
 
@@ -119,11 +123,25 @@ class World:
         *,
         sliding_normal: Vec3 | None = None,
         water_contact: bool = False,
+        placement: str | None = None,
+        slide: bool = True,
     ) -> int:
         """Register a mover at `position` with its starting contact state.
 
+        With `placement` ("enter_world" or "teleport") the new mover is then
+        placed as the client places an object entering the world
+        (engine.world.placement.place_mover, `slide` letting it search for a
+        free spot nearby): it stands where the placement puts it, with the
+        contact state the placement leaves; a placement that finds no place
+        raises PlacementFailedError and registers nothing.
+
         Every number is checked against engine.limits first: a refused
         mover changes nothing."""
+        if placement is not None:
+            from .placement import PLACEMENT_MODES
+
+            if placement not in PLACEMENT_MODES:
+                raise ValueError(f"placement must be one of {PLACEMENT_MODES}, got {placement!r}")
         limits.check_mover_spec(spec, "spec")
         limits.check_start(position, "position", limits.start_slack(spec))
         if contact_plane is not None:
@@ -153,7 +171,26 @@ class World:
         self._enter_cells(mover)
         self.movers[mover.id] = mover
         self._next_mover_id += 1
+        if placement is not None:
+            self._place_new(mover.id, position, placement, slide)
         return mover.id
+
+    def _place_new(self, mover_id: int, position: Position, mode: str, slide: bool) -> None:
+        """Place a just-registered mover; unregister it again if there is no place."""
+        from .placement import place_mover
+
+        try:
+            placed = place_mover(self, mover_id, position, mode, slide)
+        except BaseException:
+            self._unregister_newest(mover_id)
+            raise
+        if not placed.ok:
+            self._unregister_newest(mover_id)
+            raise PlacementFailedError(f"no place for the mover at {position!r}: {placed.placement_result}")
+
+    def _unregister_newest(self, mover_id: int) -> None:
+        self.remove_mover(mover_id)
+        self._next_mover_id = mover_id  # as if it had never come
 
     def mover(self, mover_id: int) -> Mover:
         try:
@@ -298,6 +335,61 @@ class World:
             cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
             cell = self.get_landcell(cell_id)
         return cell
+
+    # -- spatial queries (engine.queries; none of them changes any mover) ----------------
+    def sight(self, a: Position, b: Position, radius: float | None = None, *, target_id: int = 0, viewer_id: int = 0) -> SightResult:
+        """Is the line from eye `a` to eye `b` clear? A SightResult (engine.queries.sweep.sight);
+        `target_id` the mover looked at, `viewer_id` the mover looking."""
+        from ..queries import sweep
+
+        return sweep.sight(self, a, b, sweep.SIGHT_RADIUS if radius is None else radius, target_id=target_id, viewer_id=viewer_id)
+
+    def ray(self, start: Position, end: Position, radius: float, *, target_id: int = 0) -> RayHit:
+        """The first contact of a sphere swept from `start` to `end`: a RayHit (engine.queries.sweep.ray)."""
+        from ..queries import sweep
+
+        return sweep.ray(self, start, end, radius, target_id=target_id)
+
+    def ground(self, position: Position, max_drop: float | None = None) -> Ground | None:
+        """The surface under `position`: a Ground, or None (engine.queries.ground)."""
+        from ..queries.ground import MAX_GROUND_DROP, ground
+
+        return ground(self, position, MAX_GROUND_DROP if max_drop is None else max_drop)
+
+    def place(self, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
+        """Where an object of shape `spec` would be placed at `position`, without
+        placing anything: a PlacementResult (engine.queries.placement)."""
+        from ..queries.placement import place
+
+        return place(self, spec, position, mode, slide)
+
+    def sights(
+        self,
+        eyes: Sequence[Position],
+        targets: Sequence[Position],
+        radius: float | None = None,
+        *,
+        target_ids: Sequence[int] | None = None,
+        viewer_ids: Sequence[int] | None = None,
+    ) -> list[SightResult]:
+        """`sight` for each pair: a list of SightResult (engine.queries.batch)."""
+        from ..queries import batch, sweep
+
+        r = sweep.SIGHT_RADIUS if radius is None else radius
+        return batch.sights(self, eyes, targets, r, target_ids=target_ids, viewer_ids=viewer_ids)
+
+    def rays(self, starts: Sequence[Position], ends: Sequence[Position], radius: float) -> list[RayHit]:
+        """`ray` for each pair: a list of RayHit (engine.queries.batch)."""
+        from ..queries import batch
+
+        return batch.rays(self, starts, ends, radius)
+
+    def grounds(self, positions: Sequence[Position], max_drop: float | None = None) -> list[Ground | None]:
+        """`ground` for each position: a list of Ground or None (engine.queries.batch)."""
+        from ..queries import batch
+        from ..queries.ground import MAX_GROUND_DROP
+
+        return batch.grounds(self, positions, MAX_GROUND_DROP if max_drop is None else max_drop)
 
     # -- terrain queries -----------------------------------------------------------------
     def terrain_height(self, cell_id: int, x: float, y: float) -> float:
