@@ -563,8 +563,8 @@ class ServiceNode:
         except Exception:  # the publisher is gone (shutting down): publish as without it
             return True
 
-    def batch_watched(self) -> bool:
-        pub = self._batch_pub
+    def _watched(self, pub: Any) -> bool:
+        """Whether a put on `pub`'s key would reach anyone (Zenoh's matching status, read now)."""
         if not self.options.publish_states or self.session is None or pub is None:
             return False
         if not self.options.skip_unwatched_states:
@@ -573,6 +573,9 @@ class ServiceNode:
             return bool(pub.matching_status.matching)
         except Exception:  # the publisher is gone (shutting down): publish as without it
             return True
+
+    def batch_watched(self) -> bool:
+        return self._watched(self._batch_pub)
 
     def publish_batch(self, packed_states: list[bytes]) -> None:
         pub = self._batch_pub
@@ -580,15 +583,7 @@ class ServiceNode:
             pub.put(states_message(packed_states))
 
     def columns_watched(self) -> bool:
-        pub = self._columns_pub
-        if not self.options.publish_states or self.session is None or pub is None:
-            return False
-        if not self.options.skip_unwatched_states:
-            return True
-        try:
-            return bool(pub.matching_status.matching)
-        except Exception:  # the publisher is gone (shutting down): publish as without it
-            return True
+        return self._watched(self._columns_pub)
 
     def publish_columns(self, message: bytes) -> None:
         pub = self._columns_pub
