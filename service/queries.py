@@ -31,6 +31,7 @@ __all__ = [
     "BATCH_FIELDS",
     "query_work",
     "query_count",
+    "encode_answer",
     "decode_ground",
     "decode_ray_hit",
     "decode_sight",
@@ -211,6 +212,11 @@ def _encoder(op: str, blocker_id: Callable[[int], int]) -> Encode:
 
     encoders: dict[str, Encode] = {"ground": ground, "ray": ray, "sight": sight, "place": place}
     return encoders[op]
+
+
+def encode_answer(op: str, answer: Any) -> Any:
+    """An answer of `op` in its wire form (docs/protocol.md), object ids as the answer holds them."""
+    return _encoder(op, lambda i: i)(answer)
 
 
 def _vec(v: Any) -> Vec3 | None:
