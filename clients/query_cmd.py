@@ -89,7 +89,7 @@ def _run(op: str, ask: Callable[[Any, argparse.Namespace], Any]) -> Callable[[ar
             print(json.dumps(encode_answer(op, answer), indent=2))
         else:
             for k, v in _rows(op, answer):
-                print(f"{k:>12}  {v}")
+                print(f"{k:>13}  {v}")
         return 0
 
     return run
