@@ -147,3 +147,22 @@ def test_query_keys_are_checked_like_move_keys(service: ServiceProcess) -> None:
         both = {"v": 1, "ground": {"position": encode_position(good)}, "grounds": []}
         ok, msg = raw_query(s, "acphys/lb/A9B4/ground", msgpack.packb(both, use_bin_type=True), timeout=10.0)
         assert not ok and msg["error"]["kind"] == ErrorKind.BAD_VALUE
+
+
+def test_a_registered_mover_blocks_a_ray_and_is_named_by_its_wire_id(client: Client) -> None:
+    st = client.register(human(), above(100.0, 120.0, 0.0))
+    try:
+        m = st.position.frame.origin
+        # a horizontal segment through the upper sphere's centre (0.48 m sphere at 1.35 m), 2 m either side
+        start = Position.at(st.position.cell_id, Vec3(m.x - 2.0, m.y, m.z + 1.35))
+        end = Position.at(st.position.cell_id, Vec3(m.x + 2.0, m.y, m.z + 1.35))
+        hit = client.ray(start, end, 0.1)
+        assert hit.hit and hit.blocker is not None
+        assert hit.blocker.kind == "object" and hit.blocker.object_id == st.id
+        # the centre stops at the touch of the two spheres (0.48 + 0.1 before the body's axis), never inside,
+        # and at most a few centimetres short of it
+        assert m.x - 0.58 - 0.05 <= hit.position.frame.origin.x <= m.x - 0.58 + 1e-6
+        seen = client.sight(start, end, target=st.id)
+        assert seen.clear  # looking at it: touching the target is arriving
+    finally:
+        client.remove(st.id)
