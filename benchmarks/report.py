@@ -883,6 +883,10 @@ def write(results: dict[str, Any]) -> None:
         lines += _memory(results["memory"])
     if "stress" in results:
         lines += _stress(results["stress"])
+    if "queries" in results:
+        from .bench_queries import section
+
+        lines += section(results["queries"], _meta(results["queries"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

@@ -25,7 +25,7 @@ from typing import Any
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "memory", "stress")
+SECTIONS = ("engine", "error", "service", "memory", "stress", "queries")
 
 
 def _git_commit() -> str:
@@ -158,6 +158,13 @@ def main(argv: list[str] | None = None) -> int:
                     data["compiled"] = bench_service.run(args.quick, engine_root=pure.build_compiled())
                 except Exception as e:  # noqa: BLE001
                     data["compiled"] = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "queries":
+            from . import bench_queries
+
+            try:
+                data = bench_queries.run(args.quick)
+            except Exception as e:  # noqa: BLE001 - the doc says why instead
+                data = {"failed": f"{type(e).__name__}: {e}"}
         elif section == "memory":
             from . import bench_memory
 

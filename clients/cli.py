@@ -4,6 +4,7 @@
     acphys demo --out walk.png        # walk the demo (embedded service if none runs)
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
+    acphys ground A9B4000B 40 50 60    # spatial queries: ground, sight, ray, place (clients/query_cmd.py)
     acphys view                       # a live map of the movers on http://127.0.0.1:8765/
     acphys router --listen tcp/0.0.0.0:7447   # a Zenoh router for instances on several machines
 """
@@ -20,6 +21,7 @@ from service.router import add_router_arguments, run_router
 from service.wire import DEFAULT_PREFIX
 
 from .landblock_cmd import add_landblock_commands
+from .query_cmd import add_query_commands
 
 __all__ = ["main", "build_parser"]
 
@@ -87,6 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
     _conn_args(st)
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
     add_landblock_commands(sub)
+    add_query_commands(sub, _conn_args)
     return p
 
 

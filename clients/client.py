@@ -27,6 +27,7 @@ from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKin
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
 from .batch import BatchResults, move_batch
+from .spatial import SpatialQueries
 from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState, item_result
 
@@ -70,7 +71,7 @@ class Subscription:
         self.close()
 
 
-class Client:
+class Client(SpatialQueries):
     def __init__(
         self,
         connect: Sequence[str] | None = None,

@@ -46,6 +46,7 @@ from .requests import (
     parse_update,
 )
 from .stats import ServiceStats
+from .queries import QUERY_OPS, query_count, query_work
 from .wire import LB_QUERY_OPS, PROTOCOL_VERSION, ErrorKind, Keys, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
@@ -382,6 +383,8 @@ class ServiceNode:
                 return work, column_count(msg) <= self.options.inline_max_moves
             batch = msg.get("moves")  # a list when given (parsed above), else one move
             return work, batch is None or len(batch) <= self.options.inline_max_moves
+        if op in QUERY_OPS:  # read-only: a small one runs in the callback like `get`
+            return work, query_count(msg, op) <= self.options.inline_max_moves
         # load and unload may read a landblock from disk: queued
         return work, op in ("register", "update", "remove", "get")
 
@@ -431,6 +434,9 @@ class ServiceNode:
         if op == "handover":
             handover = parse_handover(msg)
             return lambda: core.handover_in(handover)
+        if op in QUERY_OPS:
+            return query_work(op, lb, msg, core.world, lambda i: core._record(i, "target").engine_id,
+                              lambda e: core._by_engine.get(e, 0))
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 
     def _column_work(self, msg: dict[str, Any], received: float) -> Callable[[], bytes]:

@@ -14,7 +14,7 @@ __all__ = ["LatencyWindow", "ServiceStats", "REQUEST_OPS"]
 
 #: Every operation counted in `requests` (each listed, 0 when none came: docs/protocol.md, Stats).
 REQUEST_OPS = ("move", "push", "register", "update", "remove", "get", "load", "unload", "handover", "health",
-               "stats", "landblocks")
+               "stats", "landblocks", "sight", "ray", "ground", "place")
 
 
 class LatencyWindow:

@@ -147,4 +147,5 @@ class Keys:
 
 
 #: The per-landblock operations served as queryables (`<prefix>/lb/<XXYY>/<op>`).
-LB_QUERY_OPS = ("move", "register", "update", "remove", "get", "load", "unload", "handover")
+LB_QUERY_OPS = ("move", "register", "update", "remove", "get", "load", "unload", "handover",
+                "sight", "ray", "ground", "place")  # the last four: spatial queries (service/queries.py)

@@ -209,3 +209,31 @@ def test_per_instance_keys(session: zenoh.Session) -> None:
     assert {"count", "window", "p50", "p90", "p99", "max", "mean"} <= set(stats["latency_ms"])
     ok, loaded = ask(session, f"{P}/lb/A9B4/load", None)
     assert ok and loaded == {"v": 1, "landblock": LB, "loaded": True, "already": True}
+
+
+def test_spatial_queries_from_the_doc(session: zenoh.Session) -> None:
+    """Ground and sight as docs/protocol.md, "Spatial queries", describes them."""
+    high = {"cell": CELL, "origin": [30.0, 30.0, 500.0]}  # far above any land of the demo scene
+    ok, rep = ask(session, f"{P}/lb/A9B4/ground", {"v": 1, "ground": {"position": high, "max_drop": 1000.0}})
+    assert ok, rep
+    g = rep["ground"]
+    assert set(g) == {"z", "plane", "cell", "walkable", "water_depth"}
+    n, d = g["plane"]["normal"], g["plane"]["d"]
+    assert math.isclose(math.hypot(*n), 1.0, abs_tol=1e-4)
+    assert abs(n[0] * 30.0 + n[1] * 30.0 + n[2] * g["z"] + d) < 1e-3  # the surface point under (30, 30) is on the plane
+    z = g["z"]
+    # eye to eye 2 m above that ground, 1 m apart along x in the same cell: clear; to 5 m under the ground: blocked
+    eye = {"cell": CELL, "origin": [30.0, 30.0, z + 2.0]}
+    near = {"cell": CELL, "origin": [31.0, 30.0, z + 2.0 + n[0] * -1.0 / n[2]]}
+    ok, rep = ask(session, f"{P}/lb/A9B4/sight", {"v": 1, "sights": [
+        {"from": eye, "to": near},
+        {"from": eye, "to": {"cell": CELL, "origin": [30.0, 30.0, z - 5.0]}},
+    ]})
+    assert ok, rep
+    clear, blocked = rep["sights"]
+    assert clear["clear"] is True and clear["blocker"] is None and clear["stop"] is None
+    assert blocked["clear"] is False and blocked["blocker"] == {"kind": "terrain", "object_id": None}
+    assert z - 5.0 <= blocked["stop"]["origin"][2] <= z + 2.0
+    # a position outside the key's landblock
+    ok, rep = ask(session, f"{P}/lb/A9B5/ground", {"v": 1, "ground": {"position": high}})
+    assert not ok and rep["error"]["kind"] == "wrong_landblock" and rep["error"]["landblock"] == LB
