@@ -27,7 +27,7 @@ def _queries(world: Any, n: int) -> list[tuple[Any, Any]]:
         cell, x, y = global_to_cell(gx, gy)
         return Position.at(cell, Vec3(x, y, world.terrain_height(cell, x, y) + 1.6))
 
-    out = []
+    out: list[tuple[Any, Any]] = []
     while len(out) < n:
         gx, gy = rng.uniform(20.0, 170.0), rng.uniform(20.0, 170.0)
         dx, dy = rng.uniform(-40.0, 40.0), rng.uniform(-40.0, 40.0)
