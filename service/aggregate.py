@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .capabilities import CAPABILITY_FIELDS
 from .stats import LatencyWindow
 
 __all__ = ["WorkerView", "merge_health", "merge_stats", "merge_landblocks", "merged_window"]
@@ -97,8 +98,8 @@ def merge_stats(base: dict[str, Any], parent_counts: dict[str, dict[str, int]], 
     requests.update(parent_counts.get("requests", {}))
     out = merge_health(base, replies, workers, draining)
     del out["status"]
-    out.pop("protocol", None)
-    out.pop("publish", None)
+    for name in CAPABILITY_FIELDS:  # Health's, not Stats'
+        out.pop(name, None)
     out.update({
         "requests": dict(requests),
         "moves": _sum_int(got, "moves"),

@@ -29,14 +29,13 @@ import zenoh
 
 from .column_moves import push_columns, reply_message, run_columns
 from .column_request import column_count, is_column_request, parse_column_request
-from .columns import MOVE_FORMS
+from .capabilities import capabilities
 from .core import ServiceCore
 from .errors import ProtocolError
 from .frames import STATE_HEAD, pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
 from .ownership import Ownership
 from .requests import (
-    PUBLISH_MODES,
     ItemError,
     decode_envelope,
     parse_handover,
@@ -47,7 +46,7 @@ from .requests import (
 )
 from .stats import ServiceStats
 from .queries import QUERY_OPS, query_count, query_work
-from .wire import LB_QUERY_OPS, PROTOCOL_VERSION, ErrorKind, Keys, parse_lb_hex
+from .wire import LB_QUERY_OPS, ErrorKind, Keys, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
 
@@ -515,9 +514,7 @@ class ServiceNode:
         self._reply_ok(query, {
             "instance": self.instance,
             "status": "draining" if self._draining else "ok",
-            "protocol": PROTOCOL_VERSION,
-            "publish": list(PUBLISH_MODES),
-            "move_forms": list(MOVE_FORMS),
+            **capabilities(),
             "uptime_s": time.monotonic() - self.stats.started,
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,

@@ -53,12 +53,12 @@ from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
 from .errors import ProtocolError
 from .frames import pack
 from .ownership import Ownership
-from .requests import PUBLISH_MODES
+from .capabilities import capabilities
 from .certificates import INSTANCE_CN, make_certificates
 from .router import router_config
 from .security import ClusterConfig
 from .stats import ServiceStats
-from .wire import PROTOCOL_VERSION, ErrorKind, Keys
+from .wire import ErrorKind, Keys
 from .zconfig import DEFAULT_ENDPOINT
 
 __all__ = ["worker_count", "serve_workers", "attach_worker", "die_with_parent", "WorkerSupervisor"]
@@ -379,8 +379,7 @@ class WorkerSupervisor:
         return out
 
     def _base(self) -> dict[str, Any]:
-        return {"instance": self.instance, "protocol": PROTOCOL_VERSION, "publish": list(PUBLISH_MODES),
-                "uptime_s": time.monotonic() - self.stats.started}
+        return {"instance": self.instance, **capabilities(), "uptime_s": time.monotonic() - self.stats.started}
 
     def _views(self) -> list[WorkerView]:
         return [w.view() for w in self.workers]

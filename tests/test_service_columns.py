@@ -523,9 +523,10 @@ def test_push_columns_moves_and_reports_errors(service: ServiceProcess, client: 
         sub.close()
 
 
-def test_health_lists_the_column_form(client: Client) -> None:
+def test_health_lists_the_column_form_and_the_queries(client: Client) -> None:
     (h,) = client.health()
     assert h.get("move_forms") == ["move", "moves", "columns"]
+    assert h.get("queries") == ["sight", "ray", "ground", "place"]
 
 
 def test_client_refuses_wrong_shapes_before_sending(client: Client) -> None:

@@ -62,6 +62,10 @@ def test_one_face_health_stats_and_landblocks(client: Client) -> None:
     procs = health["worker_processes"]
     assert [p["owned"] for p in procs] == [[0xA9B4, 0xA9B5], [0xAAB4, 0xAAB5]]
     assert len({p["instance"] for p in procs} | {health["instance"]}) == 3  # three Zenoh sessions
+    # what the service understands, as a single instance announces it (docs/protocol.md, Health)
+    assert health["protocol"] == 1 and health["publish"] == ["each", "batch"]
+    assert health["move_forms"] == ["move", "moves", "columns"]
+    assert health["queries"] == ["sight", "ray", "ground", "place"]
     (stats,) = client.stats()
     assert stats["workers"] == 2 and stats.instance == health.instance
     (lbs,) = client.landblocks()
