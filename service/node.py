@@ -434,7 +434,7 @@ class ServiceNode:
             handover = parse_handover(msg)
             return lambda: core.handover_in(handover)
         if op in QUERY_OPS:
-            return query_work(op, lb, msg, core.world, lambda i: core._record(i, "target").engine_id,
+            return query_work(op, lb, msg, core.world, lambda i, path: core._record(i, path).engine_id,
                               lambda e: core._by_engine.get(e, 0))
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 

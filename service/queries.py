@@ -44,7 +44,7 @@ QUERY_OPS = tuple(BATCH_FIELDS)
 _PLACEMENT_MODES = ("enter_world", "teleport")
 
 Item = tuple[Any, ...]
-IdMap = Callable[[int], int]  # wire mover id -> engine id (raises ProtocolError)
+IdMap = Callable[[int, str], int]  # (wire mover id, its request path) -> engine id (raises ProtocolError)
 Encode = Callable[[Any], Any]
 
 
@@ -130,18 +130,20 @@ def _parse(op: str, msg: dict[str, Any], lb: int | None) -> tuple[bool, list[Ite
 
 
 # -- running ---------------------------------------------------------------------------
-def _engine_id(ids: IdMap, wire_id: int | None) -> int:
-    return 0 if wire_id is None else ids(wire_id)
+def _engine_id(ids: IdMap, wire_id: int | None, path: str) -> int:
+    return 0 if wire_id is None else ids(wire_id, path)
 
 
-def _run_one(op: str, world: Any, item: Item, ids: IdMap) -> Any:
+def _run_one(op: str, world: Any, item: Item, ids: IdMap, path: str) -> Any:
+    """One query; `path` names it in the request (`sight`, `sights[3]`), for the errors of its ids."""
     if op == "ground":
         return world.ground(item[0], item[1])
     if op == "place":
         return world.place(item[0], item[1], item[2], item[3])
     if op == "ray":
-        return world.ray(item[0], item[1], item[2], target_id=_engine_id(ids, item[3]))
-    return world.sight(item[0], item[1], item[2], target_id=_engine_id(ids, item[3]), viewer_id=_engine_id(ids, item[4]))
+        return world.ray(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], f"{path}.target"))
+    return world.sight(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], f"{path}.target"),
+                       viewer_id=_engine_id(ids, item[4], f"{path}.viewer"))
 
 
 def _fields(op: str, path: str) -> dict[str, str]:
@@ -163,7 +165,7 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
     def run() -> dict[str, Any]:
         if single:
             try:
-                answer = _run_one(op, world, items[0], ids)
+                answer = _run_one(op, world, items[0], ids, op)
             except ProtocolError:
                 raise
             except Exception as e:
@@ -173,7 +175,7 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
         for i, item in enumerate(items):
             path = field_path(many, i)
             try:
-                out.append(encode(_run_one(op, world, item, ids)))
+                out.append(encode(_run_one(op, world, item, ids, path)))
             except ProtocolError as e:
                 out.append({"error": e.to_wire()})
             except Exception as e:

@@ -166,3 +166,21 @@ def test_a_registered_mover_blocks_a_ray_and_is_named_by_its_wire_id(client: Cli
         assert seen.clear  # looking at it: touching the target is arriving
     finally:
         client.remove(st.id)
+
+
+def test_an_unknown_viewer_or_target_is_named_by_its_own_path(service: ServiceProcess) -> None:
+    import msgpack
+
+    from service.codec import encode_position
+
+    a, b = above(40.0, 50.0, 1.6), above(60.0, 50.0, 1.6)
+    sight = {"from": encode_position(a), "to": encode_position(b)}
+    with raw_session(service.endpoint) as s:
+        for field, path in (("viewer", "sight.viewer"), ("target", "sight.target")):
+            body = msgpack.packb({"v": 1, "sight": {**sight, field: 0x7777777}}, use_bin_type=True)
+            ok, msg = raw_query(s, "acphys/lb/A9B4/sight", body, timeout=10.0)
+            assert not ok and msg["error"]["kind"] == ErrorKind.UNKNOWN_MOVER and msg["error"]["path"] == path, msg
+        body = msgpack.packb({"v": 1, "sights": [sight, {**sight, "viewer": 0x7777777}]}, use_bin_type=True)
+        ok, msg = raw_query(s, "acphys/lb/A9B4/sight", body, timeout=10.0)
+        assert ok and "error" not in msg["sights"][0]
+        assert msg["sights"][1]["error"]["path"] == "sights[1].viewer"
