@@ -21,6 +21,7 @@ import pytest
 
 from clients import Client, MoverState
 from cluster_support import cluster_pair
+from support.shared_data import needs_shared
 from engine.geometry import Vec3
 from service_support import (
     ROOT,
@@ -165,6 +166,7 @@ def test_x_stripe_instances_hand_over(tmp_path: Path) -> None:
             assert sum(s["handovers"]["in"] for s in c.stats()) == 1
 
 
+@needs_shared
 def test_dat_dir_workers_split_by_x_stripes() -> None:
     """A dat directory's landblocks are not known in advance: `--own x=A8-AA --workers 2` gives the
     workers the X stripes A8 and A9-AA, and a mover walking east out of A8B4 changes worker."""
@@ -173,8 +175,7 @@ def test_dat_dir_workers_split_by_x_stripes() -> None:
     from service_support import SHARED, human, start_on_ground
 
     dats = SHARED / "dats" / "rolling"
-    if not (dats / "client_cell_1.dat").is_file():
-        pytest.skip(f"no reference dats at {dats}")
+    assert (dats / "client_cell_1.dat").is_file(), f"the shared reference dats are missing at {dats}"
     svc = ServiceProcess(own="x=A8-AA", extra=["--workers", "2"])
     at = svc.args.index("--scene")
     svc.args[at:at + 2] = ["--dat-dir", str(dats)]
