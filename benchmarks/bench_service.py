@@ -255,6 +255,23 @@ def watcher_main(endpoint: str) -> None:
     print(f"WATCHED {count[0]}", flush=True)
 
 
+def collect_reports(procs: list[subprocess.Popen[str]], timeout: float, what: str) -> list[dict[str, Any]]:
+    """Each worker process's `RESULT {json}` line, in order; every one killed if any overruns `timeout`."""
+    reports = []
+    for p in procs:
+        try:
+            out, err = p.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            for q in procs:
+                q.kill()
+            raise
+        lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
+        if p.returncode != 0 or not lines:
+            raise RuntimeError(f"{what} failed ({p.returncode}):\n{err[-2000:]}")
+        reports.append(json.loads(lines[-1][7:]))
+    return reports
+
+
 def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float,
                mode: str = "objects", watched: bool = False, publish: str = "each",
                landblocks: tuple[int, ...] = ()) -> dict[str, Any]:
@@ -269,19 +286,8 @@ def throughput(endpoint: str, service: Child, processes: int, batch: int, second
              for i in range(processes)]
     time.sleep(max(0.0, start_at - time.time()))
     cpu0 = service.cpu_seconds()
-    reports = []
     try:
-        for p in procs:
-            try:
-                out, err = p.communicate(timeout=seconds + 60.0)
-            except subprocess.TimeoutExpired:
-                for q in procs:
-                    q.kill()
-                raise
-            lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
-            if p.returncode != 0 or not lines:
-                raise RuntimeError(f"throughput worker failed ({p.returncode}):\n{err[-2000:]}")
-            reports.append(json.loads(lines[-1][7:]))
+        reports = collect_reports(procs, seconds + 60.0, "throughput worker")
         cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
         cpu_wall = time.time() - start_at
     finally:
@@ -425,18 +431,7 @@ def issue_service_rate(endpoint: str, service: Child, form: str, seconds: float)
              for i in range(ISSUE_PROCESSES)]
     time.sleep(max(0.0, start_at - time.time()))
     cpu0 = service.cpu_seconds()
-    reports = []
-    for p in procs:
-        try:
-            out, err = p.communicate(timeout=seconds + 90.0)
-        except subprocess.TimeoutExpired:
-            for q in procs:
-                q.kill()
-            raise
-        lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
-        if p.returncode != 0 or not lines:
-            raise RuntimeError(f"issue worker failed ({p.returncode}):\n{err[-2000:]}")
-        reports.append(json.loads(lines[-1][7:]))
+    reports = collect_reports(procs, seconds + 90.0, "issue worker")
     cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
     moves = sum(r["moves"] for r in reports)
     wall = max(r["seconds"] for r in reports)
