@@ -19,7 +19,7 @@ from setuptools import setup
 HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
 # The world's per-move part: the mover, its shadows and the move itself.
-WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback")
+WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch")
 
 
 def hot_modules() -> list[str]:

@@ -17,8 +17,21 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from engine.geometry import Position, Quat, Vec3
-from engine.world.types import MoveResult
+from engine.world.batch import (
+    INTS_PER_ROW,
+    MOTION,
+    OFFSET,
+    REALS_PER_ROW,
+    TO,
+    TRANSITION_STATES,
+    BatchRows,
+    Status,
+    append_missing,
+    append_row,
+    run_batch,
+)
+from engine.world.mover import Mover
+from engine.world.transient import NAMED_BITS as TRANSIENT_BITS
 
 from .codec import pack_state
 from .column_request import ColumnRequest
@@ -39,30 +52,28 @@ from .requests import ItemError
 from .wire import ErrorKind
 
 if TYPE_CHECKING:
-    from .core import ServiceCore
+    from .core import MoverRecord, ServiceCore
 
 __all__ = ["ColumnBus", "ColumnResults", "run_columns", "push_columns", "reply_message", "publication_message"]
 
 log = logging.getLogger("acphys.service")
 
-_NAN = float("nan")
-#: the reals of one row, in this order: origin 3, orientation 4, contact_plane 4, collision_normal 3, sliding_normal 3
-_REALS = 17
-_NO_REALS = (_NAN,) * _REALS
-_NO_PLANE = (_NAN,) * 4
-_NO_VEC = (_NAN,) * 3
+#: the engine's row status bits and the reply's flag bits they become
+_STATUS_FLAGS = ((Status.RESOLVED, Flag.RESOLVED), (Status.OK, Flag.OK), (Status.CONTACT, Flag.CONTACT),
+                 (Status.ON_WALKABLE, Flag.ON_WALKABLE), (Status.WATER_CONTACT, Flag.WATER_CONTACT),
+                 (Status.HAS_CONTACT_PLANE, Flag.HAS_CONTACT_PLANE),
+                 (Status.HAS_CONTACT_PLANE_CELL, Flag.HAS_CONTACT_PLANE_CELL),
+                 (Status.HAS_COLLISION_NORMAL, Flag.HAS_COLLISION_NORMAL),
+                 (Status.HAS_SLIDING_NORMAL, Flag.HAS_SLIDING_NORMAL),
+                 (Status.HAS_FRAMES_STATIONARY_FALL, Flag.HAS_FRAMES_STATIONARY_FALL))
+#: the engine's transient-state bits (engine.world.transient.TS) and the reply's flag bits they become
+_TRANSIENT_FLAGS = tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FLAGS.index(name)))
+                         for name, bit in TRANSIENT_BITS)
+#: the engine's transition-state index -> the reply's code
+_STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
+_KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
+_MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
 _NO_IDS: list[int] = []
-#: the integers of one row: seq, cell, flags, transition_state, frames_stationary_fall, contact_plane_cell,
-#: collide_count
-_INTS = 7
-_NO_INTS = (0, 0, 0, FAILED_STATE, 255, 0, 0)
-_TRANSIENT_BIT = {name: 1 << (Flag.TRANSIENT_SHIFT + i) for i, name in enumerate(TRANSIENT_FLAGS)}
-_TRANSIENT_BITS: dict[tuple[str, ...], int] = {}
-_CODE = TRANSITION_CODE
-#: the flags of (ok, contact, on_walkable, water_contact), with RESOLVED
-_BASE_FLAGS = {(ok, c, w, wc): Flag.RESOLVED | (Flag.OK if ok else 0) | (Flag.CONTACT if c else 0)
-               | (Flag.ON_WALKABLE if w else 0) | (Flag.WATER_CONTACT if wc else 0)
-               for ok in (False, True) for c in (False, True) for w in (False, True) for wc in (False, True)}
 
 
 class ColumnBus(Protocol):
@@ -83,175 +94,188 @@ class ColumnBus(Protocol):
 
 @dataclass(slots=True)
 class ColumnResults:
-    """One request's results, row by row in flat lists (see _REALS / _INTS), and its failed items."""
+    """One request's results: the engine's rows (engine.world.batch), and the items that failed."""
 
     n: int
-    reals: list[float] = field(default_factory=list)
-    ints: list[int] = field(default_factory=list)
+    rows: BatchRows = field(default_factory=BatchRows)
+    #: `seq` of every row (0 for items that did not resolve)
+    seqs: list[int] = field(default_factory=list)
+    #: the wire ids of the movers each row collided with, in row order, and how many a row has
     collide_ids: list[int] = field(default_factory=list)
+    collide_counts: list[int] | None = None
     #: (index, mover id, error) of every item that failed, in index order
     errors: list[tuple[int, int, ProtocolError]] = field(default_factory=list)
-    #: the ids of the rows, for the columnar publication
+    #: the ids of the rows that resolved, for the columnar publication
     ids: list[int] = field(default_factory=list)
     #: items forwarded to another instance's push key (fire-and-forget only); they have no row values
     forwarded: int = 0
+    #: items before this index have their seq, error or forward settled
+    settled: int = 0
+    #: whether any row collided with an object (its ids are then translated to wire ids)
+    any_collide: bool = False
 
 
-def _transient_bits(names: list[str]) -> int:
-    key = tuple(names)
-    bits = _TRANSIENT_BITS.get(key)
-    if bits is None:
-        bits = 0
-        for name in names:
-            bits |= _TRANSIENT_BIT.get(name, 0)
-        if len(_TRANSIENT_BITS) < 256:
-            _TRANSIENT_BITS[key] = bits
-    return bits
-
-
-def _add_row(out: ColumnResults, seq: int, r: MoveResult, collide: list[int]) -> None:
-    """Append one result's values (the State's fields, as columns)."""
-    pos = r.position
-    frame = pos.frame
-    o, q = frame.origin, frame.orientation
-    cp, cn, sn, cpc, fsf = r.contact_plane, r.collision_normal, r.sliding_normal, r.contact_plane_cell, \
-        r.frames_stationary_fall
-    flags = _BASE_FLAGS[r.ok, r.contact, r.on_walkable, r.water_contact] | _transient_bits(r.transient_state)
-    if cp is None:
-        plane = _NO_PLANE
-    else:
-        flags |= Flag.HAS_CONTACT_PLANE
-        n = cp.normal
-        plane = (n.x, n.y, n.z, cp.d)
-    if cn is None:
-        coll = _NO_VEC
-    else:
-        flags |= Flag.HAS_COLLISION_NORMAL
-        coll = (cn.x, cn.y, cn.z)
-    if sn is None:
-        slide = _NO_VEC
-    else:
-        flags |= Flag.HAS_SLIDING_NORMAL
-        slide = (sn.x, sn.y, sn.z)
-    if cpc is None:
-        cpc = 0
-    else:
-        flags |= Flag.HAS_CONTACT_PLANE_CELL
-    if fsf is None:
-        fsf = 255
-    else:
-        flags |= Flag.HAS_FRAMES_STATIONARY_FALL
-    out.reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z, *plane, *coll, *slide))
-    out.ints.extend((seq, pos.cell_id, flags, _CODE.get(r.transition_state, FAILED_STATE), fsf, cpc, len(collide)))
-    if collide:
-        out.collide_ids.extend(collide)
-
-
-def _fail(out: ColumnResults, index: int, mover_id: int, err: ProtocolError) -> None:
-    out.errors.append((index, mover_id, err))
-    out.reals.extend(_NO_REALS)
-    out.ints.extend(_NO_INTS)
+def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> tuple[list[Mover | None],
+                                                                                       list[MoverRecord | None]]:
+    """Each item's engine mover and record (None for a refused item or an id not held here)."""
+    world_movers = core.world.movers
+    held = core.movers
+    recs: list[MoverRecord | None] = [held.get(mid) for mid in ids]
+    movers: list[Mover | None] = [None if rec is None else world_movers[rec.engine_id] for rec in recs]
+    for i in bad:
+        movers[i] = recs[i] = None
+    return movers, recs
 
 
 def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
                 forward: bool = False) -> tuple[ColumnResults, list[bytes]]:
-    """Every item of `req` in order; the results and, for `publish: "batch"`, the packed States to put on
-    P/states (empty otherwise: "each" and "columns" are published here). `forward`: a fire-and-forget
-    request, whose items for movers handed over meanwhile go on to the new owner's push key."""
+    """Every item of `req` in order, run by the engine's batch entry point; the results and, for
+    `publish: "batch"`, the packed States to put on P/states (empty otherwise: "each" and "columns"
+    are published here). `forward`: a fire-and-forget request, whose items for movers handed over
+    meanwhile go on to the new owner's push key."""
     bus = core.bus
-    cbus: ColumnBus = bus  # type: ignore[assignment]  # the node implements both
-    world, movers, owns = core.world, core.movers, core.ownership.owns
-    everything = core.ownership.everything
-    kind, n, arrays = req.kind, req.n, req.arrays
+    arrays = req.arrays
     ids: list[int] = arrays["id"].tolist()
-    # the kind's vectors as lists of Python floats: the map form's values exactly (msgpack float64)
-    main = arrays["offset" if kind == "offset" else "to_origin" if kind == "to" else "motion"].tolist()
+    movers, recs = _movers(core, ids, req.bad)
+    out = ColumnResults(req.n)
+    rows = out.rows
+    kind = _KIND[req.kind]
+    # the columns as flat lists of Python floats: the map form's values exactly (msgpack float64)
+    vectors = arrays[_MAIN_COLUMN[req.kind]].ravel().tolist()
     cells = arrays["to_cell"].tolist() if "to_cell" in arrays else None
-    quats = arrays["to_orientation"].tolist() if "to_orientation" in arrays else None
+    orientations = arrays["to_orientation"].ravel().tolist() if "to_orientation" in arrays else None
+    velocities = arrays["velocity"].ravel().tolist() if "velocity" in arrays else None
     dts = arrays["dt"].tolist() if "dt" in arrays else None
-    vels = arrays["velocity"].tolist() if "velocity" in arrays else None
-    main_name = "offset" if kind == "offset" else "to_origin" if kind == "to" else "motion"
+    ownership = core.ownership
+    stop_if = None if ownership.everything else (lambda lb: not ownership.owns(lb))
+    landscape = core.world.landscape
+    started, since = perf_counter(), monotonic() - received
+    i = 0
+    while i < req.n:
+        i = run_batch(landscape, movers, kind, vectors, rows, start=i, cells=cells, orientations=orientations,
+                      velocities=velocities, dts=dts, stop_if=stop_if)
+        if i < req.n:  # item i left this instance's landblocks
+            _leave(core, req, out, movers, recs, ids, i, forward)
+            i += 1
+    _settle(core, req, out, recs, ids, forward, req.n)
+    out.errors.sort(key=lambda e: e[0])
+    if out.any_collide:
+        _translate_collisions(core, out)
+    core.moves_done([since + (t - started) for t in rows.finished_at], rows.engine_seconds)
     each = req.publish == "each" and bus.states_watched()
     collect = req.publish == "batch" and bus.batch_watched()
     packed: list[bytes] = []
-    out = ColumnResults(n)
-    latency: list[float] = []
-    engine: list[float] = []
-    bad = req.bad
-    ids_out = out.ids
-    for i in range(n):
-        mid = ids[i]
-        if bad and i in bad:
-            _fail(out, i, mid, bad[i])
-            continue
-        rec = movers.get(mid)
-        if rec is None:
-            if forward:
-                fwd = core.forwarded_to(mid)
-                if fwd is not None:
-                    # keep the mover's order: everything sent here after the hand-over follows it
-                    cbus.forward_columns(fwd, _one_row_message(req, i))
-                    out.reals.extend(_NO_REALS)
-                    out.ints.extend(_NO_INTS)
-                    out.forwarded += 1
-                    continue
-            try:
-                core.mover_record(mid, f"columns.id[{i}]")
-            except ProtocolError as e:
-                _fail(out, i, mid, e)
+    if each or collect:
+        for k, r in enumerate(rows.results):
+            rec = recs[k]
+            if r is None or rec is None:
                 continue
-        assert rec is not None
-        pos = rec.last.position
-        t0 = perf_counter()
-        try:
-            if kind == "offset":
-                v = main[i]
-                result = world.move(rec.engine_id, pos.moved(Vec3(v[0], v[1], v[2])),
-                                    None if vels is None else Vec3(*vels[i]))
-            elif kind == "to":
-                v = main[i]
-                cell = cells[i] if cells is not None and cells[i] != 0 else pos.cell_id
-                q = quats[i] if quats is not None else None
-                quat = Quat(*q) if q is not None and (q[0] or q[1] or q[2] or q[3]) else pos.frame.orientation
-                result = world.move(rec.engine_id, Position.at(cell, Vec3(v[0], v[1], v[2]), quat),
-                                    None if vels is None else Vec3(*vels[i]))
-            else:
-                assert dts is not None
-                v = main[i]
-                result = world.step(rec.engine_id, Vec3(v[0], v[1], v[2]), dts[i])
-        except Exception as e:
-            err = to_protocol_error(e, f"columns.{main_name}[{i}]")
-            if err.kind == ErrorKind.INTERNAL:
-                log.exception("engine failed on move of %X", mid)
-            _fail(out, i, mid, err)
-            continue
-        t1 = perf_counter()
-        prev, prev_seq = rec.last, rec.seq
-        seq = rec.seq = prev_seq + 1
-        rec.last = result
-        collide = core.collide_ids(result) if result.collide_objects else _NO_IDS
-        if not everything:
-            lb = (result.position.cell_id >> 16) & 0xFFFF
-            if not owns(lb):
-                try:
-                    core.hand_over(rec, prev, prev_seq, lb)
-                except ProtocolError as e:
-                    _fail(out, i, mid, e)
-                    continue
-        engine.append(t1 - t0)
-        latency.append(monotonic() - received)
-        _add_row(out, seq, result, collide)
-        ids_out.append(mid)
-        if each or collect:
-            state = pack_state(mid, seq, result, collide)
+            state = pack_state(rec.id, out.seqs[k], r, core.collide_ids(r))
             if each:
-                bus.publish_state(mid, state)
+                bus.publish_state(rec.id, state)
             else:
                 packed.append(state)
-    core.moves_done(latency, engine)
-    if req.publish == "columns" and out.ids and cbus.columns_watched():
-        cbus.publish_columns(publication_message(out))
+    if req.publish == "columns" and out.ids and cast_bus(core).columns_watched():
+        cast_bus(core).publish_columns(publication_message(out))
     return out, packed
+
+
+def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: list[Mover | None],
+           recs: list[MoverRecord | None], ids: list[int], i: int, forward: bool) -> None:
+    """Item i's move ended outside this instance: hand the mover over (its row is then the result), or
+    put it back and fail the item. Later items of that mover go to its new record (or nowhere)."""
+    _settle(core, req, out, recs, ids, forward, i)  # the hand-over carries the mover's seq so far
+    rec = recs[i]
+    result = out.rows.results[i]
+    assert rec is not None and result is not None
+    prev, prev_seq = rec.last, rec.seq
+    rec.seq, rec.last = prev_seq + 1, result
+    lb = (result.position.cell_id >> 16) & 0xFFFF
+    try:
+        core.hand_over(rec, prev, prev_seq, lb)
+    except ProtocolError as e:
+        out.rows.results[i] = None
+        out.errors.append((i, rec.id, e))
+        out.seqs.append(0)
+        append_missing(out.rows)
+    else:
+        append_row(out.rows, result)
+        out.seqs.append(rec.seq)
+        out.ids.append(rec.id)
+        out.any_collide = out.any_collide or bool(result.collide_objects)
+    out.settled = i + 1
+    back = core.movers.get(rec.id)  # None after a hand-over; a new record after a failed one
+    mover = None if back is None else core.world.movers[back.engine_id]
+    for j in range(i + 1, len(ids)):
+        if recs[j] is rec:
+            recs[j], movers[j] = back, mover
+
+
+def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],
+            ids: list[int], forward: bool, upto: int) -> None:
+    """Items `out.settled` .. `upto - 1` in order: the records' seq and last result, the errors of items
+    that did not run (refused values, ids not held here, engine refusals), forwarding after a hand-over."""
+    rows = out.rows
+    engine_errors = dict(rows.errors)
+    seqs, ids_out, results = out.seqs, out.ids, rows.results
+    for i in range(out.settled, upto):
+        r = results[i]
+        mid = ids[i]
+        if r is not None:
+            rec = recs[i]
+            assert rec is not None
+            seq = rec.seq = rec.seq + 1
+            rec.last = r
+            seqs.append(seq)
+            ids_out.append(mid)
+            if r.collide_objects:
+                out.any_collide = True
+            continue
+        seqs.append(0)
+        err = req.bad.get(i)
+        if err is None:
+            exc = engine_errors.get(i)
+            if exc is not None:
+                err = to_protocol_error(exc, f"columns.{_MAIN_COLUMN[req.kind]}[{i}]")
+                if err.kind == ErrorKind.INTERNAL:
+                    log.error("engine failed on move of %X", mid, exc_info=exc)
+            elif forward and (fwd := core.forwarded_to(mid)) is not None:
+                # keep the mover's order: everything sent here after the hand-over follows it
+                cast_bus(core).forward_columns(fwd, _one_row_message(req, i))
+                out.forwarded += 1
+                continue
+            else:
+                err = _not_held(core, mid, i)
+        out.errors.append((i, mid, err))
+    out.settled = upto
+
+
+def _not_held(core: ServiceCore, mover_id: int, i: int) -> ProtocolError:
+    """Why item i's mover is not here: `moved` or `unknown_mover`."""
+    try:
+        core.mover_record(mover_id, f"columns.id[{i}]")
+    except ProtocolError as e:
+        return e
+    raise AssertionError(f"mover {mover_id:X} is held but its item did not run")
+
+
+def _translate_collisions(core: ServiceCore, out: ColumnResults) -> None:
+    """The engine's collided-object ids as wire ids (objects that are not movers here are left out), and
+    each row's count of them."""
+    counts: list[int] = []
+    wire: list[int] = []
+    for r in out.rows.results:
+        if r is None or not r.collide_objects:
+            counts.append(0)
+            continue
+        got = core.collide_ids(r)
+        counts.append(len(got))
+        wire.extend(got)
+    out.collide_ids, out.collide_counts = wire, counts
+
+
+def cast_bus(core: ServiceCore) -> ColumnBus:
+    return core.bus  # type: ignore[return-value]  # the node implements both
 
 
 def _one_row_message(req: ColumnRequest, i: int) -> bytes:
@@ -261,13 +285,25 @@ def _one_row_message(req: ColumnRequest, i: int) -> bytes:
 
 
 def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
-    """The reply's columns from the flat lists (rows of failed items hold the missing values)."""
-    rows = len(out.ints) // _INTS
-    reals = np.array(out.reals, dtype="<f8").reshape(rows, _REALS)
-    ints = np.array(out.ints, dtype=np.uint64).reshape(rows, _INTS)
+    """The reply's columns from the engine's rows (rows of failed items hold the missing values)."""
+    rows = out.rows
+    n = len(rows.ints) // INTS_PER_ROW
+    reals = np.array(rows.reals, dtype="<f8").reshape(n, REALS_PER_ROW)
+    ints = np.array(rows.ints, dtype=np.int64).reshape(n, INTS_PER_ROW)
+    status, transient = ints[:, 1], ints[:, 2]
+    flags = np.zeros(n, dtype=np.uint32)
+    for bit, flag in _STATUS_FLAGS:
+        flags[(status & bit) != 0] |= flag
+    for bit, flag in _TRANSIENT_FLAGS:
+        flags[(transient & bit) != 0] |= flag
+    resolved = (status & Status.RESOLVED) != 0
     return {
-        "seq": ints[:, 0], "cell": ints[:, 1], "flags": ints[:, 2], "transition_state": ints[:, 3],
-        "frames_stationary_fall": ints[:, 4], "contact_plane_cell": ints[:, 5], "collide_count": ints[:, 6],
+        "seq": np.array(out.seqs, dtype=np.uint64), "cell": ints[:, 0],
+        "flags": flags,
+        "transition_state": np.where(resolved, _STATE_CODES[ints[:, 3]], FAILED_STATE),
+        "frames_stationary_fall": np.where((status & Status.HAS_FRAMES_STATIONARY_FALL) != 0, ints[:, 4], 255),
+        "contact_plane_cell": ints[:, 5],
+        "collide_count": ints[:, 6] if out.collide_counts is None else np.array(out.collide_counts, dtype=np.int64),
         "origin": reals[:, 0:3], "orientation": reals[:, 3:7], "contact_plane": reals[:, 7:11],
         "collision_normal": reals[:, 11:14], "sliding_normal": reals[:, 14:17],
     }

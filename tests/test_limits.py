@@ -154,27 +154,63 @@ def test_the_limits_are_what_the_client_can_hold() -> None:
     assert r.ok
 
 
-def test_a_move_that_raises_inside_the_engine_leaves_its_mover_as_it_was(monkeypatch: pytest.MonkeyPatch) -> None:
-    import engine.world.world as world_module
+class _FailingLookups(dict[int, Any]):
+    """Landblocks whose `fail_at`-th lookup raises. The engine reaches a dict subclass of landblocks
+    (the dat world's LRU is one) through its own methods, so this fails a move at any point, from the
+    checks at the door to the last cell lookup of the transition, in pure and compiled builds alike."""
 
+    def __init__(self, blocks: dict[int, Any], fail_at: int) -> None:
+        super().__init__(blocks)
+        self.lookups = 0
+        self.fail_at = fail_at
+
+    def _count(self) -> None:
+        self.lookups += 1
+        if self.lookups == self.fail_at:
+            raise RuntimeError("a bug deep in a transition")
+
+    def get(self, key: int, default: Any = None) -> Any:  # type: ignore[override]
+        self._count()
+        return super().get(key, default)
+
+    def __contains__(self, key: object) -> bool:
+        self._count()
+        return super().__contains__(key)
+
+
+def test_a_move_that_raises_inside_the_engine_leaves_its_mover_as_it_was() -> None:
     world = flat_world()
     mid = stand(world, 60.0, 60.0)
     world.mover(mid).velocity = Vec3(1.0, 2.0, 0.0)
-    before = snapshot(world, mid)
+    target = world.mover(mid).position.moved(Vec3(0.5, 0.0, 0.0))
 
-    def failing(landscape: Any, mover: Any, target: Position) -> Any:
-        mover.position = target  # a half-done move: position, contact and velocity changed, then a failure
-        mover.transient = 0
-        mover.velocity = Vec3(9.0, 9.0, 9.0)
-        raise RuntimeError("a bug deep in a transition")
+    def move_with_velocity() -> None:
+        world.move(mid, target, Vec3(3.0, 0.0, 0.0))
+        raise AssertionError("the move went through")  # only a failing run may return
 
-    monkeypatch.setattr(world_module, "move_mover", failing)
-    with pytest.raises(RuntimeError):
-        world.move(mid, world.mover(mid).position.moved(Vec3(0.5, 0.0, 0.0)), Vec3(3.0, 0.0, 0.0))
-    assert snapshot(world, mid) == before
-    with pytest.raises(RuntimeError):
-        world.step(mid, Vec3(0.1, 0.0, 0.0), 1.0 / 30.0)  # the step integrated velocity before it failed
-    assert snapshot(world, mid) == before
+    def step() -> None:
+        world.step(mid, Vec3(0.1, 0.0, 0.0), 1.0 / 30.0)  # integrates velocity before the transition
+        raise AssertionError("the step went through")
+
+    for run in (move_with_velocity, step):
+        before = snapshot(world, mid)
+        plain = dict(world.landblocks)
+        failed = 0
+        for fail_at in range(1, 400):
+            blocks = _FailingLookups(plain, fail_at)
+            world.landblocks = blocks
+            try:
+                run()
+            except RuntimeError:
+                failed += 1
+                assert snapshot(world, mid) == before, f"{run.__name__} failing at lookup {fail_at}"
+                continue
+            except AssertionError:
+                break  # the run got through: every lookup it makes has failed once
+            finally:
+                world.landblocks = plain
+        assert failed >= 3, f"{run.__name__}: only {failed} lookups to fail"
+        assert snapshot(world, mid) != before  # the last run got through and did move it
 
 
 # -- a move's velocity is that move's only (docs/protocol.md, Move request) ---------------------------------

@@ -69,7 +69,7 @@ def test_batch_follows_a_hand_over_mid_batch(client: Client) -> None:
         cur = world.mover_state(local[k]).position
         direct = world.move(local[k], cur.moved(Vec3(*offsets[i])))
         seen[k] += 1
-        assert int(r.seq[i]) == seen[k]
+        assert int(r.seq[i]) == seen[k], (i, r.seq.tolist(), r.landblock.tolist())
         o = direct.position.frame.origin
         assert _bits(r.origin[i]) == _bits((o.x, o.y, o.z)) and int(r.cell[i]) == direct.position.cell_id, i
     assert client.landblock_of(ids[0]) == 0xAAB4

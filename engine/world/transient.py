@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Final
 
-__all__ = ["TS", "transient_names"]
+__all__ = ["TS", "NAMED_BITS", "transient_names"]
 
 
 class TS:
@@ -20,7 +20,8 @@ class TS:
     CHECK_ETHEREAL: Final = 0x100
 
 
-_NAMES: Final = (
+#: (name, bit) of the flags a State reports, in the client's bit order
+NAMED_BITS: Final = (
     ("Contact", TS.CONTACT),
     ("OnWalkable", TS.ON_WALKABLE),
     ("Sliding", TS.SLIDING),
@@ -38,5 +39,5 @@ def transient_names(bits: int) -> list[str]:
     """The flag names the formats use, in the client's bit order (a new list)."""
     names = _NAMES_BY_BITS.get(bits)
     if names is None:
-        names = _NAMES_BY_BITS[bits] = [name for name, bit in _NAMES if bits & bit]
+        names = _NAMES_BY_BITS[bits] = [name for name, bit in NAMED_BITS if bits & bit]
     return list(names)

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from .. import limits
 from ..constants import MAX_VELOCITY
 from ..errors import LandblockNotLoadedError, NonFiniteError, PlacementFailedError, UnknownMoverError
-from ..geometry import ZERO, Plane, Position, Sphere, Vec3
+from ..geometry import Plane, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
@@ -23,9 +23,8 @@ from .landblock import Landblock
 from ..cells.landscape import Landscape
 from . import shadows
 from .mover import Mover
-from .quantum import split_elapsed
-from .resolve import move_mover, move_result
-from .rollback import MoverSnapshot
+from .moves import move_checked, step_checked
+from .resolve import move_result
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
 
@@ -236,22 +235,7 @@ class World:
         `velocity` is the mover's velocity while the move is resolved (what the
         contact checks and collision responses see); None keeps its own.
         """
-        mover = self.mover(mover_id)
-        limits.check_position(target, "target")
-        self.landscape.check_position(target)
-        if velocity is not None:
-            limits.check_velocity(velocity, "velocity")
-        snapshot = MoverSnapshot(mover)
-        if velocity is not None:
-            mover.velocity = velocity
-        try:
-            result = move_mover(self.landscape, mover, target)
-        except BaseException:
-            snapshot.restore()
-            raise
-        if velocity is not None:
-            mover.velocity = snapshot.velocity  # the given velocity was this move's only
-        return result
+        return move_checked(self.landscape, self.mover(mover_id), target, velocity)
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
         """Advance a mover by `dt` seconds with its own motion `motion` (metres
@@ -270,51 +254,7 @@ class World:
 
         Without it (ACE_COMPAT) `dt` is one integration step as given
         (UpdateObjectInternal), as the reference traces record them."""
-        mover = self.mover(mover_id)
-        limits.check_motion(motion, "motion")
-        limits.check_dt(dt, "dt")
-        snapshot = MoverSnapshot(mover)
-        try:
-            return self._spend(mover, motion, dt)
-        except BaseException:
-            snapshot.restore()
-            raise
-
-    def _spend(self, mover: Mover, motion: Vec3, dt: float) -> MoveResult:
-        """`dt` seconds of a mover's time as physics steps: the quantum ladder, or one step without it."""
-        settings = self.settings
-        if not settings.quantum_ladder:
-            return self._physics_step(mover, motion, dt)
-        elapsed = mover.held_time + dt
-        pending_motion = motion if mover.held_motion == ZERO else mover.held_motion + motion
-        if elapsed == 0.0:
-            # no time at all: the motion waits for some
-            mover.held_motion = pending_motion
-            return move_result(mover, True, "NoTransition", None)
-        split = split_elapsed(elapsed, settings.max_quantum)
-        mover.held_time = split.held
-        mover.held_motion = pending_motion * (split.held / elapsed) if split.held > 0.0 else ZERO
-        if not split.quanta:
-            return move_result(mover, True, "NoTransition", None)
-        result: MoveResult | None = None
-        hit: list[int] = []
-        for quantum in split.quanta:
-            # a whole `elapsed` run in one step keeps the caller's motion exactly
-            share = pending_motion if quantum == elapsed else pending_motion * (quantum / elapsed)
-            result = self._physics_step(mover, share, quantum)
-            for obj_id in result.collide_objects:
-                if obj_id not in hit:
-                    hit.append(obj_id)
-        assert result is not None
-        if len(split.quanta) > 1:
-            result.collide_objects = hit
-        return result
-
-    def _physics_step(self, mover: Mover, motion: Vec3, quantum: float) -> MoveResult:
-        """One physics step of `quantum` seconds (UpdateObjectInternal)."""
-        frame = mover.integrate(motion, quantum, self.settings.single_precision, self.settings)
-        target = Position(mover.position.cell_id, frame)
-        return move_mover(self.landscape, mover, target)
+        return step_checked(self.landscape, self.mover(mover_id), motion, dt)
 
     def _enter_cells(self, mover: Mover) -> None:
         """Cast the mover's shadow into the cells its spheres touch, so other

@@ -1,0 +1,250 @@
+"""Many moves in one call, results as flat rows: the engine's batch entry point.
+
+A caller holding many moves of one kind (a server tick, the service's column
+batches) calls `run_batch` once instead of World.move per move: the loop, the
+target each move is given, the checks, the rollback and the writing of each
+result into flat lists run in compiled code. Each item is exactly the
+World.move / World.step call it stands for (engine.world.moves), in order,
+so a mover named twice moves twice, the second time from where the first
+left it; the answers are the same bit for bit.
+
+The results come back as rows of two flat lists (struct of arrays), so that
+a numpy caller turns a whole batch into arrays with one `np.array` call each
+and no per-move object is read in interpreted code:
+
+- `reals`, REALS_PER_ROW floats a row: origin (3), orientation w x y z (4),
+  contact plane normal and d (4), collision normal (3), sliding normal (3);
+  NaN where the result has no such value;
+- `ints`, INTS_PER_ROW integers a row: cell id, Status bits, the
+  transient-state bits (engine.world.transient.TS), the transition state's
+  index in TRANSITION_STATES, frames_stationary_fall, contact_plane_cell,
+  and how many collided-object ids the row adds to `collide_ids`.
+
+A row whose item did not run (no mover given, the mover refused the move)
+holds NaN and zeros with Status.RESOLVED clear.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from time import perf_counter
+from typing import Final
+
+from ..cells.landscape import Landscape
+from ..geometry import Position, Quat, Vec3
+from .mover import Mover
+from .moves import move_checked, step_checked
+from .transient import NAMED_BITS
+from .types import MoveResult
+
+__all__ = [
+    "OFFSET",
+    "TO",
+    "MOTION",
+    "REALS_PER_ROW",
+    "INTS_PER_ROW",
+    "TRANSITION_STATES",
+    "Status",
+    "BatchRows",
+    "run_batch",
+    "append_row",
+    "append_missing",
+]
+
+#: The move kinds of a batch: every item of one call is of one kind.
+OFFSET: Final = 0  # target = the mover's position moved by a world-frame offset (World.move)
+TO: Final = 1  # target = a given cell (0: the mover's own), origin and orientation (all zero: its own)
+MOTION: Final = 2  # a physics step of dt seconds with the mover's own motion (World.step)
+
+REALS_PER_ROW: Final = 17
+INTS_PER_ROW: Final = 7
+
+#: MoveResult.transition_state values; a row holds the index.
+TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
+_STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
+
+_NAN: Final = math.nan
+
+
+class Status:
+    """Bits of a row's status integer."""
+
+    RESOLVED: Final = 1 << 0  # the item ran and the row holds its result
+    OK: Final = 1 << 1
+    CONTACT: Final = 1 << 2
+    ON_WALKABLE: Final = 1 << 3
+    WATER_CONTACT: Final = 1 << 4
+    HAS_CONTACT_PLANE: Final = 1 << 5
+    HAS_CONTACT_PLANE_CELL: Final = 1 << 6
+    HAS_COLLISION_NORMAL: Final = 1 << 7
+    HAS_SLIDING_NORMAL: Final = 1 << 8
+    HAS_FRAMES_STATIONARY_FALL: Final = 1 << 9
+
+
+class BatchRows:
+    """The rows of a batch so far, and what each item left behind."""
+
+    def __init__(self) -> None:
+        self.reals: list[float] = []
+        self.ints: list[int] = []
+        self.collide_ids: list[int] = []
+        #: each item's MoveResult, None for items that did not run (in item order)
+        self.results: list[MoveResult | None] = []
+        #: (item index, the exception the engine raised) of items the engine refused
+        self.errors: list[tuple[int, Exception]] = []
+        #: per item that ran: seconds in the engine, and perf_counter() when it finished
+        self.engine_seconds: list[float] = []
+        self.finished_at: list[float] = []
+
+
+def append_row(rows: BatchRows, r: MoveResult) -> None:
+    """Add `r` as the next row."""
+    pos = r.position
+    frame = pos.frame
+    o = frame.origin
+    q = frame.orientation
+    status = Status.RESOLVED
+    if r.ok:
+        status |= Status.OK
+    if r.contact:
+        status |= Status.CONTACT
+    if r.on_walkable:
+        status |= Status.ON_WALKABLE
+    if r.water_contact:
+        status |= Status.WATER_CONTACT
+    reals = rows.reals
+    reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z))
+    cp = r.contact_plane
+    if cp is None:
+        reals.extend((_NAN, _NAN, _NAN, _NAN))
+    else:
+        status |= Status.HAS_CONTACT_PLANE
+        n = cp.normal
+        reals.extend((n.x, n.y, n.z, cp.d))
+    cn = r.collision_normal
+    if cn is None:
+        reals.extend((_NAN, _NAN, _NAN))
+    else:
+        status |= Status.HAS_COLLISION_NORMAL
+        reals.extend((cn.x, cn.y, cn.z))
+    sn = r.sliding_normal
+    if sn is None:
+        reals.extend((_NAN, _NAN, _NAN))
+    else:
+        status |= Status.HAS_SLIDING_NORMAL
+        reals.extend((sn.x, sn.y, sn.z))
+    cpc = r.contact_plane_cell
+    plane_cell = 0
+    if cpc is not None:
+        status |= Status.HAS_CONTACT_PLANE_CELL
+        plane_cell = cpc
+    fsf = r.frames_stationary_fall
+    stationary_fall = 0
+    if fsf is not None:
+        status |= Status.HAS_FRAMES_STATIONARY_FALL
+        stationary_fall = fsf
+    collide = r.collide_objects
+    rows.ints.extend((pos.cell_id, status, _transient_bits(r.transient_state),
+                      _STATE_INDEX[r.transition_state], stationary_fall, plane_cell, len(collide)))
+    if collide:
+        rows.collide_ids.extend(collide)
+
+
+def append_missing(rows: BatchRows) -> None:
+    """Add an empty row (an item that did not run)."""
+    rows.reals.extend([_NAN] * REALS_PER_ROW)
+    rows.ints.extend([0] * INTS_PER_ROW)
+
+
+_TRANSIENT_BIT: Final = {name: bit for name, bit in NAMED_BITS}
+
+
+def _transient_bits(names: list[str]) -> int:
+    bits = 0
+    for name in names:
+        bits |= _TRANSIENT_BIT[name]
+    return bits
+
+
+def _target(kind: int, mover: Mover, vectors: list[float], cells: list[int] | None,
+            orientations: list[float] | None, i: int) -> Position:
+    """Item `i`'s target position (kinds OFFSET and TO)."""
+    pos = mover.position
+    j = 3 * i
+    origin = Vec3(vectors[j], vectors[j + 1], vectors[j + 2])
+    if kind == OFFSET:
+        return pos.moved(origin)
+    cell = pos.cell_id
+    if cells is not None and cells[i] != 0:
+        cell = cells[i]
+    orientation = pos.frame.orientation
+    if orientations is not None:
+        k = 4 * i
+        w, x, y, z = orientations[k], orientations[k + 1], orientations[k + 2], orientations[k + 3]
+        if w != 0.0 or x != 0.0 or y != 0.0 or z != 0.0:
+            orientation = Quat(w, x, y, z)
+    return Position.at(cell, origin, orientation)
+
+
+def run_batch(
+    landscape: Landscape,
+    movers: list[Mover | None],
+    kind: int,
+    vectors: list[float],
+    rows: BatchRows,
+    *,
+    start: int = 0,
+    cells: list[int] | None = None,
+    orientations: list[float] | None = None,
+    velocities: list[float] | None = None,
+    dts: list[float] | None = None,
+    stop_if: Callable[[int], bool] | None = None,
+) -> int:
+    """Run items `start`, `start + 1`, ... of a batch of one `kind`, appending a row each to `rows`.
+
+    `movers[i]` is item i's mover (None: the item does not run and gets an empty row); `vectors`
+    holds 3 floats an item: the offset (OFFSET), the target origin (TO) or the motion (MOTION).
+    TO may give `cells` (one an item, 0 for the mover's own) and `orientations` (w x y z an item,
+    all zero for the mover's own); OFFSET and TO may give `velocities` (3 an item: the mover's
+    velocity for that move only); MOTION needs `dts` (seconds, one an item).
+
+    An item the engine refuses (engine.errors, or any other exception: the mover is then as before
+    the item) gets an empty row and an entry in `rows.errors`. `stop_if(landblock id)` is asked of
+    each result's landblock: when it says True the batch stops with that item's result in
+    `rows.results` but no row written, and returns the item's index (the caller decides, then goes on
+    from the next index). Returns len(movers) when every item has run."""
+    n = len(movers)
+    results = rows.results
+    for i in range(start, n):
+        mover = movers[i]
+        if mover is None:
+            results.append(None)
+            append_missing(rows)
+            continue
+        t0 = perf_counter()
+        try:
+            if kind == MOTION:
+                assert dts is not None
+                j = 3 * i
+                result = step_checked(landscape, mover, Vec3(vectors[j], vectors[j + 1], vectors[j + 2]), dts[i])
+            else:
+                velocity: Vec3 | None = None
+                if velocities is not None:
+                    j = 3 * i
+                    velocity = Vec3(velocities[j], velocities[j + 1], velocities[j + 2])
+                result = move_checked(landscape, mover, _target(kind, mover, vectors, cells, orientations, i),
+                                      velocity)
+        except Exception as e:
+            rows.errors.append((i, e))
+            results.append(None)
+            append_missing(rows)
+            continue
+        t1 = perf_counter()
+        rows.engine_seconds.append(t1 - t0)
+        rows.finished_at.append(t1)
+        results.append(result)
+        if stop_if is not None and stop_if((result.position.cell_id >> 16) & 0xFFFF):
+            return i
+        append_row(rows, result)
+    return n
