@@ -363,28 +363,49 @@ def issue_spots(world: Any) -> list[tuple[Any, Any, int]]:
 
 
 def issue_engine_rate(seconds: float) -> dict[str, Any]:
-    """World.move on the same movers in this process: the rate the service is measured against."""
+    """World.move on the same movers in this process: the rate the service is measured against; beside it
+    the engine's batch entry point (engine.world.batch.run_batch) on the same moves in batches of 100."""
     from engine import load_scene
     from engine.geometry import Vec3
+    from engine.world.batch import OFFSET, BatchRows, run_batch
 
     from .scenes import PLAYER
 
     world = load_scene(str(_demo_scene()))
     ids = [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in issue_spots(world)]
     out, back = Vec3(ISSUE_STEP, 0.0, 0.0), Vec3(-ISSUE_STEP, 0.0, 0.0)
-    for offset in (out, back):  # warm: every mover's cells looked up once, as the service's are before timing
-        for mid in ids:
-            world.move(mid, world.mover(mid).position.moved(offset))
-    moves = 0
-    t0, cpu0 = time.perf_counter(), time.process_time()
-    end = t0 + seconds
-    while time.perf_counter() < end:
+
+    def one_by_one() -> int:
         for offset in (out, back):
             for mid in ids:
                 world.move(mid, world.mover(mid).position.moved(offset))
-        moves += 2 * len(ids)
-    elapsed, cpu = time.perf_counter() - t0, time.process_time() - cpu0
-    return {"moves": moves, "seconds": elapsed, "moves_per_s": moves / elapsed, "cpu_us_per_move": cpu / moves * 1e6}
+        return 2 * len(ids)
+
+    share = len(ids) // ISSUE_PROCESSES
+    batches = []
+    for k in range(ISSUE_PROCESSES):  # as the clients send them: each mover of a share out, then back
+        movers = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
+        batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
+
+    def batched() -> int:
+        for movers, vectors in batches:
+            run_batch(world.landscape, movers, OFFSET, vectors, BatchRows())
+        return 2 * len(ids)
+
+    def rate(run: Any) -> dict[str, Any]:
+        run()  # warm: every mover's cells looked up once, as the service's are before timing
+        moves = 0
+        t0, cpu0 = time.perf_counter(), time.process_time()
+        end = t0 + seconds
+        while time.perf_counter() < end:
+            moves += run()
+        elapsed, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+        return {"moves": moves, "seconds": elapsed, "moves_per_s": moves / elapsed,
+                "cpu_us_per_move": cpu / moves * 1e6}
+
+    row = rate(one_by_one)
+    row["run_batch"] = rate(batched)
+    return row
 
 
 def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:
@@ -457,7 +478,8 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
         raise RuntimeError(f"in-process engine run failed ({p.returncode}):\n{p.stderr[-2000:]}")
     engine: dict[str, Any] = json.loads(lines[-1][7:])
     log(f"service (issue 10): World.move in process on the same movers: {engine['moves_per_s']:9.0f} moves/s, "
-        f"CPU {engine['cpu_us_per_move']:.1f} µs/move")
+        f"CPU {engine['cpu_us_per_move']:.1f} µs/move; run_batch in process: "
+        f"{engine['run_batch']['moves_per_s']:9.0f} moves/s, CPU {engine['run_batch']['cpu_us_per_move']:.1f} µs/move")
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     service = Child([sys.executable, "-m", "service", "--scene", str(_demo_scene()), "--listen", endpoint,

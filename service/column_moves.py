@@ -58,17 +58,28 @@ __all__ = ["ColumnBus", "ColumnResults", "run_columns", "push_columns", "reply_m
 
 log = logging.getLogger("acphys.service")
 
-#: the engine's row status bits and the reply's flag bits they become
-_STATUS_FLAGS = ((Status.RESOLVED, Flag.RESOLVED), (Status.OK, Flag.OK), (Status.CONTACT, Flag.CONTACT),
-                 (Status.ON_WALKABLE, Flag.ON_WALKABLE), (Status.WATER_CONTACT, Flag.WATER_CONTACT),
-                 (Status.HAS_CONTACT_PLANE, Flag.HAS_CONTACT_PLANE),
-                 (Status.HAS_CONTACT_PLANE_CELL, Flag.HAS_CONTACT_PLANE_CELL),
-                 (Status.HAS_COLLISION_NORMAL, Flag.HAS_COLLISION_NORMAL),
-                 (Status.HAS_SLIDING_NORMAL, Flag.HAS_SLIDING_NORMAL),
-                 (Status.HAS_FRAMES_STATIONARY_FALL, Flag.HAS_FRAMES_STATIONARY_FALL))
-#: the engine's transient-state bits (engine.world.transient.TS) and the reply's flag bits they become
-_TRANSIENT_FLAGS = tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FLAGS.index(name)))
-                         for name, bit in TRANSIENT_BITS)
+def _lookup(pairs: tuple[tuple[int, int], ...]) -> np.ndarray[Any, Any]:
+    """A table from every combination of the engine's bits in `pairs` (engine bit, wire flag) to the
+    reply's flags they set."""
+    size = 1 << max(bit for bit, _flag in pairs).bit_length()
+    codes = np.arange(size)
+    table = np.zeros(size, dtype=np.uint32)
+    for bit, flag in pairs:
+        table[(codes & bit) != 0] |= flag
+    return table
+
+
+#: the reply's flags of each engine row status (engine.world.batch.Status)
+_STATUS_FLAGS = _lookup(((Status.RESOLVED, Flag.RESOLVED), (Status.OK, Flag.OK), (Status.CONTACT, Flag.CONTACT),
+                         (Status.ON_WALKABLE, Flag.ON_WALKABLE), (Status.WATER_CONTACT, Flag.WATER_CONTACT),
+                         (Status.HAS_CONTACT_PLANE, Flag.HAS_CONTACT_PLANE),
+                         (Status.HAS_CONTACT_PLANE_CELL, Flag.HAS_CONTACT_PLANE_CELL),
+                         (Status.HAS_COLLISION_NORMAL, Flag.HAS_COLLISION_NORMAL),
+                         (Status.HAS_SLIDING_NORMAL, Flag.HAS_SLIDING_NORMAL),
+                         (Status.HAS_FRAMES_STATIONARY_FALL, Flag.HAS_FRAMES_STATIONARY_FALL)))
+#: the reply's flags of each combination of the engine's transient-state bits (engine.world.transient.TS)
+_TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FLAGS.index(name)))
+                                 for name, bit in TRANSIENT_BITS))
 #: the engine's transition-state index -> the reply's code
 _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
@@ -291,11 +302,7 @@ def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
     reals = np.array(rows.reals, dtype="<f8").reshape(n, REALS_PER_ROW)
     ints = np.array(rows.ints, dtype=np.int64).reshape(n, INTS_PER_ROW)
     status, transient = ints[:, 1], ints[:, 2]
-    flags = np.zeros(n, dtype=np.uint32)
-    for bit, flag in _STATUS_FLAGS:
-        flags[(status & bit) != 0] |= flag
-    for bit, flag in _TRANSIENT_FLAGS:
-        flags[(transient & bit) != 0] |= flag
+    flags = _STATUS_FLAGS[status] | _TRANSIENT_FLAGS[transient]
     resolved = (status & Status.RESOLVED) != 0
     return {
         "seq": np.array(out.seqs, dtype=np.uint64), "cell": ints[:, 0],
