@@ -2,10 +2,11 @@
 
 The column twin of `ServiceCore.moves` / `ServiceCore.push` (the same
 per-move steps: the engine call, `seq`, the hand-over when a move leaves
-the instance's landblocks, the publication), but no map is built per
-move: each result's values are appended to two flat lists (reals and
-integers) that become the reply's arrays in one numpy call each.
-Runs on the engine thread, with the engine lock held, as the map form.
+the instance's landblocks, the publication), with the moves run by the
+engine's batch entry point (engine.world.batch.run_batch): one compiled
+loop writes every result into two flat lists (reals and integers) that
+become the reply's arrays in one numpy call each, and no map is built per
+move. Runs on the engine thread, with the engine lock held, as the map form.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from engine.world.batch import (
 )
 from engine.world.mover import Mover
 from engine.world.transient import NAMED_BITS as TRANSIENT_BITS
+from engine.world.types import MoveResult
 
 from .codec import pack_state
 from .column_request import ColumnRequest
@@ -124,6 +126,10 @@ class ColumnResults:
     settled: int = 0
     #: whether any row collided with an object (its ids are then translated to wire ids)
     any_collide: bool = False
+    #: States to publish as they settle: one put each ("each"), or gathered into `packed` ("batch")
+    publish_each: bool = False
+    gather: bool = False
+    packed: list[bytes] = field(default_factory=list)
 
 
 def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> tuple[list[Mover | None],
@@ -149,6 +155,8 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     ids: list[int] = arrays["id"].tolist()
     movers, recs = _movers(core, ids, req.bad)
     out = ColumnResults(req.n)
+    out.publish_each = req.publish == "each" and bus.states_watched()
+    out.gather = req.publish == "batch" and bus.batch_watched()
     rows = out.rows
     kind = _KIND[req.kind]
     # the columns as flat lists of Python floats: the map form's values exactly (msgpack float64)
@@ -173,22 +181,19 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     if out.any_collide:
         _translate_collisions(core, out)
     core.moves_done([since + (t - started) for t in rows.finished_at], rows.engine_seconds)
-    each = req.publish == "each" and bus.states_watched()
-    collect = req.publish == "batch" and bus.batch_watched()
-    packed: list[bytes] = []
-    if each or collect:
-        for k, r in enumerate(rows.results):
-            rec = recs[k]
-            if r is None or rec is None:
-                continue
-            state = pack_state(rec.id, out.seqs[k], r, core.collide_ids(r))
-            if each:
-                bus.publish_state(rec.id, state)
-            else:
-                packed.append(state)
     if req.publish == "columns" and out.ids and cast_bus(core).columns_watched():
         cast_bus(core).publish_columns(publication_message(out))
-    return out, packed
+    return out, out.packed
+
+
+def _published(core: ServiceCore, out: ColumnResults, mover_id: int, seq: int, r: MoveResult) -> None:
+    """The State of a settled result, put (or gathered) in item order: before anything forwarded after it."""
+    if out.publish_each or out.gather:
+        state = pack_state(mover_id, seq, r, core.collide_ids(r))
+        if out.publish_each:
+            core.bus.publish_state(mover_id, state)
+        else:
+            out.packed.append(state)
 
 
 def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: list[Mover | None],
@@ -214,6 +219,7 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
         out.seqs.append(rec.seq)
         out.ids.append(rec.id)
         out.any_collide = out.any_collide or bool(result.collide_objects)
+        _published(core, out, rec.id, rec.seq, result)
     out.settled = i + 1
     back = core.movers.get(rec.id)  # None after a hand-over; a new record after a failed one
     mover = None if back is None else core.world.movers[back.engine_id]
@@ -229,6 +235,7 @@ def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: lis
     rows = out.rows
     engine_errors = dict(rows.errors)
     seqs, ids_out, results = out.seqs, out.ids, rows.results
+    publishing = out.publish_each or out.gather
     for i in range(out.settled, upto):
         r = results[i]
         mid = ids[i]
@@ -241,6 +248,8 @@ def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: lis
             ids_out.append(mid)
             if r.collide_objects:
                 out.any_collide = True
+            if publishing:
+                _published(core, out, mid, seq, r)
             continue
         seqs.append(0)
         err = req.bad.get(i)
