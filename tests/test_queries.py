@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings, strategies as st
 import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import EngineError, LandblockNotLoadedError, NonFiniteError, OutOfRangeError, UnknownCellError
-from engine.queries import SIGHT_RADIUS, grounds_array, rays_array, sights_array
+from engine.queries import CONTACT_TOLERANCE, SIGHT_RADIUS, grounds_array, rays_array, sights_array
 
 from indoor_builder import GROUND, SceneBuilder, gfx_obj, room_struct, shell_boxes
 from scenes import world_from_heights
@@ -178,7 +178,11 @@ MISSILE_R = 0.5  # the segments below are at most 30 radii long: the retail step
 )
 def test_a_ray_stops_where_a_missiles_move_on_the_same_segment_stops(start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
     """Same engine, two ways: World.ray against a registered PathClipped
-    mover of the same sphere moved along the same segment."""
+    mover of the same sphere moved along the same segment. The move stops at
+    the step before the colliding one; the ray carries on to the contact, so
+    it ends no nearer than the move and at most one step (one radius) further,
+    with the same surface's normal, and the move from the start to where the
+    ray ended gets there."""
 
     def scene() -> engine.World:
         w = flat_world()
@@ -187,19 +191,57 @@ def test_a_ray_stops_where_a_missiles_move_on_the_same_segment_stops(start: tupl
 
     s, e = at(A9B4, *start), at(A9B4, *end)
     hit = scene().ray(s, e, MISSILE_R)
-    world = scene()
     missile = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), MISSILE_R)], state=["PathClipped"], gravity=False, step_down=False)
-    mid = world.add_mover(missile, s)
-    moved = world.move(mid, e)
+    world = scene()
+    moved = world.move(world.add_mover(missile, s), e)
     assert moved.ok
-    assert same_position(hit.position, moved.position)
     assert hit.hit == (moved.collision_normal is not None)
     if hit.hit:
-        assert hit.normal == moved.collision_normal
+        assert hit.normal is not None and moved.collision_normal is not None
+        assert hit.normal.dot(moved.collision_normal) > 0.99
+        travelled = s.get_offset(moved.position).length()
+        assert travelled - 1e-4 <= hit.distance <= travelled + MISSILE_R + 1e-4
+        world = scene()
+        to_contact = world.move(world.add_mover(missile, s), hit.position)
+        assert to_contact.ok  # it gets there (touching, at most): the ray's stop is not inside anything
+        assert (to_contact.position.frame.origin - hit.position.frame.origin).length() < 1e-3
     else:
+        assert same_position(hit.position, moved.position)
         # the sweep's steps add up to the end to float32 rounding
         assert hit.position.cell_id == e.cell_id and (e.frame.origin - hit.position.frame.origin).length() < 1e-3
         assert hit.distance == pytest.approx(s.get_offset(e).length(), abs=1e-3)
+
+
+@pytest.mark.parametrize("radius", [0.05, 0.1, 0.3, 1.0])
+def test_a_ray_stops_touching_what_it_meets_with_that_surfaces_normal(radius: float) -> None:
+    """The sphere's centre ends one radius before the surface along the ray: at x = wall - r before a
+    wall facing -x, at z = ground + r over flat ground, at centre distance 1 + r from a 1 m sphere;
+    the normal is the surface's (found to CONTACT_TOLERANCE, float32 coordinates)."""
+    tol = 2 * CONTACT_TOLERANCE
+    world, room, b = house_world()
+    eye = GROUND + 1.5
+    outside = b.outdoor_cell(CX, CY)
+    wall = world.ray(Position.at(outside, Vec3(CX - 10.0, CY, eye)), Position.at(outside, Vec3(CX + 10.0, CY, eye)), radius)
+    assert wall.hit and wall.blocker == engine.queries.Blocker("building")
+    assert wall.position.frame.origin.x == pytest.approx(CX - 3.25 - radius, abs=tol)
+    assert wall.normal is not None and wall.normal.x == pytest.approx(-1.0) and abs(wall.normal.y) < 1e-6
+    assert wall.distance == pytest.approx(10.0 - 3.25 - radius, abs=tol)
+    # from inside the room eastwards: the room's own east wall (x = CX + 3, its inner face looking -x)
+    inner = world.ray(Position.at(room, Vec3(CX, CY, eye)), Position.at(outside, Vec3(CX + 10.0, CY, eye)), min(radius, 0.5))
+    assert inner.hit and inner.blocker == engine.queries.Blocker("cell")
+    assert inner.position.frame.origin.x == pytest.approx(CX + 3.0 - min(radius, 0.5), abs=tol)
+    assert inner.normal is not None and inner.normal.x == pytest.approx(-1.0)
+
+    flat = flat_world()
+    down = flat.ray(at(A9B4, 10.0, 10.0, 14.0), at(A9B4, 10.0, 10.0, 5.0), radius)
+    assert down.hit and down.blocker == engine.queries.Blocker("terrain")
+    assert down.position.frame.origin.z == pytest.approx(FLAT_Z + radius, abs=tol)
+    assert down.normal == Vec3(0.0, 0.0, 1.0)
+    ball = flat.add_mover(MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 1.0)], gravity=False), at(A9B4, 96.0, 96.0, 13.0))
+    side = flat.ray(at(A9B4, 80.0, 96.0, 13.0), at(A9B4, 112.0, 96.0, 13.0), radius)
+    assert side.hit and side.blocker == engine.queries.Blocker("object", ball)
+    assert side.position.frame.origin.x == pytest.approx(96.0 - 1.0 - radius, abs=tol)
+    assert side.normal is not None and side.normal.x == pytest.approx(-1.0)
 
 
 def test_a_ray_into_flat_ground_rests_on_it() -> None:

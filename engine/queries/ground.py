@@ -5,9 +5,9 @@ the client's LandCell.find_terrain_poly gives a walkable search, with the
 cell's water depth there (ObjCell.get_water_depth). Indoors (an EnvCell) it
 is what a small probe sphere swept straight down from the point first rests
 on, found by the client's transition as a missile's sweep is (the floor
-polygon, a step, a static object standing there), found to within half a
-millimetre by finer probes; its plane is extended to the point's x, y for
-the height.
+polygon, a step, a static object standing there), to the contact as a ray
+finds it (sweep.CONTACT_TOLERANCE); its plane is extended to the point's x,
+y for the height.
 """
 
 from __future__ import annotations
@@ -25,8 +25,6 @@ __all__ = ["ground", "GROUND_PROBE_RADIUS", "MAX_GROUND_DROP"]
 
 #: the indoor probe sphere's radius
 GROUND_PROBE_RADIUS: Final = 0.05
-#: the finer probes that find the contact to within half a millimetre
-_REFINE_RADII: Final = (0.005, 0.0005)
 #: how far below an indoor point the floor is looked for, by default
 MAX_GROUND_DROP: Final = 50.0
 
@@ -60,18 +58,6 @@ def _ground_checked(world: Any, position: Position, drop: float, cache: dict[int
     hit = _ray_checked(world, start, end, r, 0, cache)
     if not hit.hit or hit.normal is None or hit.normal.z <= 0.0:
         return None
-    # A sweep stops up to one step (one radius) short of the contact: sweep
-    # the last stretch again with ever smaller probes, each starting with its
-    # bottom where the previous probe's bottom stopped.
-    for finer in _REFINE_RADII:
-        s = hit.position.frame.origin
-        bottom = s.z - r
-        fine_start = Position(hit.position.cell_id, hit.position.frame.with_origin(Vec3(s.x, s.y, bottom + finer)))
-        fine_end = Position(hit.position.cell_id, hit.position.frame.with_origin(Vec3(s.x, s.y, bottom + finer - 2.0 * r)))
-        fine = _ray_checked(world, fine_start, fine_end, finer, 0, cache)
-        if not fine.hit or fine.normal is None or fine.normal.z <= 0.0:
-            break
-        hit, r = fine, finer
     n = hit.normal
     assert n is not None
     contact = hit.position.frame.origin - n * r
