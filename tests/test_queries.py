@@ -16,7 +16,7 @@ from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import EngineError, LandblockNotLoadedError, NonFiniteError, OutOfRangeError, UnknownCellError
 from engine.queries import CONTACT_TOLERANCE, SIGHT_RADIUS, grounds_array, rays_array, sights_array
 
-from indoor_builder import GROUND, SceneBuilder, gfx_obj, room_struct, shell_boxes
+from indoor_builder import GROUND, SceneBuilder, box_solid, gfx_obj, room_struct, shell_boxes
 from scenes import world_from_heights
 from support.mover_slots import mover_slot_names
 from test_indoor_scenarios import CX, CY, HOUSE_DOOR, HOUSE_HI, HOUSE_LO, house_world
@@ -329,6 +329,40 @@ def test_ground_outdoors_past_the_landblock_edge_is_the_next_landblocks_terrain(
     g = world.ground(Position.at(0xA9B40001, Vec3(200.0, 10.0, 40.0)))  # 8 m into AAB4
     assert g is not None and g.cell == cell(0xAAB4, 8.0, 10.0)
     assert g.z == pytest.approx(planar_height(8.0, 10.0), abs=1e-4)
+
+
+def test_ground_outdoors_is_what_stands_on_the_land_where_something_does() -> None:
+    """A 4 x 4 x 3 m static block on the land (its top 3 m up), a house with a flat roof (3.25 m up),
+    a 1 m ball (not a creature) floating with its top 14 m up and a player standing on flat land:
+    the ground over the block, the roof and the ball is their top, where a falling mover rests
+    (test_indoor_scenarios: a flat roof catches a falling mover); beside them, and over the player
+    (a creature's head is not ground), it is the land."""
+    b = SceneBuilder()
+    block = b.add_gfx_obj(gfx_obj([box_solid((-2.0, -2.0, 0.0), (2.0, 2.0, 3.0))]))
+    b.add_object(block, (CX, CY, GROUND))
+    world = b.world()
+    outside = b.outdoor_cell(CX, CY)
+    for dx, want in ((0.5, GROUND + 3.0), (1.9, GROUND + 3.0), (-1.5, GROUND + 3.0), (2.1, GROUND), (5.0, GROUND)):
+        g = world.ground(Position.at(outside, Vec3(CX + dx, CY - 0.5, GROUND + 8.0)))
+        assert g is not None and g.z == pytest.approx(want, abs=5e-4), dx
+        assert g.walkable and g.plane.normal == Vec3(0.0, 0.0, 1.0) and g.cell == outside
+    # a point between the land and the block's top, beside the block: the land
+    g = world.ground(Position.at(outside, Vec3(CX + 2.5, CY, GROUND + 1.0)))
+    assert g is not None and g.z == pytest.approx(GROUND)
+
+    house, _room, hb = house_world()
+    roof = house.ground(Position.at(hb.outdoor_cell(CX, CY), Vec3(CX + 1.0, CY + 1.0, GROUND + 8.0)))
+    assert roof is not None and roof.z == pytest.approx(GROUND + HOUSE_HI[2] + 0.25, abs=5e-4) and roof.walkable
+
+    from scenes import PLAYER
+
+    flat = flat_world()
+    flat.add_mover(MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 1.0)], gravity=False), at(A9B4, 96.0, 96.0, 13.0))
+    top = flat.ground(at(A9B4, 96.0, 96.0, 20.0))
+    assert top is not None and top.z == pytest.approx(14.0, abs=5e-4) and top.plane.normal.z == pytest.approx(1.0)
+    flat.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
+    over_head = flat.ground(at(A9B4, 50.0, 50.0, FLAT_Z + 4.0))
+    assert over_head is not None and over_head.z == pytest.approx(FLAT_Z) and over_head.water_depth == 0.0
 
 
 @pytest.mark.parametrize("height", [0.0, 1.5, 2.9])

@@ -52,6 +52,7 @@ from ..constants import BLOCK_LENGTH
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
+from ..transition.state import OI
 from ..transition.transition import Transition
 from ..world.mover import Mover
 from .results import Blocker, RayHit, SightResult
@@ -147,10 +148,13 @@ def cell_for(world: Any, position: Position, cache: dict[int, Any] | None = None
     return world.get_landcell(cell_id), position
 
 
-def _sweep(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None) -> tuple[Transition, bool, Position]:
+def _sweep(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+           pass_creatures: bool = False) -> tuple[Transition, bool, Position]:
     """Run one missile sweep from `start` to `end` (PhysicsObj.transition on a
     throwaway object). Returns the transition, whether it found a position,
-    and the start as re-homed."""
+    and the start as re-homed. With `pass_creatures` the sweep object is also
+    a viewer (ObjectInfoState IsViewer, the camera's flag), which creatures
+    and players never stop (PhysicsObj.FindObjCollisions)."""
     cell, start = cell_for(world, start, cache)
     sweeper = Mover(_SWEEP_ID, [Sphere(ZERO, radius)], gravity=False, missile=True, step_down=False)
     sweeper.position = start
@@ -158,6 +162,8 @@ def _sweep(world: Any, start: Position, end: Position, radius: float, target_id:
     settings = replace(world.settings, max_steps=_UNCAPPED_STEPS)
     t = sweeper.make_transition(world.landscape, settings)
     t.object_info.target_id = target_id
+    if pass_creatures:
+        t.object_info.state |= OI.IS_VIEWER
     t.init_path(cell, start, end)
     ok = cell is not None and t.find_valid_position()
     return t, ok, start
@@ -212,7 +218,7 @@ def ray(world: Any, start: Position, end: Position, radius: float, *, target_id:
 
 
 def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius: float, target_id: int,
-                cache: dict[int, Any] | None) -> tuple[Transition, Position]:
+                cache: dict[int, Any] | None, pass_creatures: bool) -> tuple[Transition, Position]:
     """The sweep's stop carried on to the contact: the last position along the segment from which a
     short sweep of the same sphere still arrives, found by bisection to CONTACT_TOLERANCE.
 
@@ -236,7 +242,7 @@ def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius
             break
         mid = hi if collided is t else 0.5 * (lo + hi)
         probe_end = Position(stop.cell_id, stop.frame.with_origin(stop.frame.origin + direction * mid))
-        probe, ok, _ = _sweep(world, free, probe_end, radius, target_id, cache)
+        probe, ok, _ = _sweep(world, free, probe_end, radius, target_id, cache, pass_creatures)
         reached = probe.sphere_path.curr_pos
         if ok and reached is not None and not probe.collision_info.collision_normal_valid:
             if collided is t:
@@ -253,8 +259,9 @@ def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius
     return collided, free
 
 
-def _ray_checked(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None) -> RayHit:
-    t, ok, home = _sweep(world, start, end, radius, target_id, cache)
+def _ray_checked(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+                 pass_creatures: bool = False) -> RayHit:
+    t, ok, home = _sweep(world, start, end, radius, target_id, cache, pass_creatures)
     path = t.sphere_path
     ci = t.collision_info
     if not ok or path.curr_pos is None:
@@ -264,7 +271,7 @@ def _ray_checked(world: Any, start: Position, end: Position, radius: float, targ
     stop = path.curr_pos
     if not ci.collision_normal_valid:
         return RayHit(False, stop, stop.cell_id, None, home.get_offset(stop).length(), None)
-    hit_t, stop = _to_contact(world, t, stop, end, radius, target_id, cache)
+    hit_t, stop = _to_contact(world, t, stop, end, radius, target_id, cache, pass_creatures)
     normal = hit_t.collision_info.collision_normal
     return RayHit(True, stop, stop.cell_id, normal, home.get_offset(stop).length(), _blocker(world, hit_t, stop, radius))
 
