@@ -59,8 +59,15 @@ from .results import Blocker, RayHit, SightResult
 
 __all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
 
-#: The sight object's radius: 0.1 m, the client's default sphere (the one an
-#: object without physics spheres gets, PhysicsObj's dummy sphere).
+#: The sight object's radius, 0.1 m. What the server sweeps for line of sight
+#: (ACE's WorldObject.IsDirectVisible) is PhysicsObj.makeObject(0x02000124, the
+#: arrow's Setup, as a sight object) in the Missile state; PhysicsObj.transition
+#: gives a transition that Setup's spheres, or, when it has none,
+#: PhysicsGlobals.DummySphere: radius DummySphereRadius = 0.1, centred 0.1 above
+#: the object's origin. The arrow Setup's own spheres are dat data that is not
+#: in this project's material (the shared dats carry three scenes' Setups), so
+#: the default is the dummy sphere's radius, swept with its centre on the eye
+#: line; a caller who knows the arrow's sphere passes it as `radius`.
 SIGHT_RADIUS: Final = 0.1
 #: the largest sweep radius accepted (a mover's largest sphere is far smaller)
 MAX_RAY_RADIUS: Final = 10.0
@@ -277,14 +284,13 @@ def _ray_checked(world: Any, start: Position, end: Position, radius: float, targ
 
 
 def viewer_radius(world: Any, viewer_id: int) -> float:
-    """How far the sight object starts from a viewer's eye: the viewer's
-    horizontal reach (its spheres' farthest edge from its axis, scaled; the
-    client's PhysicsObj.GetPhysicsRadius)."""
+    """How far the sight object starts from a viewer's eye: the viewer's physics radius, its first
+    cylsphere's radius, else its first sphere's, times its scale (PhysicsObj.GetPhysicsRadius, as
+    IsDirectVisible adds it to the sight object's own)."""
     mover = world.mover(viewer_id)
-    reach = 0.0
-    for s in mover.spheres:
-        reach = max(reach, math.hypot(s.center.x, s.center.y) + s.radius)
-    return reach * mover.scale
+    if mover.cyl_spheres:
+        return float(mover.cyl_spheres[0].radius) * mover.scale
+    return mover.spheres[0].radius * mover.scale if mover.spheres else 0.0
 
 
 def start_outside_viewer(world: Any, a: Position, b: Position, radius: float, viewer_id: int) -> Position:
