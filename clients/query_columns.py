@@ -18,7 +18,7 @@ from service.columns import pack_columns, unpack_column
 from service.query_columns import BLOCKER_CODES, NO_CODE, PLACEMENT_CODES, QUERY_COLUMNS
 from service.wire import ErrorKind
 
-from .batch import _reindexed
+from .batch import _reindexed, column_rows
 from .errors import AcphysError, ServiceError
 
 if TYPE_CHECKING:
@@ -69,14 +69,7 @@ class QueryColumnResults:
 
 def _rows(op: str, name: str, value: Any, n: int) -> Array:
     """An argument as its request column: (n,) or (n, width); a scalar is repeated for every row."""
-    col = QUERY_COLUMNS[op].request_column(name)
-    a = np.asarray(value, dtype=col.np_dtype.newbyteorder("="))
-    if col.width == 1 and a.ndim == 0:
-        a = np.full(n, a)
-    want = (n,) if col.width == 1 else (n, col.width)
-    if a.shape != want:
-        raise ValueError(f"{name}: expected shape {want}, got {a.shape}")
-    return a
+    return column_rows(QUERY_COLUMNS[op].request_column(name), value, n)
 
 
 def _read_reply(op: str, reply: dict[str, Any], m: int) -> tuple[dict[str, Array], list[Any]]:

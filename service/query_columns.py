@@ -25,8 +25,8 @@ from typing import Any, Final
 
 import numpy as np
 
-from .column_request import _column_bytes, _type_name
-from .columns import FLOAT32_MAX, Column, pack_columns
+from .column_request import _column_bytes, _type_name, refuse_bad_reals
+from .columns import Column, pack_columns
 from .errors import ProtocolError
 from .wire import MAX_BATCH, PROTOCOL_VERSION, ErrorKind
 
@@ -78,6 +78,11 @@ def _req(op: str, name: str, dtype: str, width: int, required: bool) -> Column:
     return Column(name, dtype, width, required=(op,) if required else (), optional=() if required else (op,))
 
 
+def _at(op: str, optional: tuple[Column, ...]) -> tuple[Column, ...]:
+    """A point query's columns: its cell and origin, then `optional`."""
+    return (_req(op, "cell", "u32", 1, True), _req(op, "origin", "f64", 3, True)) + optional
+
+
 def _segment(op: str, radius_required: bool, viewer: bool) -> tuple[Column, ...]:
     cols = (
         _req(op, "from_cell", "u32", 1, True),
@@ -90,44 +95,45 @@ def _segment(op: str, radius_required: bool, viewer: bool) -> tuple[Column, ...]
     return cols + ((_req(op, "viewer", "u64", 1, False),) if viewer else ())
 
 
-_BLOCKER_REPLY = (Column("blocker", "u8", 1, missing="255"), Column("blocker_id", "u64", 1, missing="0"))
+#: what a reply column holds where there is no value: NaN for reals, 255 for a u8 code, else 0
+_MISSING = {"f64": "NaN", "u8": "255", "u32": "0", "u64": "0"}
+
+
+def _out(*columns: tuple[str, str, int]) -> tuple[Column, ...]:
+    """Reply columns (name, dtype, per item), after the `flags` column every reply starts with."""
+    return (Column("flags", "u32", 1, missing="0"),) + tuple(
+        Column(name, dtype, width, missing=_MISSING[dtype]) for name, dtype, width in columns)
+
+
+_BLOCKER = (("blocker", "u8", 1), ("blocker_id", "u64", 1))
 
 QUERY_COLUMNS: Final[dict[str, QueryColumns]] = {
     "sight": QueryColumns(
         "sight",
         _segment("sight", False, True),
-        (Column("flags", "u32", 1, missing="0"), Column("cell", "u32", 1, missing="0"),
-         Column("stop", "f64", 3, missing="NaN"), Column("normal", "f64", 3, missing="NaN")) + _BLOCKER_REPLY,
+        _out(("cell", "u32", 1), ("stop", "f64", 3), ("normal", "f64", 3), *_BLOCKER),
         ("resolved", "clear", "stop given", "normal given", "blocker_id given"),
         "from_cell",
     ),
     "ray": QueryColumns(
         "ray",
         _segment("ray", True, False),
-        (Column("flags", "u32", 1, missing="0"), Column("cell", "u32", 1, missing="0"),
-         Column("position", "f64", 3, missing="NaN"), Column("normal", "f64", 3, missing="NaN"),
-         Column("distance", "f64", 1, missing="NaN")) + _BLOCKER_REPLY,
+        _out(("cell", "u32", 1), ("position", "f64", 3), ("normal", "f64", 3), ("distance", "f64", 1), *_BLOCKER),
         ("resolved", "hit", "normal given", "blocker_id given"),
         "from_cell",
     ),
     "ground": QueryColumns(
         "ground",
-        (_req("ground", "cell", "u32", 1, True), _req("ground", "origin", "f64", 3, True),
-         _req("ground", "max_drop", "f64", 1, False)),
-        (Column("flags", "u32", 1, missing="0"), Column("z", "f64", 1, missing="NaN"),
-         Column("plane", "f64", 4, missing="NaN"), Column("cell", "u32", 1, missing="0"),
-         Column("water_depth", "f64", 1, missing="NaN")),
+        _at("ground", (_req("ground", "max_drop", "f64", 1, False),)),
+        _out(("z", "f64", 1), ("plane", "f64", 4), ("cell", "u32", 1), ("water_depth", "f64", 1)),
         ("resolved", "found", "walkable"),
         "cell",
     ),
     "place": QueryColumns(
         "place",
-        (_req("place", "cell", "u32", 1, True), _req("place", "origin", "f64", 3, True),
-         _req("place", "orientation", "f64", 4, False)),
-        (Column("flags", "u32", 1, missing="0"), Column("placement_result", "u8", 1, missing="255"),
-         Column("cell", "u32", 1, missing="0"), Column("origin", "f64", 3, missing="NaN"),
-         Column("orientation", "f64", 4, missing="NaN"), Column("contact_plane", "f64", 4, missing="NaN"),
-         Column("contact_plane_cell", "u32", 1, missing="0")),
+        _at("place", (_req("place", "orientation", "f64", 4, False),)),
+        _out(("placement_result", "u8", 1), ("cell", "u32", 1), ("origin", "f64", 3), ("orientation", "f64", 4),
+             ("contact_plane", "f64", 4), ("contact_plane_cell", "u32", 1)),
         ("resolved", "ok", "contact", "on_walkable", "water_contact", "contact_plane given",
          "contact_plane_cell given"),
         "cell",
@@ -167,38 +173,18 @@ def query_column_count(msg: dict[str, Any], op: str) -> int:
     return len(raw) // spec.request_column(spec.count).item_bytes if isinstance(raw, bytes) else 0
 
 
-def _bad_reals(req: QueryColumnRequest, spec: QueryColumns) -> None:
-    """NaN, ±infinity and magnitudes beyond float32 fail their item, naming column, index and component."""
-    for col in spec.request:
-        a = req.arrays.get(col.name)
-        if a is None or not col.real or req.n == 0:
-            continue
-        grid = a.reshape(req.n, col.width)
-        non_finite = ~np.isfinite(grid)
-        too_big = np.abs(np.where(non_finite, 0.0, grid)) > FLOAT32_MAX
-        for kind, mask in ((ErrorKind.NON_FINITE, non_finite), (ErrorKind.BAD_VALUE, too_big)):
-            for i in np.flatnonzero(mask.any(axis=1)).tolist():
-                j = int(np.argmax(mask[i]))
-                path = f"columns.{col.name}[{i}]" + (f"[{j}]" if col.width > 1 else "")
-                why = "is not a finite number" if kind == ErrorKind.NON_FINITE else \
-                    f"is beyond float32's range (magnitude > {FLOAT32_MAX:.7g})"
-                req.refuse(i, kind, path, f"{float(grid[i, j])!r} {why}")
-
-
 def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
     """A radius or max_drop below 0 (a ray's radius 0 too), a non-unit orientation, a start outside
     the key's landblock."""
     a = req.arrays
-    radius = a.get("radius")
-    if radius is not None:
-        low = radius <= 0.0 if req.op == "ray" else radius < 0.0
-        for i in np.flatnonzero(low).tolist():
-            req.refuse(i, ErrorKind.BAD_VALUE, f"columns.radius[{i}]",
-                       f"must be {'positive' if req.op == 'ray' else 'positive (0: the default)'}, got {radius[i]}")
-    drop = a.get("max_drop")
-    if drop is not None:
-        for i in np.flatnonzero(drop < 0.0).tolist():
-            req.refuse(i, ErrorKind.BAD_VALUE, f"columns.max_drop[{i}]", f"must not be negative, got {drop[i]}")
+    ray = req.op == "ray"
+    for name, low, must in (("radius", (lambda v: v <= 0.0) if ray else (lambda v: v < 0.0),
+                             "be positive" if ray else "be positive (0: the default)"),
+                            ("max_drop", lambda v: v < 0.0, "not be negative")):
+        values = a.get(name)
+        if values is not None:
+            for i in np.flatnonzero(low(values)).tolist():
+                req.refuse(i, ErrorKind.BAD_VALUE, f"columns.{name}[{i}]", f"must {must}, got {values[i]}")
     q = a.get("orientation")
     if q is not None:
         with np.errstate(invalid="ignore", over="ignore"):
@@ -256,7 +242,7 @@ def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
         a = np.frombuffer(raw_bytes, dtype=col.np_dtype).astype(col.np_dtype.newbyteorder("="), copy=False)
         arrays[col.name] = a if col.width == 1 else a.reshape(n, col.width)
     req = QueryColumnRequest(op, n, arrays, read_options(msg) if read_options is not None else {})
-    _bad_reals(req, spec)
+    refuse_bad_reals(spec.request, arrays, n, req.bad)
     _bad_ranges(req, lb)
     return req
 
