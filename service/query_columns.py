@@ -207,7 +207,8 @@ def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
     """`{"v": 1, "columns": {...}}` (a place also `mover`, `mode`, `slide`, read by `read_options`) to a
     QueryColumnRequest; ProtocolError for anything that concerns the whole request."""
     spec = QUERY_COLUMNS[op]
-    from .queries import BATCH_FIELDS
+    from .queries import BATCH_FIELDS  # here: service.queries imports this module
+
 
     if op in msg or BATCH_FIELDS[op] in msg:
         raise ProtocolError(ErrorKind.BAD_VALUE, f"give exactly one of {op}, {BATCH_FIELDS[op]} or columns")
