@@ -1,6 +1,6 @@
 """Spatial queries per second (issue 14): sight, ray and ground in this process (World.sight/ray/ground
 one at a time and their batched forms) and over the bus (Client.sight/ray/ground one request each, and
-one batch request of many), on the demo world. Bounded by counts; the service listens on 127.0.0.1."""
+one batch request of many, and one column request), on the demo world. Bounded by counts; the service listens on 127.0.0.1."""
 
 from __future__ import annotations
 
@@ -52,13 +52,25 @@ def _in_process(world: Any, pairs: list[tuple[Any, Any]]) -> dict[str, dict[str,
     }
 
 
+def _columns(positions: list[Any]) -> tuple[Any, Any]:
+    """Cell ids (n,) and origins (n, 3) as numpy columns."""
+    import numpy as np
+
+    return (np.array([p.cell_id for p in positions], dtype=np.uint32),
+            np.array([p.frame.origin.as_tuple() for p in positions], dtype=np.float64))
+
+
 def _over_bus(client: Any, pairs: list[tuple[Any, Any]]) -> dict[str, dict[str, float]]:
     a = [p for p, _ in pairs]
     n = len(pairs)
+    (fc, fo), (tc, to) = _columns(a), _columns([q for _, q in pairs])
     return {
-        "sight": {"single": _rate(n, lambda: [client.sight(p, q) for p, q in pairs]), "batch": _rate(n, lambda: client.sights(pairs))},
-        "ray": {"single": _rate(n, lambda: [client.ray(p, q, 0.1) for p, q in pairs]), "batch": _rate(n, lambda: client.rays(pairs, 0.1))},
-        "ground": {"single": _rate(n, lambda: [client.ground(p) for p in a]), "batch": _rate(n, lambda: client.grounds(a))},
+        "sight": {"single": _rate(n, lambda: [client.sight(p, q) for p, q in pairs]), "batch": _rate(n, lambda: client.sights(pairs)),
+                  "columns": _rate(n, lambda: client.sight_columns(fc, fo, tc, to))},
+        "ray": {"single": _rate(n, lambda: [client.ray(p, q, 0.1) for p, q in pairs]), "batch": _rate(n, lambda: client.rays(pairs, 0.1)),
+                "columns": _rate(n, lambda: client.ray_columns(fc, fo, tc, to, 0.1))},
+        "ground": {"single": _rate(n, lambda: [client.ground(p) for p in a]), "batch": _rate(n, lambda: client.grounds(a)),
+                   "columns": _rate(n, lambda: client.ground_columns(fc, fo))},
     }
 
 
@@ -95,17 +107,20 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
         f"Queries per second on the demo world: {data['queries']} segments between eyes 1.6 m over the land, "
         f"5 to 40 m apart ({data['blocked_sights']} of the sight lines blocked by the land), each asked one at a "
         "time and as one batch; in this process (`World.sight/ray/ground`, `sights/rays/grounds`) and over the bus "
-        "from one client (`Client.sight/ray/ground`, one request each, and `sights/rays/grounds`, one request). "
+        "from one client (`Client.sight/ray/ground`, one request each; `sights/rays/grounds`, one batch request; "
+        "`sight_columns/ray_columns/ground_columns`, one column request, docs/protocol.md \"Query columns\"). "
         "Ray radius 0.1 m.",
         "",
-        "| query | in process, one at a time | in process, batched | bus, one request each | bus, one batch request |",
-        "|---|---|---|---|---|",
+        "| query | in process, one at a time | in process, batched | bus, one request each | bus, one batch request "
+        "| bus, one column request |",
+        "|---|---|---|---|---|---|",
     ]
     for op in OPS:
         lo, bu = data["in_process"][op], data["bus"][op]
-        out.append(f"| {op} | {lo['single']:.0f} | {lo['batch']:.0f} | {bu['single']:.0f} | {bu['batch']:.0f} |")
+        cols = f"{bu['columns']:.0f}" if "columns" in bu else "-"
+        out.append(f"| {op} | {lo['single']:.0f} | {lo['batch']:.0f} | {bu['single']:.0f} | {bu['batch']:.0f} | {cols} |")
     sweep_ms = 1e3 / max(1.0, data["in_process"]["sight"]["single"])
     return out + ["", (f"Sight and ray cost the engine's sweep (about {sweep_ms:.1f} ms each in this run): over the bus "
                        "one request per query adds the round trip to that, and a batch saves it, leaving the sweep. "
                        "Ground is cheap in the engine, so there the request overhead dominates one query per request "
-                       "and a batch recovers most of it."), ""]
+                       "and a batch recovers most of it; the column form also saves building and reading a map per query."), ""]

@@ -7,6 +7,8 @@ from .aio import AsyncClient
 from .batch import BatchResults
 from .client import Client, Subscription
 from .errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
+from .query_columns import QueryColumnResults
+from .spatial import SightQuery
 from .types import InstanceInfo, Move, MoverState
 
 __all__ = [
@@ -19,7 +21,9 @@ __all__ = [
     "Move",
     "MoverState",
     "NoServiceError",
+    "QueryColumnResults",
     "RequestTimeout",
     "ServiceError",
+    "SightQuery",
     "Subscription",
 ]

@@ -22,6 +22,7 @@ from service.columns import (
     REQUEST_COLUMNS,
     TRANSIENT_FLAGS,
     TRANSITION_STATES,
+    Column,
     Flag,
     pack_columns,
     unpack_column,
@@ -117,13 +118,18 @@ class BatchResults:
 
 def _rows(name: str, value: Any, n: int) -> Array:
     """A request argument as the column's array: (n,) or (n, width); a scalar `dt` is repeated."""
-    col = REQUEST_BY_NAME[name]
+    return column_rows(REQUEST_BY_NAME[name], value, n)
+
+
+def column_rows(col: Column, value: Any, n: int) -> Array:
+    """`value` as column `col`'s array: (n,) or (n, width); a scalar is repeated for a width-1 column.
+    ValueError for another shape. Shared with the queries' column form (clients/query_columns.py)."""
     a = np.asarray(value, dtype=col.np_dtype.newbyteorder("="))
     if col.width == 1 and a.ndim == 0:
         a = np.full(n, a)
     want = (n,) if col.width == 1 else (n, col.width)
     if a.shape != want:
-        raise ValueError(f"{name}: expected shape {want}, got {a.shape}")
+        raise ValueError(f"{col.name}: expected shape {want}, got {a.shape}")
     return a
 
 

@@ -5,6 +5,7 @@ answers are the engine's own result classes (engine.queries)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from engine.geometry import Position
@@ -15,8 +16,22 @@ from service.codec import encode_mover_spec, encode_position
 from service.queries import BATCH_FIELDS, decode_ground, decode_placement, decode_ray_hit, decode_sight
 
 from .errors import ServiceError
+from .query_columns import QueryColumnResults, query_columns
 
-__all__ = ["SpatialQueries"]
+__all__ = ["SpatialQueries", "SightQuery"]
+
+
+@dataclass(frozen=True, slots=True)
+class SightQuery:
+    """One pair of a `Client.sights` batch with what the map form lets each pair name: eye `a`, eye `b`,
+    its own sight radius (None: the batch's), the mover looked at (`target`) and the mover looking
+    (`viewer`), by id."""
+
+    a: Position
+    b: Position
+    radius: float | None = None
+    target: int | None = None
+    viewer: int | None = None
 
 
 def _lb(p: Position) -> int:
@@ -79,10 +94,13 @@ class SpatialQueries:
         """Is the line from eye `a` to eye `b` clear (World.sight, on the service)?"""
         return decode_sight(self._one("sight", _lb(a), _sight_item(a, b, radius, target, viewer), timeout))
 
-    def sights(self, pairs: Sequence[tuple[Position, Position]], radius: float | None = None,
+    def sights(self, pairs: Sequence[tuple[Position, Position] | SightQuery], radius: float | None = None,
                timeout: float | None = None) -> list[SightResult | ServiceError]:
-        items = [_sight_item(a, b, radius, None, None) for a, b in pairs]
-        return self._many("sight", [_lb(a) for a, _ in pairs], items, decode_sight, timeout)
+        """`sight` for each pair, in order: a pair is (a, b), or a SightQuery naming its own radius,
+        target and viewer (as the map form's items can)."""
+        queries = [p if isinstance(p, SightQuery) else SightQuery(p[0], p[1]) for p in pairs]
+        items = [_sight_item(q.a, q.b, radius if q.radius is None else q.radius, q.target, q.viewer) for q in queries]
+        return self._many("sight", [_lb(q.a) for q in queries], items, decode_sight, timeout)
 
     def ray(self, start: Position, end: Position, radius: float, *, target: int | None = None,
             timeout: float | None = None) -> RayHit:
@@ -112,3 +130,42 @@ class SpatialQueries:
                timeout: float | None = None) -> list[PlacementResult | ServiceError]:
         items = [_place_item(s, p, mode, slide) for s, p in queries]
         return self._many("place", [_lb(p) for _, p in queries], items, decode_placement, timeout)
+
+    # -- the column form (docs/protocol.md, "Query columns") ------------------------------------------
+    def _columns(self, op: str, named: dict[str, Any], options: dict[str, Any] | None,
+                 timeout: float | None) -> QueryColumnResults:
+        def request(lb: int, body: dict[str, Any]) -> dict[str, Any]:
+            return self._lb_request(lb, op, {"v": 1, **body}, timeout=timeout)
+
+        return query_columns(request, op, named, options)
+
+    def sight_columns(self, from_cells: Any, from_origins: Any, to_cells: Any, to_origins: Any, radius: Any = None,
+                      *, targets: Any = None, viewers: Any = None, timeout: float | None = None) -> QueryColumnResults:
+        """`sight` for N pairs as numpy columns: cell ids (N,) and origins (N, 3) of both eyes; `radius`,
+        `targets`, `viewers` a scalar or (N,) (0: the default radius, no target, no viewer). The answers'
+        columns: flags (`clear`), cell, stop, normal, blocker, blocker_id."""
+        return self._columns("sight", {"from_cell": from_cells, "from_origin": from_origins, "to_cell": to_cells,
+                                       "to_origin": to_origins, "radius": radius, "target": targets,
+                                       "viewer": viewers}, None, timeout)
+
+    def ray_columns(self, from_cells: Any, from_origins: Any, to_cells: Any, to_origins: Any, radius: Any, *,
+                    targets: Any = None, timeout: float | None = None) -> QueryColumnResults:
+        """`ray` for N segments as numpy columns (as `sight_columns`; `radius` required, > 0). The answers'
+        columns: flags (`hit`), cell, position, normal, distance, blocker, blocker_id."""
+        return self._columns("ray", {"from_cell": from_cells, "from_origin": from_origins, "to_cell": to_cells,
+                                     "to_origin": to_origins, "radius": radius, "target": targets}, None, timeout)
+
+    def ground_columns(self, cells: Any, origins: Any, max_drop: Any = None,
+                       timeout: float | None = None) -> QueryColumnResults:
+        """`ground` for N points as numpy columns: cell ids (N,), origins (N, 3). The answers' columns: flags
+        (`found`, `walkable`), z, plane, cell, water_depth."""
+        return self._columns("ground", {"cell": cells, "origin": origins, "max_drop": max_drop}, None, timeout)
+
+    def place_columns(self, spec: MoverSpec, cells: Any, origins: Any, orientations: Any = None,
+                      mode: str = "enter_world", slide: bool = True, timeout: float | None = None) -> QueryColumnResults:
+        """`place` of one shape at N positions as numpy columns: cell ids (N,), origins (N, 3), orientations
+        (N, 4) w x y z or None. The answers' columns: flags (`ok`, `contact`, ...), placement_result, cell,
+        origin, orientation, contact_plane, contact_plane_cell."""
+        options = {"mover": encode_mover_spec(spec), "mode": mode, "slide": slide}
+        return self._columns("place", {"cell": cells, "origin": origins, "orientation": orientations}, options,
+                             timeout)

@@ -11,13 +11,14 @@ from typing import Any
 
 from .columns import MOVE_FORMS
 from .queries import QUERY_OPS
+from .query_columns import QUERY_FORMS
 from .requests import PUBLISH_MODES
 from .wire import PROTOCOL_VERSION
 
 __all__ = ["CAPABILITY_FIELDS", "capabilities"]
 
 #: Health's fields that say what the instance understands (not how it is doing)
-CAPABILITY_FIELDS = ("protocol", "publish", "move_forms", "queries")
+CAPABILITY_FIELDS = ("protocol", "publish", "move_forms", "queries", "query_forms")
 
 
 def capabilities() -> dict[str, Any]:
@@ -26,4 +27,5 @@ def capabilities() -> dict[str, Any]:
         "publish": list(PUBLISH_MODES),
         "move_forms": list(MOVE_FORMS),
         "queries": list(QUERY_OPS),
+        "query_forms": list(QUERY_FORMS),
     }

@@ -21,7 +21,7 @@ from .columns import COLUMN_PUBLISH_MODES, FLOAT32_MAX, KINDS, REQUEST_BY_NAME, 
 from .errors import ProtocolError
 from .wire import MAX_BATCH, ErrorKind
 
-__all__ = ["ColumnRequest", "is_column_request", "column_count", "parse_column_request"]
+__all__ = ["ColumnRequest", "is_column_request", "column_count", "parse_column_request", "refuse_bad_reals"]
 
 #: How far a given orientation's length may be from 1 (as the map form's `as_quat`).
 _UNIT_TOLERANCE = 1e-3
@@ -101,25 +101,33 @@ def _column_bytes(cols: dict[str, Any], col: Column, kind: str) -> bytes | None:
     return raw
 
 
-def _bad_reals(req: ColumnRequest) -> None:
-    """Per-item errors for refused values, the first bad value of an item (in column order) winning."""
-    for col in REQUEST_COLUMNS:
-        a = req.arrays.get(col.name)
-        if a is None or not col.real or req.n == 0:
+def refuse_bad_reals(columns: tuple[Column, ...], arrays: dict[str, np.ndarray[Any, Any]], n: int,
+                     bad: dict[int, ProtocolError]) -> None:
+    """Per-item errors in `bad` for the real columns' NaN, ±infinity and magnitudes beyond float32,
+    naming the column, the item and the component; an item's first bad value (in column order) wins.
+    Shared with the queries' column form (service/query_columns.py)."""
+    for col in columns:
+        a = arrays.get(col.name)
+        if a is None or not col.real or n == 0:
             continue
-        grid = a.reshape(req.n, col.width)
+        grid = a.reshape(n, col.width)
         non_finite = ~np.isfinite(grid)
         too_big = np.abs(np.where(non_finite, 0.0, grid)) > FLOAT32_MAX
         for kind, mask in ((ErrorKind.NON_FINITE, non_finite), (ErrorKind.BAD_VALUE, too_big)):
             for i in np.flatnonzero(mask.any(axis=1)).tolist():
-                if i in req.bad:
+                if i in bad:
                     continue
                 j = int(np.argmax(mask[i]))
                 path = f"columns.{col.name}[{i}]" + (f"[{j}]" if col.width > 1 else "")
                 value = float(grid[i, j])
                 why = "is not a finite number" if kind == ErrorKind.NON_FINITE else \
                     f"is beyond float32's range (magnitude > {FLOAT32_MAX:.7g})"
-                req.bad[i] = ProtocolError(kind, f"{path}: {value!r} {why}", path)
+                bad[i] = ProtocolError(kind, f"{path}: {value!r} {why}", path)
+
+
+def _bad_reals(req: ColumnRequest) -> None:
+    """Per-item errors for refused values, the first bad value of an item (in column order) winning."""
+    refuse_bad_reals(REQUEST_COLUMNS, req.arrays, req.n, req.bad)
     _bad_ranges(req)
 
 

@@ -23,6 +23,14 @@ from engine.queries.results import Blocker, Ground, RayHit, SightResult
 from .codec import decode_mover_spec, decode_plane, decode_position, encode_plane, encode_position, encode_vec
 from .engine_errors import to_protocol_error
 from .errors import ProtocolError
+from .query_columns import (
+    QUERY_COLUMNS,
+    QueryColumnRequest,
+    is_query_columns,
+    parse_query_columns,
+    query_column_count,
+    run_query_columns,
+)
 from .validate import as_bool, as_float, as_list, as_map, as_str, as_uint, field_path, get_field, opt_field
 from .wire import MAX_BATCH, PROTOCOL_VERSION, ErrorKind
 
@@ -107,6 +115,8 @@ def _decode_item(op: str, value: Any, path: str, lb: int) -> Item:
 
 def query_count(msg: dict[str, Any], op: str) -> int:
     """How many queries a request holds (1 for the single form)."""
+    if is_query_columns(msg):
+        return query_column_count(msg, op)
     batch = msg.get(BATCH_FIELDS[op])
     return len(batch) if isinstance(batch, list) else 1
 
@@ -134,16 +144,22 @@ def _engine_id(ids: IdMap, wire_id: int | None, path: str) -> int:
     return 0 if wire_id is None else ids(wire_id, path)
 
 
-def _run_one(op: str, world: Any, item: Item, ids: IdMap, path: str) -> Any:
-    """One query; `path` names it in the request (`sight`, `sights[3]`), for the errors of its ids."""
+def _run_one(op: str, world: Any, item: Item, ids: IdMap, target_path: str, viewer_path: str = "") -> Any:
+    """One query; `target_path` and `viewer_path` name its ids in the request (`sights[3].target`,
+    `columns.target[3]`), for their errors."""
     if op == "ground":
         return world.ground(item[0], item[1])
     if op == "place":
         return world.place(item[0], item[1], item[2], item[3])
     if op == "ray":
-        return world.ray(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], f"{path}.target"))
-    return world.sight(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], f"{path}.target"),
-                       viewer_id=_engine_id(ids, item[4], f"{path}.viewer"))
+        return world.ray(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], target_path))
+    return world.sight(item[0], item[1], item[2], target_id=_engine_id(ids, item[3], target_path),
+                       viewer_id=_engine_id(ids, item[4], viewer_path))
+
+
+def _run_path(op: str, world: Any, item: Item, ids: IdMap, path: str) -> Any:
+    """One query of the single or batch form; `path` names it (`sight`, `sights[3]`)."""
+    return _run_one(op, world, item, ids, f"{path}.target", f"{path}.viewer")
 
 
 def _fields(op: str, path: str) -> dict[str, str]:
@@ -157,7 +173,10 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
                blocker_id: Callable[[int], int]) -> Callable[[], dict[str, Any]]:
     """Decode a query request now (ProtocolError on bad input); the closure runs it on the engine and
     returns the reply map. A batch answers per item: an item the engine refuses (an unknown cell, an
-    unloaded landblock) gets `{"error": Error}` in its place and the others their answers."""
+    unloaded landblock) gets `{"error": Error}` in its place and the others their answers. A column
+    request (service/query_columns.py) is answered in columns, item by item as the map form would."""
+    if is_query_columns(msg):
+        return _column_work(op, lb, msg, world, ids, blocker_id)
     single, items = _parse(op, msg, lb)
     encode = _encoder(op, blocker_id)
     many = BATCH_FIELDS[op]
@@ -165,7 +184,7 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
     def run() -> dict[str, Any]:
         if single:
             try:
-                answer = _run_one(op, world, items[0], ids, op)
+                answer = _run_path(op, world, items[0], ids, op)
             except ProtocolError:
                 raise
             except Exception as e:
@@ -175,12 +194,79 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
         for i, item in enumerate(items):
             path = field_path(many, i)
             try:
-                out.append(encode(_run_one(op, world, item, ids, path)))
+                out.append(encode(_run_path(op, world, item, ids, path)))
             except ProtocolError as e:
                 out.append({"error": e.to_wire()})
             except Exception as e:
                 out.append({"error": to_protocol_error(e, path, fields=_fields(op, path)).to_wire()})
         return {"v": PROTOCOL_VERSION, many: out}
+
+    return run
+
+
+# -- the column form (service/query_columns.py) -----------------------------------------
+def _place_options(msg: dict[str, Any]) -> dict[str, Any]:
+    """A column place's top-level fields: one `mover` shape, `mode` and `slide` for every item."""
+    spec = decode_mover_spec(get_field(msg, "mover", ""), "mover")
+    raw_mode = opt_field(msg, "mode")
+    mode = "enter_world" if raw_mode is None else as_str(raw_mode, "mode")
+    if mode not in _PLACEMENT_MODES:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"mode: must be one of {', '.join(_PLACEMENT_MODES)}, got {mode!r}", "mode")
+    raw_slide = opt_field(msg, "slide")
+    return {"mover": spec, "mode": mode, "slide": True if raw_slide is None else as_bool(raw_slide, "slide")}
+
+
+def _column_item(req: QueryColumnRequest, i: int) -> Item:
+    """Item i of a column request as the map form decodes the same values (Python floats, the
+    identity orientation where none is given, None where a default applies)."""
+    a = req.arrays
+
+    def position(cell: str, origin: str, orientation: str | None = None) -> Position:
+        x, y, z = a[origin][i].tolist()
+        q = a[orientation][i].tolist() if orientation is not None and orientation in a else [0.0] * 4
+        return Position.at(int(a[cell][i]), Vec3(x, y, z), Quat(*q) if any(q) else Quat())
+
+    def opt(name: str, zero_is_none: bool = True) -> Any:
+        col = a.get(name)
+        if col is None:
+            return None
+        v = col[i].item()
+        return None if zero_is_none and v == 0 else v
+
+    if req.op == "ground":
+        return (position("cell", "origin"), opt("max_drop"))
+    if req.op == "place":
+        o = req.options
+        return (o["mover"], position("cell", "origin", "orientation"), o["mode"], o["slide"])
+    start, end = position("from_cell", "from_origin"), position("to_cell", "to_origin")
+    if req.op == "ray":
+        return (start, end, opt("radius", False), opt("target"))
+    return (start, end, opt("radius"), opt("target"), opt("viewer"))
+
+
+_COLUMN_FIELDS = {"ground": {"position": "cell"}, "place": {"position": "cell", "spec": "cell"},
+                  "ray": {"start": "from_cell", "end": "to_cell"}, "sight": {"a": "from_cell", "b": "to_cell"}}
+
+
+def _column_error(op: str, e: Exception, i: int) -> ProtocolError:
+    """An engine error of item i, its path the item's cell column of the position it concerns."""
+    named = getattr(e, "field", None)
+    top = named.split(".")[0].split("[")[0] if isinstance(named, str) else ""
+    column = _COLUMN_FIELDS[op].get(top, QUERY_COLUMNS[op].count)
+    return to_protocol_error(e, f"columns.{column}[{i}]")
+
+
+def _column_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: IdMap,
+                 blocker_id: Callable[[int], int]) -> Callable[[], dict[str, Any]]:
+    if lb is None:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"a {op} query needs a literal landblock in its key, not a wildcard")
+    req = parse_query_columns(op, msg, lb, _place_options if op == "place" else None)
+
+    def run() -> dict[str, Any]:
+        return run_query_columns(
+            req, lambda i: _column_item(req, i),
+            lambda i, item: _run_one(op, world, item, ids, f"columns.target[{i}]", f"columns.viewer[{i}]"),
+            lambda e, i: _column_error(op, e, i), blocker_id)
 
     return run
 

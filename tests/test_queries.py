@@ -14,9 +14,9 @@ from hypothesis import HealthCheck, assume, given, settings, strategies as st
 import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import EngineError, LandblockNotLoadedError, NonFiniteError, OutOfRangeError, UnknownCellError
-from engine.queries import SIGHT_RADIUS, grounds_array, rays_array, sights_array
+from engine.queries import CONTACT_TOLERANCE, SIGHT_RADIUS, grounds_array, rays_array, sights_array
 
-from indoor_builder import GROUND, SceneBuilder, gfx_obj, room_struct, shell_boxes
+from indoor_builder import GROUND, SceneBuilder, box_solid, gfx_obj, room_struct, shell_boxes
 from scenes import world_from_heights
 from support.mover_slots import mover_slot_names
 from test_indoor_scenarios import CX, CY, HOUSE_DOOR, HOUSE_HI, HOUSE_LO, house_world
@@ -178,7 +178,11 @@ MISSILE_R = 0.5  # the segments below are at most 30 radii long: the retail step
 )
 def test_a_ray_stops_where_a_missiles_move_on_the_same_segment_stops(start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
     """Same engine, two ways: World.ray against a registered PathClipped
-    mover of the same sphere moved along the same segment."""
+    mover of the same sphere moved along the same segment. The move stops at
+    the step before the colliding one; the ray carries on to the contact, so
+    it ends no nearer than the move and at most one step (one radius) further,
+    with the same surface's normal, and the move from the start to where the
+    ray ended gets there."""
 
     def scene() -> engine.World:
         w = flat_world()
@@ -187,19 +191,57 @@ def test_a_ray_stops_where_a_missiles_move_on_the_same_segment_stops(start: tupl
 
     s, e = at(A9B4, *start), at(A9B4, *end)
     hit = scene().ray(s, e, MISSILE_R)
-    world = scene()
     missile = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), MISSILE_R)], state=["PathClipped"], gravity=False, step_down=False)
-    mid = world.add_mover(missile, s)
-    moved = world.move(mid, e)
+    world = scene()
+    moved = world.move(world.add_mover(missile, s), e)
     assert moved.ok
-    assert same_position(hit.position, moved.position)
     assert hit.hit == (moved.collision_normal is not None)
     if hit.hit:
-        assert hit.normal == moved.collision_normal
+        assert hit.normal is not None and moved.collision_normal is not None
+        assert hit.normal.dot(moved.collision_normal) > 0.99
+        travelled = s.get_offset(moved.position).length()
+        assert travelled - 1e-4 <= hit.distance <= travelled + MISSILE_R + 1e-4
+        world = scene()
+        to_contact = world.move(world.add_mover(missile, s), hit.position)
+        assert to_contact.ok  # it gets there (touching, at most): the ray's stop is not inside anything
+        assert (to_contact.position.frame.origin - hit.position.frame.origin).length() < 1e-3
     else:
+        assert same_position(hit.position, moved.position)
         # the sweep's steps add up to the end to float32 rounding
         assert hit.position.cell_id == e.cell_id and (e.frame.origin - hit.position.frame.origin).length() < 1e-3
         assert hit.distance == pytest.approx(s.get_offset(e).length(), abs=1e-3)
+
+
+@pytest.mark.parametrize("radius", [0.05, 0.1, 0.3, 1.0])
+def test_a_ray_stops_touching_what_it_meets_with_that_surfaces_normal(radius: float) -> None:
+    """The sphere's centre ends one radius before the surface along the ray: at x = wall - r before a
+    wall facing -x, at z = ground + r over flat ground, at centre distance 1 + r from a 1 m sphere;
+    the normal is the surface's (found to CONTACT_TOLERANCE, float32 coordinates)."""
+    tol = 2 * CONTACT_TOLERANCE
+    world, room, b = house_world()
+    eye = GROUND + 1.5
+    outside = b.outdoor_cell(CX, CY)
+    wall = world.ray(Position.at(outside, Vec3(CX - 10.0, CY, eye)), Position.at(outside, Vec3(CX + 10.0, CY, eye)), radius)
+    assert wall.hit and wall.blocker == engine.queries.Blocker("building")
+    assert wall.position.frame.origin.x == pytest.approx(CX - 3.25 - radius, abs=tol)
+    assert wall.normal is not None and wall.normal.x == pytest.approx(-1.0) and abs(wall.normal.y) < 1e-6
+    assert wall.distance == pytest.approx(10.0 - 3.25 - radius, abs=tol)
+    # from inside the room eastwards: the room's own east wall (x = CX + 3, its inner face looking -x)
+    inner = world.ray(Position.at(room, Vec3(CX, CY, eye)), Position.at(outside, Vec3(CX + 10.0, CY, eye)), min(radius, 0.5))
+    assert inner.hit and inner.blocker == engine.queries.Blocker("cell")
+    assert inner.position.frame.origin.x == pytest.approx(CX + 3.0 - min(radius, 0.5), abs=tol)
+    assert inner.normal is not None and inner.normal.x == pytest.approx(-1.0)
+
+    flat = flat_world()
+    down = flat.ray(at(A9B4, 10.0, 10.0, 14.0), at(A9B4, 10.0, 10.0, 5.0), radius)
+    assert down.hit and down.blocker == engine.queries.Blocker("terrain")
+    assert down.position.frame.origin.z == pytest.approx(FLAT_Z + radius, abs=tol)
+    assert down.normal == Vec3(0.0, 0.0, 1.0)
+    ball = flat.add_mover(MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 1.0)], gravity=False), at(A9B4, 96.0, 96.0, 13.0))
+    side = flat.ray(at(A9B4, 80.0, 96.0, 13.0), at(A9B4, 112.0, 96.0, 13.0), radius)
+    assert side.hit and side.blocker == engine.queries.Blocker("object", ball)
+    assert side.position.frame.origin.x == pytest.approx(96.0 - 1.0 - radius, abs=tol)
+    assert side.normal is not None and side.normal.x == pytest.approx(-1.0)
 
 
 def test_a_ray_into_flat_ground_rests_on_it() -> None:
@@ -287,6 +329,40 @@ def test_ground_outdoors_past_the_landblock_edge_is_the_next_landblocks_terrain(
     g = world.ground(Position.at(0xA9B40001, Vec3(200.0, 10.0, 40.0)))  # 8 m into AAB4
     assert g is not None and g.cell == cell(0xAAB4, 8.0, 10.0)
     assert g.z == pytest.approx(planar_height(8.0, 10.0), abs=1e-4)
+
+
+def test_ground_outdoors_is_what_stands_on_the_land_where_something_does() -> None:
+    """A 4 x 4 x 3 m static block on the land (its top 3 m up), a house with a flat roof (3.25 m up),
+    a 1 m ball (not a creature) floating with its top 14 m up and a player standing on flat land:
+    the ground over the block, the roof and the ball is their top, where a falling mover rests
+    (test_indoor_scenarios: a flat roof catches a falling mover); beside them, and over the player
+    (a creature's head is not ground), it is the land."""
+    b = SceneBuilder()
+    block = b.add_gfx_obj(gfx_obj([box_solid((-2.0, -2.0, 0.0), (2.0, 2.0, 3.0))]))
+    b.add_object(block, (CX, CY, GROUND))
+    world = b.world()
+    outside = b.outdoor_cell(CX, CY)
+    for dx, want in ((0.5, GROUND + 3.0), (1.9, GROUND + 3.0), (-1.5, GROUND + 3.0), (2.1, GROUND), (5.0, GROUND)):
+        g = world.ground(Position.at(outside, Vec3(CX + dx, CY - 0.5, GROUND + 8.0)))
+        assert g is not None and g.z == pytest.approx(want, abs=5e-4), dx
+        assert g.walkable and g.plane.normal == Vec3(0.0, 0.0, 1.0) and g.cell == outside
+    # a point between the land and the block's top, beside the block: the land
+    g = world.ground(Position.at(outside, Vec3(CX + 2.5, CY, GROUND + 1.0)))
+    assert g is not None and g.z == pytest.approx(GROUND)
+
+    house, _room, hb = house_world()
+    roof = house.ground(Position.at(hb.outdoor_cell(CX, CY), Vec3(CX + 1.0, CY + 1.0, GROUND + 8.0)))
+    assert roof is not None and roof.z == pytest.approx(GROUND + HOUSE_HI[2] + 0.25, abs=5e-4) and roof.walkable
+
+    from scenes import PLAYER
+
+    flat = flat_world()
+    flat.add_mover(MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 1.0)], gravity=False), at(A9B4, 96.0, 96.0, 13.0))
+    top = flat.ground(at(A9B4, 96.0, 96.0, 20.0))
+    assert top is not None and top.z == pytest.approx(14.0, abs=5e-4) and top.plane.normal.z == pytest.approx(1.0)
+    flat.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
+    over_head = flat.ground(at(A9B4, 50.0, 50.0, FLAT_Z + 4.0))
+    assert over_head is not None and over_head.z == pytest.approx(FLAT_Z) and over_head.water_depth == 0.0
 
 
 @pytest.mark.parametrize("height", [0.0, 1.5, 2.9])

@@ -2,16 +2,20 @@
 answers sight / ray / ground / place exactly as the library does in this process (same engine, two
 ways), with answers whose geometry is obvious (ground under a point is the terrain's height there; a
 sight line high above the land is clear, one ending under the ground is stopped by the terrain), the
-same error kinds as moves, per-item errors in batches, and no change to any mover."""
+same error kinds as moves, per-item errors in batches, and no change to any mover. The column form
+("Query columns") answers every op exactly as the map form does, bit for bit, a bad item failing alone;
+`Client.sights` pairs name their own target and viewer as the map form's items do."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
+import numpy as np
 import pytest
 
-from clients import Client
+from clients import Client, SightQuery
 from clients.demo_world import global_to_cell
 from clients.errors import ServiceError
 from engine.geometry import Position, Vec3
@@ -19,6 +23,7 @@ from service.wire import ErrorKind
 from service_support import ServiceProcess, comparable, demo_world, human, raw_query, raw_session
 
 WORLD = demo_world()
+A9B4 = 0xA9B4
 POINTS = [(40.0, 50.0), (60.0, 50.0), (100.0, 120.0), (150.0, 30.0), (20.0, 170.0)]
 
 
@@ -184,3 +189,142 @@ def test_an_unknown_viewer_or_target_is_named_by_its_own_path(service: ServicePr
         ok, msg = raw_query(s, "acphys/lb/A9B4/sight", body, timeout=10.0)
         assert ok and "error" not in msg["sights"][0]
         assert msg["sights"][1]["error"]["path"] == "sights[1].viewer"
+
+
+# -- the column form (docs/protocol.md, "Query columns") ---------------------------------------------
+def _columns_of(positions: list[Position]) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
+    return (np.array([p.cell_id for p in positions], dtype=np.uint32),
+            np.array([p.frame.origin.as_tuple() for p in positions], dtype=np.float64))
+
+
+def _bits(v: Any) -> Any:
+    """A value as exact text (floats by repr; None and NaN kept apart)."""
+    return repr(v.tolist() if isinstance(v, np.ndarray) else v)
+
+
+def _vec(row: Any, given: bool) -> Any:
+    return _bits(row) if given else None
+
+
+GRID = [(40.0 + 13.0 * i, 50.0 + 7.0 * j) for i in range(4) for j in range(3)]
+
+
+def test_sight_columns_equal_the_single_form_bit_for_bit(client: Client) -> None:
+    eyes = [above(gx, gy, 1.6) for gx, gy in GRID]
+    # looking at points above, on and under the land 30 m away: some clear, some stopped by the terrain
+    targets = [above(gx + 30.0, gy + 10.0, dz) for (gx, gy), dz in zip(GRID, [5.0, -3.0, 1.6, -10.0] * 3)]
+    fc, fo = _columns_of(eyes)
+    tc, to = _columns_of(targets)
+    cols = client.sight_columns(fc, fo, tc, to)
+    assert not cols.errors and cols.flag("resolved").all()
+    assert cols.flag("clear").any() and not cols.flag("clear").all()
+    for i, (a, b) in enumerate(zip(eyes, targets)):
+        one = client.sight(a, b)
+        assert bool(cols.flag("clear")[i]) == one.clear
+        stop_given = bool(cols.flag("stop given")[i])
+        assert stop_given == (one.stop is not None)
+        if one.stop is not None:
+            assert _bits(cols["stop"][i]) == _bits(np.array(one.stop.frame.origin.as_tuple()))
+            assert int(cols["cell"][i]) == one.cell == one.stop.cell_id
+        normal = None if one.normal is None else _bits(np.array(one.normal.as_tuple()))
+        assert _vec(cols["normal"][i], bool(cols.flag("normal given")[i])) == normal
+        assert cols.blocker_kind(i) == (None if one.blocker is None else one.blocker.kind)
+
+
+def test_ray_columns_equal_the_batch_form_bit_for_bit(client: Client) -> None:
+    starts = [above(gx, gy, 3.0) for gx, gy in GRID]
+    ends = [above(gx + 20.0, gy, -3.0 if k % 2 else 4.0) for k, (gx, gy) in enumerate(GRID)]
+    fc, fo = _columns_of(starts)
+    tc, to = _columns_of(ends)
+    cols = client.ray_columns(fc, fo, tc, to, 0.1)
+    batch = client.rays(list(zip(starts, ends)), 0.1)
+    assert not cols.errors
+    for i, hit in enumerate(batch):
+        assert not isinstance(hit, ServiceError)
+        assert bool(cols.flag("hit")[i]) == hit.hit
+        assert _bits(cols["position"][i]) == _bits(np.array(hit.position.frame.origin.as_tuple()))
+        assert int(cols["cell"][i]) == hit.cell and _bits(cols["distance"][i]) == _bits(np.float64(hit.distance))
+        normal = None if hit.normal is None else _bits(np.array(hit.normal.as_tuple()))
+        assert _vec(cols["normal"][i], bool(cols.flag("normal given")[i])) == normal
+        assert cols.blocker_kind(i) == (None if hit.blocker is None else hit.blocker.kind)
+        assert bool(cols.flag("blocker_id given")[i]) == (hit.blocker is not None and hit.blocker.object_id is not None)
+
+
+def test_ground_columns_equal_the_single_form_and_a_bad_item_fails_alone(client: Client) -> None:
+    points = [above(gx, gy, 2.0) for gx, gy in GRID]
+    cells, origins = _columns_of(points)
+    origins[4, 1] = math.nan
+    cells[7] = (A9B4 << 16) | 0x0999  # no such indoor cell: the engine refuses it
+    cols = client.ground_columns(cells, origins)
+    assert set(cols.errors) == {4, 7}
+    e4, e7 = cols.errors[4], cols.errors[7]
+    assert isinstance(e4, ServiceError) and (e4.kind, e4.path) == (ErrorKind.NON_FINITE, "columns.origin[4][1]")
+    assert isinstance(e7, ServiceError) and e7.kind == ErrorKind.UNKNOWN_CELL and e7.path == "columns.cell[7]"
+    assert not cols.flag("resolved")[[4, 7]].any() and np.isnan(cols["z"][[4, 7]]).all()
+    for i, p in enumerate(points):
+        if i in (4, 7):
+            continue
+        g = client.ground(p)
+        assert g is not None and cols.flag("found")[i] and bool(cols.flag("walkable")[i]) == g.walkable
+        n = g.plane.normal
+        assert _bits(cols["z"][i]) == _bits(np.float64(g.z))
+        assert _bits(cols["plane"][i]) == _bits(np.array([n.x, n.y, n.z, g.plane.d]))
+        assert int(cols["cell"][i]) == g.cell and _bits(cols["water_depth"][i]) == _bits(np.float64(g.water_depth))
+
+
+def test_place_columns_equal_the_batch_form_bit_for_bit(client: Client) -> None:
+    spots = [above(gx, gy, 0.5) for gx, gy in GRID[:6]]
+    cells, origins = _columns_of(spots)
+    cols = client.place_columns(human(), cells, origins)
+    batch = client.places([(human(), p) for p in spots])
+    assert not cols.errors
+    for i, placed in enumerate(batch):
+        assert not isinstance(placed, ServiceError) and placed.position is not None
+        assert cols.placement_result(i) == placed.placement_result == "OK" and cols.flag("ok")[i]
+        assert int(cols["cell"][i]) == placed.position.cell_id
+        assert _bits(cols["origin"][i]) == _bits(np.array(placed.position.frame.origin.as_tuple()))
+        assert _bits(cols["orientation"][i]) == _bits(np.array(placed.position.frame.orientation.as_tuple()))
+        for flag in ("contact", "on_walkable", "water_contact"):
+            assert bool(cols.flag(flag)[i]) == getattr(placed, flag)
+        if placed.contact_plane is not None:
+            n = placed.contact_plane.normal
+            assert _bits(cols["contact_plane"][i]) == _bits(np.array([n.x, n.y, n.z, placed.contact_plane.d]))
+            assert int(cols["contact_plane_cell"][i]) == placed.contact_plane_cell
+
+
+def test_targets_and_viewers_by_column_and_by_pair(client: Client) -> None:
+    st = client.register(human(), above(100.0, 120.0, 0.0))
+    try:
+        m = st.position.frame.origin
+        eye = Position.at(st.position.cell_id, Vec3(m.x, m.y, m.z + 1.6))
+        # from inside the mover's body to a point 3 m away and back through it
+        out = Position.at(st.position.cell_id, Vec3(m.x + 3.0, m.y, m.z + 1.35))
+        pairs: list[tuple[Position, Position] | SightQuery] = [
+            SightQuery(eye, out, viewer=st.id), SightQuery(out, eye, target=st.id), SightQuery(out, eye), (out, eye)]
+        answers = client.sights(pairs)
+        singles = [client.sight(eye, out, viewer=st.id), client.sight(out, eye, target=st.id), client.sight(out, eye),
+                   client.sight(out, eye)]
+        assert [repr(a) for a in answers] == [repr(s) for s in singles]
+        assert answers[1].clear and not answers[2].clear  # type: ignore[union-attr]  # the target ends the sweep as arrived
+        fc, fo = _columns_of([eye, out, out, out])
+        tc, to = _columns_of([out, eye, eye, eye])
+        cols = client.sight_columns(fc, fo, tc, to, targets=np.array([0, st.id, 0, 0xDEAD], dtype=np.uint64),
+                                    viewers=np.array([st.id, 0, 0, 0], dtype=np.uint64))
+        assert cols.flag("clear")[:3].tolist() == [s.clear for s in singles[:3]]
+        assert int(cols["blocker_id"][2]) == st.id and cols.flag("blocker_id given")[2]
+        e = cols.errors[3]
+        assert isinstance(e, ServiceError) and (e.kind, e.path) == (ErrorKind.UNKNOWN_MOVER, "columns.target[3]")
+    finally:
+        client.remove(st.id)
+
+
+def test_health_announces_the_column_form(client: Client) -> None:
+    (h,) = client.health()
+    assert h.get("query_forms") == ["single", "batch", "columns"]
+
+
+def test_client_refuses_wrong_shapes_before_sending(client: Client) -> None:
+    with pytest.raises(ValueError, match="from_origin"):
+        client.sight_columns([0xA9B4000B], np.zeros((2, 3)), [0xA9B4000B], np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="radius"):
+        client.ray_columns([0xA9B4000B], np.zeros((1, 3)), [0xA9B4000B], np.zeros((1, 3)), [0.1, 0.2])

@@ -5,7 +5,7 @@ object that no cell knows about, so a query never changes any mover.
 """
 
 from .results import Blocker, Ground, RayHit, SightResult
-from .sweep import SIGHT_RADIUS, ray, sight
+from .sweep import CONTACT_TOLERANCE, SIGHT_RADIUS, ray, sight
 from .ground import ground
 from .placement import PlacementResult, place
 from .batch import grounds, grounds_array, rays, rays_array, sights, sights_array
@@ -16,6 +16,7 @@ __all__ = [
     "RayHit",
     "SightResult",
     "SIGHT_RADIUS",
+    "CONTACT_TOLERANCE",
     "ray",
     "sight",
     "ground",

@@ -27,10 +27,11 @@ class Blocker:
 class RayHit:
     """The first contact of a sphere swept along a segment.
 
-    `position` is where the sphere's centre stopped (the segment's end when
-    nothing was hit), `cell` the cell id it stopped in, `normal` the
-    collision normal (None when nothing was hit), `distance` how far the
-    centre travelled from the start."""
+    `position` is where the sphere's centre stopped: touching what it hit
+    (to engine.queries.sweep.CONTACT_TOLERANCE along the segment), or the
+    segment's end when nothing was hit; `cell` the cell id it stopped in,
+    `normal` the hit surface's normal (None when nothing was hit), `distance`
+    how far the centre travelled from the start."""
 
     hit: bool
     position: Position

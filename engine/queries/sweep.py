@@ -1,15 +1,27 @@
 """Sweeps: a sphere carried along a segment by the client's transition.
 
 `ray` is a missile's sweep (ObjectInfoState PathClipped, the flag
-PhysicsObj.get_object_info gives an object in the Missile state; no
-PerfectClip, which the server sets on few objects and whose BSP contact
-search, BSPTREE::adjust_to_plane as the reference port has it, gives up and
-leaves +z as the collision normal): the transition
-(Transition.FindTransitionalPosition) walks the segment in steps of at most
-one sphere radius (CalcNumSteps) and stops at the first step that reports a
-collision normal (the PathClipped break), the sphere left where the step
-before put it, so within one radius of the contact (on terrain the sphere is
-set onto the terrain plane, as the client's missile is). `sight` is the same sweep of the sight object the server
+PhysicsObj.get_object_info gives an object in the Missile state): the
+transition (Transition.FindTransitionalPosition) walks the segment in steps
+of at most one sphere radius (CalcNumSteps) and stops at the first step that
+reports a collision normal (the PathClipped break), the sphere left where the
+step before put it, so up to one radius short of the contact (on terrain the
+sphere is set onto the terrain plane, as the client's missile is). The client
+has a finer answer, PerfectClip (ObjectInfoState 0x40, set on few objects):
+BSPTREE::collide_with_pt then bisects the collision time against the polygon
+(adjust_to_plane) and moves the sphere to the touch. As the reference has
+it (engine.bsp.tree.adjust_to_plane, kept literally) that bisection always
+gives up, so a PerfectClip collision ends Collided with no collision normal
+recorded (the transition then reports +z), and only for BSP polygons at
+that; so a query does not set PerfectClip but does the bisection itself over whole
+transitions of the same sphere (`_to_contact`), which works alike for
+terrain, cell polygons, buildings and objects. A ray's hit therefore reports
+the centre of the sphere touching the surface (to CONTACT_TOLERANCE along the
+segment) and the normal the colliding transition reports there: the polygon's
+plane normal for a cell or building wall (collide_with_pt), the terrain
+triangle's for land, centre to centre for an object's sphere.
+
+`sight` is the same sweep of the sight object the server
 builds for line of sight (ACE's WorldObject.IsDirectVisible: a throwaway
 missile object swept eye to eye; PhysicsObj.IsSightObj lifts the step cap of
 FindTransitionalPosition, so a long sight line is never refused for length).
@@ -40,14 +52,22 @@ from ..constants import BLOCK_LENGTH
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
+from ..transition.state import OI
 from ..transition.transition import Transition
 from ..world.mover import Mover
 from .results import Blocker, RayHit, SightResult
 
-__all__ = ["SIGHT_RADIUS", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
+__all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
 
-#: The sight object's radius: 0.1 m, the client's default sphere (the one an
-#: object without physics spheres gets, PhysicsObj's dummy sphere).
+#: The sight object's radius, 0.1 m. What the server sweeps for line of sight
+#: (ACE's WorldObject.IsDirectVisible) is PhysicsObj.makeObject(0x02000124, the
+#: arrow's Setup, as a sight object) in the Missile state; PhysicsObj.transition
+#: gives a transition that Setup's spheres, or, when it has none,
+#: PhysicsGlobals.DummySphere: radius DummySphereRadius = 0.1, centred 0.1 above
+#: the object's origin. The arrow Setup's own spheres are dat data that is not
+#: in this project's material (the shared dats carry three scenes' Setups), so
+#: the default is the dummy sphere's radius, swept with its centre on the eye
+#: line; a caller who knows the arrow's sphere passes it as `radius`.
 SIGHT_RADIUS: Final = 0.1
 #: the largest sweep radius accepted (a mover's largest sphere is far smaller)
 MAX_RAY_RADIUS: Final = 10.0
@@ -59,6 +79,10 @@ _UNCAPPED_STEPS: Final = 1 << 30
 _SWEEP_ID: Final = -1
 #: how far apart the landblock-coverage samples of a segment are
 _COVERAGE_STEP: Final = 12.0
+#: how close to the contact a hit's reported stop is found (metres along the segment)
+CONTACT_TOLERANCE: Final = 1e-4
+#: bisection steps at most (a radius of 10 m halved 17 times is under 1e-4 m)
+_MAX_BISECTIONS: Final = 20
 
 
 def _global_xy(position: Position) -> tuple[float, float]:
@@ -131,10 +155,13 @@ def cell_for(world: Any, position: Position, cache: dict[int, Any] | None = None
     return world.get_landcell(cell_id), position
 
 
-def _sweep(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None) -> tuple[Transition, bool, Position]:
+def _sweep(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+           pass_creatures: bool = False) -> tuple[Transition, bool, Position]:
     """Run one missile sweep from `start` to `end` (PhysicsObj.transition on a
     throwaway object). Returns the transition, whether it found a position,
-    and the start as re-homed."""
+    and the start as re-homed. With `pass_creatures` the sweep object is also
+    a viewer (ObjectInfoState IsViewer, the camera's flag), which creatures
+    and players never stop (PhysicsObj.FindObjCollisions)."""
     cell, start = cell_for(world, start, cache)
     sweeper = Mover(_SWEEP_ID, [Sphere(ZERO, radius)], gravity=False, missile=True, step_down=False)
     sweeper.position = start
@@ -142,6 +169,8 @@ def _sweep(world: Any, start: Position, end: Position, radius: float, target_id:
     settings = replace(world.settings, max_steps=_UNCAPPED_STEPS)
     t = sweeper.make_transition(world.landscape, settings)
     t.object_info.target_id = target_id
+    if pass_creatures:
+        t.object_info.state |= OI.IS_VIEWER
     t.init_path(cell, start, end)
     ok = cell is not None and t.find_valid_position()
     return t, ok, start
@@ -195,8 +224,51 @@ def ray(world: Any, start: Position, end: Position, radius: float, *, target_id:
     return _ray_checked(world, start, end, radius, target_id, cache)
 
 
-def _ray_checked(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None) -> RayHit:
-    t, ok, home = _sweep(world, start, end, radius, target_id, cache)
+def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius: float, target_id: int,
+                cache: dict[int, Any] | None, pass_creatures: bool) -> tuple[Transition, Position]:
+    """The sweep's stop carried on to the contact: the last position along the segment from which a
+    short sweep of the same sphere still arrives, found by bisection to CONTACT_TOLERANCE.
+
+    The missile's transition stops at the step before the one that collides (the PathClipped break),
+    so up to one step (at most one radius) short of the surface. The client's finer answer is
+    PerfectClip (BSPTREE::adjust_to_plane, a bisection of the collision time against the polygon);
+    the reference port's version of it gives up and leaves no usable normal, so a query does the same
+    bisection here over whole transitions instead (terrain, cells, buildings and objects alike).
+    Returns the transition of the last colliding probe (its normal and what it hit) and the stop."""
+    offset = stop.get_offset(end)
+    remaining = offset.length()
+    if remaining <= CONTACT_TOLERANCE:
+        return t, stop
+    direction = offset * (1.0 / remaining)
+    lo, hi = 0.0, min(radius, remaining)
+    collided = t
+    free = stop
+    # the probe one step ahead must collide, as the sweep's did; else keep the sweep's own answer
+    for _ in range(_MAX_BISECTIONS):
+        if hi - lo <= CONTACT_TOLERANCE:
+            break
+        mid = hi if collided is t else 0.5 * (lo + hi)
+        probe_end = Position(stop.cell_id, stop.frame.with_origin(stop.frame.origin + direction * mid))
+        probe, ok, _ = _sweep(world, free, probe_end, radius, target_id, cache, pass_creatures)
+        reached = probe.sphere_path.curr_pos
+        if ok and reached is not None and not probe.collision_info.collision_normal_valid:
+            if collided is t:
+                return t, stop  # the step ahead no longer collides: nothing to refine
+            lo = mid
+            free = reached
+        elif not probe.collision_info.collision_normal_valid:
+            break  # a probe too short for the transition to resolve (float32): as close as it gets
+        else:
+            hi = mid
+            collided = probe
+    if collided is t:
+        return t, stop
+    return collided, free
+
+
+def _ray_checked(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+                 pass_creatures: bool = False) -> RayHit:
+    t, ok, home = _sweep(world, start, end, radius, target_id, cache, pass_creatures)
     path = t.sphere_path
     ci = t.collision_info
     if not ok or path.curr_pos is None:
@@ -204,21 +276,21 @@ def _ray_checked(world: Any, start: Position, end: Position, radius: float, targ
         normal = ci.collision_normal if ci.collision_normal_valid else None
         return RayHit(True, home, home.cell_id, normal, 0.0, _blocker(world, t, home, radius) if normal is not None else Blocker("object", 0))
     stop = path.curr_pos
-    travelled = home.get_offset(stop).length()
     if not ci.collision_normal_valid:
-        return RayHit(False, stop, stop.cell_id, None, travelled, None)
-    return RayHit(True, stop, stop.cell_id, ci.collision_normal, travelled, _blocker(world, t, stop, radius))
+        return RayHit(False, stop, stop.cell_id, None, home.get_offset(stop).length(), None)
+    hit_t, stop = _to_contact(world, t, stop, end, radius, target_id, cache, pass_creatures)
+    normal = hit_t.collision_info.collision_normal
+    return RayHit(True, stop, stop.cell_id, normal, home.get_offset(stop).length(), _blocker(world, hit_t, stop, radius))
 
 
 def viewer_radius(world: Any, viewer_id: int) -> float:
-    """How far the sight object starts from a viewer's eye: the viewer's
-    horizontal reach (its spheres' farthest edge from its axis, scaled; the
-    client's PhysicsObj.GetPhysicsRadius)."""
+    """How far the sight object starts from a viewer's eye: the viewer's physics radius, its first
+    cylsphere's radius, else its first sphere's, times its scale (PhysicsObj.GetPhysicsRadius, as
+    IsDirectVisible adds it to the sight object's own)."""
     mover = world.mover(viewer_id)
-    reach = 0.0
-    for s in mover.spheres:
-        reach = max(reach, math.hypot(s.center.x, s.center.y) + s.radius)
-    return reach * mover.scale
+    if mover.cyl_spheres:
+        return float(mover.cyl_spheres[0].radius) * mover.scale
+    return mover.spheres[0].radius * mover.scale if mover.spheres else 0.0
 
 
 def start_outside_viewer(world: Any, a: Position, b: Position, radius: float, viewer_id: int) -> Position:
