@@ -11,9 +11,9 @@ put; packed creatures stand 1.05 m apart (0.09 m between their spheres) and
 bump into each other. Everything is deterministic.
 
 `mixed_crowd` adds what the broad phase must get right beyond walkers:
-ethereal, cylsphere, single-sphere and non-creature movers, an ignore-
-creatures walker, missiles, falling movers landing on the others (collide
-mode) and new movers placed into the crowd.
+players, ethereal, cylsphere, single-sphere, big-footed and non-creature
+movers, an ignore-creatures walker, missiles, falling movers landing on the
+others (collide mode) and new movers placed into the crowd.
 """
 
 from __future__ import annotations
@@ -108,6 +108,9 @@ MIXED_SPECS: list[MoverSpec] = [
     MoverSpec(spheres=_SMALL, cyl_spheres=[CylSphereSpec((0.0, 0.0, 0.0), 0.4, 1.6)], state=["Contact", "OnWalkable"]),
     MoverSpec(spheres=_SMALL, state=["Contact", "OnWalkable"], scale=1.5),  # one sphere, scaled
     MoverSpec(spheres=PLAYER.spheres, state=["Contact", "OnWalkable", "IsPlayer", "IgnoreCreatures"]),
+    # a big foot under a smaller, offset head: the tests measure the head with the foot's radius
+    MoverSpec(spheres=[SphereSpec((-0.75, 0.0, 0.75), 0.75), SphereSpec((0.75, 0.25, 0.625), 0.625)],
+              state=["Contact", "OnWalkable"], step_up_height=0.3, step_down_height=0.3),
 ]
 #: a falling single sphere: collide mode against whatever it lands on
 FALLER = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.4), 0.4)], state=[], creature=False)

@@ -23,10 +23,13 @@ overlaps one of its shapes:
 
 A mover's shape fits in an axis-aligned box around its placed spheres and
 cylsphere cylinders; a path sphere of radius r overlaps the shape only if its
-centre is inside that box grown by r. The box is kept on the mover
+centre is inside that box grown by r. (The tests measure the head sphere's
+overlap with the foot sphere's radius, radsum, as the reference does: the box
+is grown by the larger of the two.) The box is kept on the mover
 (`Mover.broad_phase_bounds`) and made again whenever the mover's Position
-object (immutable) or scale is not the one it was made for, so it follows
-every change of position, including those that cast no new shadows.
+object (immutable) is not the one it was made for, so it follows every
+change of position, including those that cast no new shadows (a turn in
+place, a move within EPSILON, a failed move's new heading).
 """
 
 from __future__ import annotations
@@ -50,13 +53,12 @@ MARGIN: Final = 0.01
 
 class ShapeBounds:
     """An axis-aligned box holding a mover's placed shapes, in the frame of
-    its position's landblock, for the Position and scale it was made for."""
+    its position's landblock, for the Position it was made for."""
 
-    __slots__ = ("position", "scale", "min_x", "min_y", "min_z", "max_x", "max_y", "max_z")
+    __slots__ = ("position", "min_x", "min_y", "min_z", "max_x", "max_y", "max_z")
 
     def __init__(self, obstacle: MoverObstacle, position: Position, scale: float) -> None:
         self.position = position
-        self.scale = scale
         frame = position.frame
         lo_x = lo_y = lo_z = float("inf")
         hi_x = hi_y = hi_z = float("-inf")
@@ -80,13 +82,16 @@ class ShapeBounds:
 
 
 def mover_bounds(obstacle: MoverObstacle) -> ShapeBounds:
-    """The box of the obstacle's mover where it stands now (kept on the mover)."""
+    """The box of the obstacle's mover where it stands now (kept on the mover).
+
+    Made again when the mover's Position object is not the one it was made
+    for. Its scale is read then too: a mover's scale is fixed for its life
+    (World.update_mover gives the object a new Mover)."""
     mover: Any = obstacle.mover
     position: Position = mover.position
-    scale: float = mover.scale
     bounds: ShapeBounds | None = mover.broad_phase_bounds
-    if bounds is None or bounds.position is not position or bounds.scale != scale:
-        bounds = ShapeBounds(obstacle, position, scale)
+    if bounds is None or bounds.position is not position:
+        bounds = ShapeBounds(obstacle, position, mover.scale)
         mover.broad_phase_bounds = bounds
     return bounds
 
@@ -105,10 +110,12 @@ def may_touch(obstacle: MoverObstacle, path: SpherePath) -> bool:
     if (check_cell ^ cell) >> 16:  # in another landblock: move the spheres into its frame
         offset = get_block_offset(check_cell, cell)
         off_x, off_y = offset.x, offset.y
+    foot_radius = path.global_sphere[0].radius
     for i in range(num_sphere if num_sphere < 2 else 2):
         sphere = path.global_sphere[i]
         c = sphere.center
-        r = sphere.radius
+        # the tests measure the head sphere's overlap with the foot sphere's radius
+        r = sphere.radius if sphere.radius > foot_radius else foot_radius
         x = c.x - off_x
         y = c.y - off_y
         z = c.z

@@ -83,8 +83,11 @@ class ObjCell:
             obj = shadows[i]
             if obj is mover:
                 continue
-            if cull and isinstance(obj, MoverObstacle) and not may_touch(obj, path):
-                continue
+            if cull and isinstance(obj, MoverObstacle):
+                if obj.mover is mover:
+                    continue  # the path's own shadow (its test answers OK at once)
+                if not may_touch(obj, path):
+                    continue
             state = obj.find_obj_collisions(transition)
             if state != TransitionState.OK:
                 # the reference lets a placement pass through ethereal objects
