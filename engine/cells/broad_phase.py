@@ -101,8 +101,8 @@ def may_touch(obstacle: MoverObstacle, path: SpherePath) -> bool:
     but OK (or change anything)? False only when no path sphere reaches the
     box of its shapes."""
     num_sphere = path.num_sphere
-    if path.collide and num_sphere < 2:
-        return True  # the single-sphere landing solve needs no overlap
+    if num_sphere == 0 or (path.collide and num_sphere < 2):
+        return True  # (the single-sphere landing solve needs no overlap)
     bounds = mover_bounds(obstacle)
     check_cell = path.check_pos.cell_id
     cell = bounds.position.cell_id
