@@ -1,8 +1,11 @@
 """Engine benchmark: microseconds per move, in process.
 
-Two parts:
+Three parts:
 - the synthetic workloads of `scenes.WORKLOADS` (flat, hills, steep slide,
   seams, falling, BSP room, stairs, crowd of 50 spheres), RETAIL settings;
+- crowds of live movers (`crowds.CROWDS`: 10, 100 and 1,000 creatures
+  spread over a landblock, 400 packed into 20 m), RETAIL with the broad
+  phase (`skip_far_movers`) on and off, timed in alternating blocks;
 - the reference traces replayed move by move (ACE_COMPAT, as the replay
   test does), scene by scene, to compare with ACE's own per-move times on
   the same traces (the anchors of issue 6).
@@ -13,6 +16,7 @@ SetPositionInternal); targets are built and movers reset outside the timer.
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import time
 from typing import Any
@@ -21,6 +25,7 @@ import engine
 
 from . import common
 from .common import Deadline, log, summary
+from .crowds import CROWDS, wl_crowd
 from .scenes import WORKLOADS, _vec, add_case_mover, case_move_call, trace_world
 
 #: ACE under Mono on this machine class, µs per move on the reference traces (issue 6)
@@ -64,6 +69,28 @@ def run_workloads(moves: int, seconds_each: float) -> list[dict[str, Any]]:
                "moves_per_s": 1e6 / s["median"], "anchor_us": w.anchor_us, "target_us": w.target_us}
         rows.append(row)
         log(f"engine: {w.name:12s} median {s['median']:8.1f} µs  p99 {s['p99']:8.1f} µs  (n={s['n']})")
+    return rows
+
+
+def run_crowds(moves: int, seconds_each: float, block: int = 250) -> list[dict[str, Any]]:
+    """µs per move of each crowd with the broad phase on and off. The two
+    worlds take turns in blocks of `block` moves, so machine noise hits both."""
+    settings = {"on": engine.RETAIL, "off": dataclasses.replace(engine.RETAIL, skip_far_movers=False)}
+    rows: list[dict[str, Any]] = []
+    for crowd in CROWDS:
+        deadline = Deadline(seconds_each)
+        gens = {key: wl_crowd(crowd)(s) for key, s in settings.items()}
+        samples: dict[str, list[float]] = {key: [] for key in settings}
+        for gen in gens.values():  # warm-up: the first moves
+            time_calls(gen, 0, min(crowd.count, 200), deadline)
+        while len(samples["on"]) < moves and not deadline.over():
+            for key, gen in gens.items():
+                samples[key] += time_calls(gen, min(block, moves - len(samples[key])), 0, deadline)
+        on, off = summary(samples["on"], 1e6), summary(samples["off"], 1e6)
+        rows.append({"name": crowd.name, "description": crowd.description, "creatures": crowd.count,
+                     "on_us": on, "off_us": off, "off_over_on": off["median"] / on["median"]})
+        log(f"engine: {crowd.name:17s} broad phase on {on['median']:7.1f} µs  off {off['median']:7.1f} µs  "
+            f"(n={on['n']}/{off['n']})")
     return rows
 
 
@@ -143,6 +170,7 @@ def run(quick: bool) -> dict[str, Any]:
         "settings": {"workloads": "RETAIL", "traces": "ACE_COMPAT"},
         "moves_per_workload": moves,
         "workloads": run_workloads(moves, seconds),
+        "crowds": run_crowds(moves, seconds),
         "traces": run_traces(500 if quick else None, seconds),
         "profiles": [profile(n, 300 if quick else 2000) for n in ("flat", "bsp-room")],
     }

@@ -528,13 +528,29 @@ def _engine_tables(eng: dict[str, Any]) -> list[str]:
     return out
 
 
+def _crowd_table(eng: dict[str, Any]) -> list[str]:
+    """Crowds of live movers with the broad phase (skip_far_movers) on and off (issue 12)."""
+    rows = eng.get("crowds") or []
+    if not rows:
+        return []
+    out = ["", ("Crowds of live movers (`benchmarks/crowds.py`; RETAIL): creatures walking 0.2 m and back in turn, "
+                "timed with the broad phase (`skip_far_movers`, on by default) on and off in alternating blocks:"), "",
+           "| crowd | what it is | on: median µs | on: p99 µs | off: median µs | off: p99 µs | off / on |",
+           "|---|---|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        on, off = r["on_us"], r["off_us"]
+        out.append(f"| {r['name']} | {r['description']} | {on['median']:.1f} | {on['p99']:.1f} | {off['median']:.1f} "
+                   f"| {off['p99']:.1f} | {_ratio(r['off_over_on'])} |")
+    return out
+
+
 def _engine(eng: dict[str, Any], plot: str | None) -> list[str]:
     out = ["## 1. Engine, in process", "", _meta(eng), "",
            ("Only the engine call is timed (`World.move` / `World.step`: one transition plus SetPositionInternal, "
            "as ACE's anchor figures); targets are built and movers reset outside the timer. Scenes are built by "
            "`benchmarks/scenes.py` (synthetic terrain and sphere objects) or are the shared reference scenes. "
            f"{eng['moves_per_workload']} timed moves per workload after a warm-up, RETAIL settings."), "",
-           *_engine_tables(eng)]
+           *_engine_tables(eng), *_crowd_table(eng)]
     if plot:
         out += ["", f"![engine µs per move]({plot})"]
     for prof in eng.get("profiles", []):

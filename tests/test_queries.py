@@ -18,7 +18,7 @@ from engine.queries import CONTACT_TOLERANCE, SIGHT_RADIUS, grounds_array, rays_
 
 from indoor_builder import GROUND, SceneBuilder, box_solid, gfx_obj, room_struct, shell_boxes
 from scenes import world_from_heights
-from support.mover_slots import mover_slot_names
+from support.mover_slots import mover_state_slot_names
 from test_indoor_scenarios import CX, CY, HOUSE_DOOR, HOUSE_HI, HOUSE_LO, house_world
 
 A9B4 = 0xA9B4
@@ -58,11 +58,8 @@ def mover_states(world: engine.World) -> dict[str, str]:
     """Every slot of every mover, as exact text (floats' repr is exact)."""
     out = {}
     for mid, m in world.movers.items():
-        for name in mover_slot_names():
-            # `obstacle` is how others see the mover: a view re-read from the
-            # mover before every collision test (anyone's move refreshes it)
-            if name not in ("__weakref__", "obstacle"):
-                out[f"{mid}.{name}"] = repr(getattr(m, name))
+        for name in mover_state_slot_names():
+            out[f"{mid}.{name}"] = repr(getattr(m, name))
     return out
 
 

@@ -16,7 +16,7 @@ from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import NonFiniteError, PlacementFailedError
 from engine.geometry import Frame, Quat
 from replay_check import NORMAL_TOL, POS_TOL
-from support.mover_slots import mover_slot_names
+from support.mover_slots import mover_state_slot_names
 from support.shared_data import ORACLE, require_shared
 
 require_shared()  # the cases are read from the traces while collecting
@@ -125,9 +125,9 @@ def test_place_changes_no_mover_and_add_mover_places_when_asked() -> None:
     spec = _spec(case["object"])
     target = _target(move["to"])
     other = world.add_mover(spec, target)  # an object standing right at the target, unplaced
-    before = repr([(n, getattr(world.mover(other), n)) for n in mover_slot_names() if n not in ("__weakref__", "obstacle")])
+    before = repr([(n, getattr(world.mover(other), n)) for n in mover_state_slot_names()])
     world.place(spec, target, move["placement"]["mode"], bool(move["placement"]["slide"]))
-    after = repr([(n, getattr(world.mover(other), n)) for n in mover_slot_names() if n not in ("__weakref__", "obstacle")])
+    after = repr([(n, getattr(world.mover(other), n)) for n in mover_state_slot_names()])
     assert before == after and list(world.movers) == [other]
     # registering with the placement option puts the mover where the query says
     world.remove_mover(other)

@@ -6,7 +6,9 @@ from typing import TYPE_CHECKING, Any
 
 from ..geometry import Position, Vec3
 from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
+from ..objects.obstacle import MoverObstacle
 from ..transition.state import InsertType, TransitionState
+from .broad_phase import may_touch
 
 if TYPE_CHECKING:
     from ..objects.obstacle import Obstacle
@@ -64,7 +66,11 @@ class ObjCell:
 
     def find_obj_collisions(self, transition: Transition) -> int:
         """Collide the path with the objects shadowed into this cell, newest first
-        (ObjCell.FindObjCollisions)."""
+        (ObjCell.FindObjCollisions).
+
+        With the `skip_far_movers` setting, a live mover none of the path's
+        spheres can reach is passed over: its own test would answer OK and
+        change nothing (engine.cells.broad_phase)."""
         shadows = self.shadow_objects
         if not shadows:
             return TransitionState.OK
@@ -72,10 +78,16 @@ class ObjCell:
         if path.insert_type == InsertType.INITIAL_PLACEMENT:
             return TransitionState.OK
         mover = transition.object_info.obj
+        cull = transition.settings.skip_far_movers
         for i in range(len(shadows) - 1, -1, -1):
             obj = shadows[i]
             if obj is mover:
                 continue
+            if cull and isinstance(obj, MoverObstacle):
+                if obj.mover is mover:
+                    continue  # the path's own shadow (its test answers OK at once)
+                if not may_touch(obj, path):
+                    continue
             state = obj.find_obj_collisions(transition)
             if state != TransitionState.OK:
                 # the reference lets a placement pass through ethereal objects

@@ -63,6 +63,10 @@ class EngineSettings:
       the spheres are added once. The client adds them again from every
       outdoor cell the search visits, with the same spheres, which adds
       nothing new.
+    - `skip_far_movers`: a cell's object loop passes over a live mover
+      whose shapes none of the path's spheres reaches at the check position
+      (a box test; engine/cells/broad_phase.py says why its own test would
+      answer OK and change nothing).
     """
 
     max_steps: int = RETAIL_MAX_STEPS
@@ -77,6 +81,7 @@ class EngineSettings:
     skip_far_cells: bool = True
     skip_repeat_spheres: bool = True
     skip_repeat_outside: bool = True
+    skip_far_movers: bool = True
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.step_length) and self.step_length > 0.0):

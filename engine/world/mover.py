@@ -77,6 +77,7 @@ class Mover:
         "friction",
         "shadow_cells",
         "obstacle",
+        "broad_phase_bounds",
         "colliding_with_environment",
         "held_time",
         "held_motion",
@@ -130,6 +131,8 @@ class Mover:
         self.shadow_cells: list[Any] = []
         #: this mover as an obstacle for others (engine.objects.obstacle.MoverObstacle)
         self.obstacle: Any = None
+        #: the box round its shapes the others' broad phase keeps (engine.cells.broad_phase)
+        self.broad_phase_bounds: Any = None
         self.colliding_with_environment = False
         #: elapsed time not yet run as a physics step (the client's lag of
         #: update_time behind the clock), and the share of the caller's

@@ -18,3 +18,15 @@ def mover_slot_names() -> tuple[str, ...]:
                     value = ast.literal_eval(stmt.value)
                     return tuple(value)
     raise AssertionError(f"no Mover.__slots__ in {MOVER_SOURCE}")
+
+
+#: Slots that are views of the mover, re-made from its state whenever they are
+#: read: `obstacle` (how others see it, refreshed before every collision test)
+#: and `broad_phase_bounds` (the box round its shapes, made again for every new
+#: position). What a move or query may change is the rest.
+VIEW_SLOTS = ("__weakref__", "obstacle", "broad_phase_bounds")
+
+
+def mover_state_slot_names() -> tuple[str, ...]:
+    """The Mover's slots without its views (VIEW_SLOTS)."""
+    return tuple(name for name in mover_slot_names() if name not in VIEW_SLOTS)
