@@ -96,31 +96,25 @@ def test_ground_beyond_both_halves_is_not_found() -> None:
     assert not t.collision_info.contact_plane_valid
 
 
-@pytest.mark.parametrize(("gap", "lands"), [(0.3, True), (0.6, False)])
-def test_a_diameter_covering_the_height_probes_once_by_all_of_it(gap: float, lands: bool) -> None:
-    # the player's spheres: radius 0.48, diameter 0.96 over a step-down height of 0.4
-    t = _insert(gap, 0.48, 2, 0.4)
-    assert _heights(t) == [(0.4, FLOOR_Z)]
+@pytest.mark.parametrize(
+    ("gap", "radius", "spheres", "height", "on_walkable", "probe", "lands"),
+    [
+        # the player's spheres: radius 0.48, diameter 0.96 over a step-down height of 0.4
+        pytest.param(0.3, 0.48, 2, 0.4, True, (0.4, FLOOR_Z), True, id="diameter-over-height"),
+        pytest.param(0.6, 0.48, 2, 0.4, True, (0.4, FLOOR_Z), False, id="diameter-over-height-too-deep"),
+        pytest.param(0.45, 0.25, 2, 0.5, True, (0.5, FLOOR_Z), True, id="diameter-equal-to-height"),
+        # one sphere whose diameter is under the height: a quarter of the diameter
+        pytest.param(0.1, 0.25, 1, 0.8, True, (0.125, FLOOR_Z), True, id="one-sphere"),
+        pytest.param(0.2, 0.25, 1, 0.8, True, (0.125, FLOOR_Z), False, id="one-sphere-too-deep"),
+        # off walkable ground: four centimetres, landing slope
+        pytest.param(0.03, 0.25, 2, 0.8, False, (STEP_DOWN_PROBE, LANDING_Z), True, id="off-walkable"),
+    ],
+)
+def test_a_single_probe(gap: float, radius: float, spheres: int, height: float, on_walkable: bool,
+                        probe: tuple[float, float], lands: bool) -> None:
+    t = _insert(gap, radius, spheres, height, on_walkable)
+    assert _heights(t) == [probe]
     assert _landed(t) == lands
-
-
-def test_a_diameter_equal_to_the_height_probes_once() -> None:
-    t = _insert(0.45, 0.25, 2, 0.5)
-    assert _heights(t) == [(0.5, FLOOR_Z)]
-    assert _landed(t)
-
-
-@pytest.mark.parametrize(("gap", "lands"), [(0.1, True), (0.2, False)])
-def test_a_single_small_sphere_probes_a_quarter_of_its_diameter(gap: float, lands: bool) -> None:
-    t = _insert(gap, 0.25, 1, 0.8)
-    assert _heights(t) == [(0.125, FLOOR_Z)]
-    assert _landed(t) == lands
-
-
-def test_off_walkable_ground_the_probe_is_four_centimetres_at_the_landing_slope() -> None:
-    t = _insert(0.03, 0.25, 2, 0.8, on_walkable=False)
-    assert _heights(t) == [(STEP_DOWN_PROBE, LANDING_Z)]
-    assert _landed(t)
 
 
 # -- the reference's own half-step moves ------------------------------------------------
