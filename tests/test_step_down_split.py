@@ -41,6 +41,7 @@ class RecordingTransition(Transition):
     def __init__(self) -> None:
         super().__init__(WORLD.landscape)
         self.calls: list[tuple[float, float, float]] = []
+        self.last_state = TransitionState.INVALID
 
     def step_down(self, step_down_height: float, z_val: float) -> bool:
         self.calls.append((step_down_height, z_val, self.sphere_path.check_pos.frame.origin.z))
@@ -59,7 +60,7 @@ def _insert(gap: float, radius: float, spheres: int, step_down_height: float,
     t.init_path(cell, pos, pos)
     t.sphere_path.set_check_pos(pos, cell)
     t.sphere_path.walk_interp = 1.0
-    t.last_state = t.transitional_insert(1)  # type: ignore[attr-defined]
+    t.last_state = t.transitional_insert(1)
     return t
 
 
@@ -69,7 +70,7 @@ def _heights(t: RecordingTransition) -> list[tuple[float, float]]:
 
 def _landed(t: RecordingTransition) -> bool:
     ci = t.collision_info
-    return (t.last_state == TransitionState.OK  # type: ignore[attr-defined]
+    return (t.last_state == TransitionState.OK
             and ci.contact_plane_valid and ci.contact_plane.normal == Vec3(0.0, 0.0, 1.0)
             and abs(t.sphere_path.check_pos.frame.origin.z - GROUND_Z) < 1e-5)
 
