@@ -31,7 +31,6 @@ from service.zconfig import make_config
 ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "tests"
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
-from support.shared_data import SHARED  # noqa: E402, F401  (re-exported: one place says where it is)
 START_TIMEOUT = 30.0
 
 

@@ -40,9 +40,8 @@ from engine.transition.object_info import ObjectInfo
 from engine.transition.sphere_path import SpherePath
 from engine.transition.state import OI, InsertType, TransitionState
 from engine.transition.transition import Transition
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import SCENES, needs_shared
 
-SCENES = ORACLE / "scenes"
 CELL = 0xA9B40100
 R = 0.5
 

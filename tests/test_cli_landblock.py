@@ -15,11 +15,9 @@ from clients.landblock_cmd import add_landblock_commands, parse_landblock, regio
 from support.dat_records import scene_to_dat_files
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, write_dat
 from support.scene_compare import differences, normalize_scene
-from support.shared_data import load_scene_json, require_shared, shared_root
+from support.shared_data import DATS, load_scene_json, require_shared
 
 require_shared()  # every test here reads the shared dats
-
-DATS = shared_root() / "dats"
 
 
 def _run(*argv: str) -> int:

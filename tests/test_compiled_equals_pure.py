@@ -7,7 +7,6 @@ of the same sources with no compiled modules, and requires identical results.
 
 from __future__ import annotations
 
-import gzip
 import json
 import shutil
 import subprocess
@@ -18,7 +17,7 @@ import pytest
 
 import engine
 import engine.transition.transition as transition_module
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import ORACLE, load_trace, needs_shared, scene_path
 
 ROOT = Path(__file__).resolve().parent.parent
 COMPILED = not transition_module.__file__.endswith(".py")
@@ -45,9 +44,8 @@ print(json.dumps(out))
 def _replay_here() -> dict:
     out = {}
     for name, n in SAMPLE.items():
-        with gzip.open(ORACLE / "traces" / f"{name}.trace.json.gz", "rt") as f:
-            trace = json.load(f)
-        world = engine.load_scene(ORACLE / "scenes" / trace["scene"])
+        trace = load_trace(name)
+        world = engine.load_scene(scene_path(trace["scene"]))
         out[name] = [engine.run_case(world, c) for c in trace["cases"][:n]]
     return json.loads(json.dumps(out))
 

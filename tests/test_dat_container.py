@@ -11,11 +11,7 @@ import pytest
 from engine.formats.dat import DatError, DatFile, DatFileMissing
 from engine.formats.dat.container import HEADER_OFFSET, NODE_SIZE
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, build_tree, write_dat
-from support.shared_data import shared_root
-
-
-def _shared_dats() -> Path:
-    return shared_root() / "dats"
+from support.shared_data import DATS
 
 
 def _payload(file_id: int, size: int) -> bytes:
@@ -69,11 +65,11 @@ def test_header_fields(tmp_path: Path) -> None:
 def test_header_of_the_shared_dats() -> None:
     """The independent writer's files: cell dats use 256-byte blocks, portal dats 1024."""
     for scene in ("house", "objects", "rolling"):
-        with DatFile(_shared_dats() / scene / "client_cell_1.dat") as cell:
+        with DatFile(DATS / scene / "client_cell_1.dat") as cell:
             assert (cell.header.block_size, cell.header.data_set) == (256, 2)
             assert all(fid & 0xFFFF in (0xFFFF, 0xFFFE) or fid >> 16 == 0xFFFF or fid & 0xFFFF >= 0x100
                        for fid in cell.iter_ids())  # fmt: skip
-        with DatFile(_shared_dats() / scene / "client_portal.dat") as portal:
+        with DatFile(DATS / scene / "client_portal.dat") as portal:
             assert (portal.header.block_size, portal.header.data_set) == (1024, 1)
             assert 0x13000000 in portal
 

@@ -19,19 +19,17 @@ from engine.formats.dat import (
 from support.dat_records import write_scene_dats
 from support.scene_checks import check_scene
 from support.scene_compare import differences, normalize_scene
-from support.shared_data import load_scene_json, require_shared, scene_names, shared_root
+from support.shared_data import DATS, load_scene_json, require_shared, scene_names
 
 require_shared()  # the scenes are listed while collecting
 
-
-SHARED = shared_root()
 DAT_SCENES = ["house", "objects", "rolling"]
 ALL_SCENES = scene_names()
 
 
 @pytest.mark.parametrize("name", DAT_SCENES)
 def test_shared_dats_equal_scene_json(name: str) -> None:
-    with DatCollection(SHARED / "dats" / name) as dats:
+    with DatCollection(DATS / name) as dats:
         scene = dats.scene_dict()
     expected = load_scene_json(name)
     assert scene["format"] == SCENE_FORMAT
@@ -44,7 +42,7 @@ def test_shared_dats_equal_scene_json(name: str) -> None:
 @pytest.mark.parametrize("name", DAT_SCENES)
 def test_shared_dats_keep_dat_values_exactly(name: str) -> None:
     """Float fields are the dat's float32 values, integers and ids are exact."""
-    with DatCollection(SHARED / "dats" / name) as dats:
+    with DatCollection(DATS / name) as dats:
         scene = dats.scene_dict()
     for h in scene["height_table"]:
         assert struct.unpack("<f", struct.pack("<f", h))[0] == h
@@ -55,7 +53,7 @@ def test_shared_dats_keep_dat_values_exactly(name: str) -> None:
 
 
 def test_house_landblock_dict_and_references() -> None:
-    with DatCollection(SHARED / "dats" / "house") as dats:
+    with DatCollection(DATS / "house") as dats:
         refs: set[int] = set()
         lb = dats.landblock_dict(0xA9B4, refs)
         assert lb["id"] == "A9B4"
@@ -76,14 +74,14 @@ def test_house_landblock_dict_and_references() -> None:
 
 
 def test_objects_setups_bring_their_parts() -> None:
-    with DatCollection(SHARED / "dats" / "objects") as dats:
+    with DatCollection(DATS / "objects") as dats:
         objs = dats.portal_objects([0x02000005])
     assert sorted(objs["setups"]) == ["02000005"]
     assert sorted(objs["gfx_objs"]) == ["01000005"]
 
 
 def test_subset_of_landblocks_in_given_order() -> None:
-    with DatCollection(SHARED / "dats" / "objects") as dats:
+    with DatCollection(DATS / "objects") as dats:
         scene = dats.scene_dict([0xAAB5, 0xA9B4], name="part")
         assert scene["name"] == "part"
         assert [lb["id"] for lb in scene["landblocks"]] == ["AAB5", "A9B4"]
@@ -93,7 +91,7 @@ def test_subset_of_landblocks_in_given_order() -> None:
 
 
 def test_missing_landblock_is_a_keyerror_naming_it() -> None:
-    with DatCollection(SHARED / "dats" / "rolling") as dats:
+    with DatCollection(DATS / "rolling") as dats:
         with pytest.raises(DatFileMissing, match="0x1234FFFF") as info:
             dats.landblock_dict(0x1234)
     assert isinstance(info.value, KeyError) and isinstance(info.value, DatError)
@@ -101,7 +99,7 @@ def test_missing_landblock_is_a_keyerror_naming_it() -> None:
 
 
 def test_directory_checks(tmp_path: Path) -> None:
-    assert is_dat_directory(SHARED / "dats" / "house")
+    assert is_dat_directory(DATS / "house")
     assert not is_dat_directory(tmp_path)
     with pytest.raises(DatError, match="client_cell_1.dat"):
         DatCollection(tmp_path)

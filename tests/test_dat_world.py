@@ -8,7 +8,6 @@ cache and error checks are written here with the test-only writer.
 
 from __future__ import annotations
 
-import gzip
 import json
 from pathlib import Path
 from typing import Any
@@ -23,14 +22,9 @@ from engine.formats.trace import mover_spec_from_case
 from engine.terrain.landblock import LandblockTerrain
 from support.dat_records import scene_to_dat_files, write_scene_dats
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, write_dat
-from support.shared_data import load_scene_json, require_shared, shared_root
+from support.shared_data import DATS, load_scene_json, load_trace, require_shared, scene_path
 
-require_shared()  # its paths are read while collecting
-
-SHARED = shared_root()
-DATS = SHARED / "dats"
-TRACES = SHARED / "oracle" / "traces"
-SCENES = SHARED / "oracle" / "scenes"
+require_shared()  # every test here reads the shared dats or traces
 
 A, B = 0xA9B4, 0xAAB4  # two landblocks side by side in x
 PLAYER = MoverSpec(
@@ -43,8 +37,7 @@ PLAYER = MoverSpec(
 
 
 def _trace(name: str) -> dict[str, Any]:
-    with gzip.open(TRACES / f"{name}.trace.json.gz", "rt", encoding="utf-8") as f:
-        return json.load(f)
+    return load_trace(name)
 
 
 def _outcome(world: World, case: dict[str, Any]) -> Any:
@@ -89,7 +82,7 @@ _worlds: dict[str, World] = {}
 
 def _rolling_worlds() -> tuple[World, World]:
     if not _worlds:
-        _worlds["json"] = engine.load_scene(SCENES / "rolling.json")
+        _worlds["json"] = engine.load_scene(scene_path("rolling"))
         _worlds["dat"] = open_dat_world(DATS / "rolling")
     return _worlds["json"], _worlds["dat"]
 
@@ -103,7 +96,7 @@ def test_rolling_dat_world_replays_as_json_world(case: dict[str, Any]) -> None:
 def test_rolling_replay_is_the_same_with_a_cache_of_one() -> None:
     """Viewer moves cross landblock seams: with one cached landblock they are
     loaded, dropped and loaded again, and every answer is still the same."""
-    json_world = engine.load_scene(SCENES / "rolling.json")
+    json_world = engine.load_scene(scene_path("rolling"))
     dat_world = open_dat_world(DATS / "rolling", cache_size=1)
     for case in _trace("rolling-viewer")["cases"]:
         assert _outcome(dat_world, case) == _outcome(json_world, case), case["id"]
@@ -127,7 +120,7 @@ def _same(a: Any, b: Any, tol: float) -> bool:
 def test_indoor_scene_replays_as_json_world(name: str) -> None:
     """The dat World replays the scene's trace exactly as the JSON World does
     (the scene loader reads frames at the single precision the dats hold)."""
-    json_world = engine.load_scene(SCENES / f"{name}.json")
+    json_world = engine.load_scene(scene_path(name))
     dat_world = open_dat_world(DATS / name)
     for case in _trace(name)["cases"]:
         assert _outcome(dat_world, case) == _outcome(json_world, case), case["id"]

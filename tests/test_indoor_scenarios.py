@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import SCENES, needs_shared
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -36,9 +36,6 @@ from indoor_builder import (
     shell_boxes,
     wedge_solid,
 )
-
-#: the shared reference scenes (as conftest finds the shared directory)
-SCENES = ORACLE / "scenes"
 
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # the head sphere's centre above the origin

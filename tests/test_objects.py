@@ -22,13 +22,13 @@ from engine.objects.setup import ModelLibrary, PhysicsGfx
 from engine.objects.sphere_collision import collides_with_sphere, find_time_of_collision
 from engine.transition.state import OI
 from scenes import PLAYER, world_from_heights
-from support.shared_data import ORACLE, needs_shared, shared_root
+from support.shared_data import needs_shared, scene_path, shared_root
 
 LB = 0xA9B40000
 GROUND = 50.0
 R = 0.48  # the walkers' sphere radius
 HEAD_Z = 1.35  # PLAYER's head sphere centre above its origin
-OBJECTS_SCENE = ORACLE / "scenes" / "objects.json"
+OBJECTS_SCENE = scene_path("objects")
 
 #: a walker that is not a player (players walk through players)
 WALKER = MoverSpec(

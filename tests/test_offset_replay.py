@@ -16,9 +16,6 @@ velocity bit for bit.
 
 from __future__ import annotations
 
-import gzip
-import json
-
 import pytest
 
 import engine
@@ -29,10 +26,10 @@ from engine.geometry.f32 import rotate_f32
 from engine.world.mover import Mover
 from engine.world.transient import TS
 from replay_check import case_mismatch
-from support.shared_data import require_shared
+from support.shared_data import load_trace, require_shared
 
 require_shared()  # the cases are read from the traces while collecting
-from test_trace_replay import CASES, ORACLE, TRACES, _world  # noqa: E402
+from test_trace_replay import CASES, TRACE_NAMES, _world  # noqa: E402
 
 #: Physics cases that disagree with the reference when replayed from their
 #: offsets, with what is known of why (strict xfail: a fix shows at once).
@@ -135,10 +132,8 @@ def _step_from_reference(case: dict, i: int) -> tuple[Vec3, Vec3] | None:
 def test_the_physics_step_reproduces_every_reference_target_bit_for_bit() -> None:
     checked = 0
     inexact = set()
-    for name in TRACES:
-        with gzip.open(ORACLE / "traces" / f"{name}.trace.json.gz", "rt") as f:
-            trace = json.load(f)
-        for case in trace["cases"]:
+    for name in TRACE_NAMES:
+        for case in load_trace(name)["cases"]:
             if case.get("physics") is None or "movers" in case:
                 continue
             for i in range(1, len(case["moves"])):
@@ -251,8 +246,7 @@ def _f32_tuple(values: list) -> tuple[float, ...]:
 @pytest.mark.parametrize("use_offsets", [False, True], ids=["to", "offsets"])
 @pytest.mark.parametrize(("trace_name", "case_id"), EXACT_CASES, ids=[c for _, c in EXACT_CASES])
 def test_case_is_reproduced_bit_for_bit(trace_name: str, case_id: str, use_offsets: bool) -> None:
-    with gzip.open(ORACLE / "traces" / f"{trace_name}.trace.json.gz", "rt") as f:
-        trace = json.load(f)
+    trace = load_trace(trace_name)
     case = next(c for c in trace["cases"] if c["id"] == case_id)
     results = engine.run_case(_world(trace["scene"]), case, use_offsets=use_offsets)
     groups = [(m["moves"], results[m["id"]]) for m in case["movers"]] if "movers" in case else [(case["moves"], results)]

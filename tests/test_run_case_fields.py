@@ -3,20 +3,17 @@
 from __future__ import annotations
 
 import copy
-import gzip
-import json
-from pathlib import Path
 
 import engine
 from engine.formats.trace import EXPECT_FIELDS
 from replay_check import first_mismatch
+from support.shared_data import load_trace, needs_shared, scene_path
 
-ORACLE = Path(__file__).resolve().parent.parent.parent / "shared" / "oracle"
+pytestmark = needs_shared
 
 
 def _case(trace: str, index: int = 0) -> dict:
-    with gzip.open(ORACLE / "traces" / f"{trace}.trace.json.gz", "rt", encoding="utf-8") as f:
-        return json.load(f)["cases"][index]
+    return load_trace(trace)["cases"][index]
 
 
 def test_a_case_without_expect_reports_every_field_and_they_agree_with_the_reference() -> None:
@@ -24,7 +21,7 @@ def test_a_case_without_expect_reports_every_field_and_they_agree_with_the_refer
     bare = copy.deepcopy(case)
     for move in bare["moves"]:
         del move["expect"]
-    got = engine.run_case(engine.load_scene(ORACLE / "scenes" / "house.json"), bare)
+    got = engine.run_case(engine.load_scene(scene_path("house")), bare)
     assert len(got) == len(case["moves"])
     for result in got:
         assert set(result) == set(EXPECT_FIELDS)
@@ -35,5 +32,5 @@ def test_a_case_without_expect_reports_every_field_and_they_agree_with_the_refer
 
 def test_a_case_with_expect_reports_exactly_its_fields() -> None:
     case = _case("flat")
-    got = engine.run_case(engine.load_scene(ORACLE / "scenes" / "flat.json"), case)
+    got = engine.run_case(engine.load_scene(scene_path("flat")), case)
     assert [set(r) for r in got] == [set(m["expect"]) for m in case["moves"]]

@@ -13,11 +13,11 @@ import pytest
 from clients import Client, ServiceError
 from engine import load_scene
 from engine.geometry import Position, Vec3
-from service_support import SHARED, ServiceProcess, comparable, human
-from support.shared_data import shared_root
+from service_support import ServiceProcess, comparable, human
+from support.shared_data import DATS, scene_path, shared_root
 
-DATS = SHARED / "dats" / "rolling"
-SCENE = SHARED / "oracle" / "scenes" / "rolling.json"
+ROLLING_DATS = DATS / "rolling"
+SCENE = scene_path("rolling")
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +25,7 @@ def client() -> Iterator[Client]:
     shared_root()  # skips without the shared material
     svc = ServiceProcess(Path("unused"))
     i = svc.args.index("--scene")
-    svc.args[i:i + 2] = ["--dat-dir", str(DATS)]
+    svc.args[i:i + 2] = ["--dat-dir", str(ROLLING_DATS)]
     with svc:
         with Client([svc.endpoint], timeout=10.0) as c:
             c.wait_ready()

@@ -172,9 +172,10 @@ def test_dat_dir_workers_split_by_x_stripes() -> None:
     workers the X stripes A8 and A9-AA, and a mover walking east out of A8B4 changes worker."""
     from engine import World
 
-    from service_support import SHARED, human, start_on_ground
+    from service_support import human, start_on_ground
+    from support.shared_data import DATS
 
-    dats = SHARED / "dats" / "rolling"
+    dats = DATS / "rolling"
     assert (dats / "client_cell_1.dat").is_file(), f"the shared reference dats are missing at {dats}"
     svc = ServiceProcess(own="x=A8-AA", extra=["--workers", "2"])
     at = svc.args.index("--scene")

@@ -7,8 +7,6 @@ numbers are the client's float32 values).
 
 from __future__ import annotations
 
-import gzip
-import json
 import random
 
 import numpy as np
@@ -20,7 +18,7 @@ from engine.geometry.f32 import cross_f32, dot_f32, plane_dist_f32
 from engine.transition.settings import ACE_COMPAT
 from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import load_trace, needs_shared, scene_path
 
 F = np.float32
 
@@ -53,9 +51,8 @@ def test_terrain_planes_are_the_reference_contact_planes(trace: str) -> None:
     """Every terrain contact plane the reference reports is, bit for bit, the
     plane of one of the two triangles of its cell (the client builds them in
     float32: Polygon.make_plane on the landblock's vertices)."""
-    with gzip.open(ORACLE / "traces" / f"{trace}.trace.json.gz", "rt") as f:
-        data = json.load(f)
-    world = engine.load_scene(ORACLE / "scenes" / data["scene"])
+    data = load_trace(trace)
+    world = engine.load_scene(scene_path(data["scene"]))
     seen = set()
     for case in data["cases"]:
         for move in case.get("moves", []):

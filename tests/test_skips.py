@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
-import gzip
-import json
 
 import pytest
 
 import engine
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import load_trace, needs_shared, scene_path
 
 SKIPS = [f.name for f in dataclasses.fields(engine.EngineSettings) if f.name.startswith("skip_")]
 
@@ -21,9 +19,8 @@ def test_there_are_skips_to_check() -> None:
 @needs_shared
 @pytest.mark.parametrize("name", ["rolling", "cliff-edgeslide", "water", "house", "objects-movers"])
 def test_switching_every_skip_off_changes_no_answer(name: str) -> None:
-    with gzip.open(ORACLE / "traces" / f"{name}.trace.json.gz", "rt") as f:
-        trace = json.load(f)
-    world = engine.load_scene(ORACLE / "scenes" / trace["scene"])
+    trace = load_trace(name)
+    world = engine.load_scene(scene_path(trace["scene"]))
     all_off = dataclasses.replace(engine.ACE_COMPAT, **{s: False for s in SKIPS})
     assert all_off != engine.ACE_COMPAT
     for case in trace["cases"][:12]:

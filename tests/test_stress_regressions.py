@@ -19,7 +19,7 @@ from scenes import PLAYER
 
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
-from support.shared_data import ORACLE, needs_shared
+from support.shared_data import needs_shared, scene_path
 
 ROOT = Path(__file__).resolve().parent.parent
 HEIGHTS = [b * 0.5 for b in range(256)]
@@ -155,7 +155,7 @@ def test_tiny_and_huge_spheres_never_sink_into_the_terrain(radius: float, height
 def debris_world() -> engine.World:
     """Flat ground with one box whose solid BSP leaf also lists a zero-area triangle,
     a polygon with a repeated vertex and a polygon of one vertex thrice."""
-    ref = json.loads((ORACLE / "scenes" / "objects.json").read_text())
+    ref = json.loads(scene_path("objects").read_text())
     box = copy.deepcopy(ref["gfx_objs"]["01000001"])  # x -1.5..1.5, y -1.25..1.25, z -0.25..1.625
     box["vertices"].update({"8": [-0.5, 0.0, 1.625], "9": [0.0, 0.0, 1.625], "10": [0.5, 0.0, 1.625]})
     extra = {"6": [8, 9, 10], "7": [4, 5, 5, 6], "8": [2, 2, 2]}
@@ -234,7 +234,7 @@ def test_a_long_move_past_the_corner_of_an_opening_ends_inside_the_wall_as_the_r
     """The client's behaviour, not a bug (docs/divergences.md): the sub-step that crosses the wall's plane
     is in the opening, and the slide along the wall's end never pushes the sphere back out."""
     scene, floor, x, y, offset, wall_y, facing, (x0, x1), reference_gap = case
-    world = engine.load_scene(ORACLE / "scenes" / scene)
+    world = engine.load_scene(scene_path(scene))
     spec = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.6), 0.6)], step_up_height=0.6, step_down_height=0.6,
                      state=["Contact", "OnWalkable"], gravity=True)
     cell = 0xA9B40100
@@ -254,7 +254,7 @@ def test_the_stress_run_counts_the_doorway_corner_overlap_as_the_clients_behavio
     from benchmarks import stress
 
     scene, floor, x, y, offset, _wall_y, _facing, _xs, reference_gap = case
-    world = engine.load_scene(ORACLE / "scenes" / scene)
+    world = engine.load_scene(scene_path(scene))
     spec = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.6), 0.6)], step_up_height=0.6, step_down_height=0.6,
                      state=["Contact", "OnWalkable"], gravity=True)
     cell = 0xA9B40100

@@ -9,6 +9,7 @@ error instead, so CI can never pass by skipping them.
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 from pathlib import Path
@@ -16,8 +17,9 @@ from typing import Any
 
 import pytest
 
-__all__ = ["MISSING_REASON", "SHARED", "ORACLE", "needs_shared", "require_shared", "require_shared_flag",
-           "shared_available", "shared_root", "load_scene_json", "scene_names"]
+__all__ = ["MISSING_REASON", "SHARED", "ORACLE", "TRACES", "SCENES", "DATS", "needs_shared", "require_shared",
+           "require_shared_flag", "shared_available", "shared_root", "load_scene_json", "scene_names",
+           "trace_path", "load_trace", "trace_names", "scene_path"]
 
 
 def _locate() -> Path:
@@ -32,6 +34,13 @@ def _locate() -> Path:
 
 SHARED = _locate()
 ORACLE = SHARED / "oracle"
+#: the reference traces, `<name>.trace.json.gz`
+TRACES = ORACLE / "traces"
+#: the reference scenes, `<name>.json`
+SCENES = ORACLE / "scenes"
+#: three of the scenes as dat directories, `dats/<name>/client_{cell_1,portal}.dat`
+DATS = SHARED / "dats"
+TRACE_SUFFIX = ".trace.json.gz"
 MISSING_REASON = (f"shared reference material not found at {SHARED} (expected ../shared beside the checkout, "
                   "with oracle/ and dats/; set ACPHYS_SHARED=/path/to/shared)")
 
@@ -63,12 +72,37 @@ def shared_root() -> Path:
     return SHARED
 
 
+def scene_path(name: str) -> Path:
+    """`shared/oracle/scenes/<name>` (`name` with or without `.json`, as a trace's `scene` gives it)."""
+    return SCENES / (name if name.endswith(".json") else f"{name}.json")
+
+
 def load_scene_json(name: str) -> dict[str, Any]:
     """`shared/oracle/scenes/<name>.json`."""
-    with open(shared_root() / "oracle" / "scenes" / f"{name}.json", encoding="utf-8") as f:
+    shared_root()
+    with open(scene_path(name), encoding="utf-8") as f:
         return json.load(f)
 
 
 def scene_names() -> list[str]:
     """Every reference scene's name."""
-    return sorted(p.stem for p in (shared_root() / "oracle" / "scenes").glob("*.json"))
+    shared_root()
+    return sorted(p.stem for p in SCENES.glob("*.json"))
+
+
+def trace_path(name: str) -> Path:
+    """`shared/oracle/traces/<name>.trace.json.gz`."""
+    return TRACES / f"{name}{TRACE_SUFFIX}"
+
+
+def load_trace(name: str) -> dict[str, Any]:
+    """The reference trace `name` (an `acphys-trace/1` document)."""
+    shared_root()
+    with gzip.open(trace_path(name), "rt", encoding="utf-8") as f:
+        return json.load(f)
+
+
+def trace_names() -> list[str]:
+    """Every reference trace's name, found by listing the directory (a new trace is replayed at once)."""
+    shared_root()
+    return sorted(p.name[: -len(TRACE_SUFFIX)] for p in TRACES.glob(f"*{TRACE_SUFFIX}"))
