@@ -184,7 +184,7 @@ class ServiceCore:
             if mover_id in self.movers:
                 raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {mover_id:X} is already registered", "id")
         rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
-                        sliding_normal=req.sliding_normal, water_contact=req.water_contact)
+                        sliding_normal=req.sliding_normal, water_contact=bool(req.water_contact))
         state = self._state(rec)
         self._refresh()  # a dat world loads the start landblock on demand
         self.bus.publish_state(rec.id, self._packer.pack(state))

@@ -219,8 +219,9 @@ STATE_MUTATIONS: list[tuple[tuple[str, ...], Any, bool]] = [
     (("ok",), 1, False),
     (("transition_state",), None, False),
     (("contact_plane", "d"), 4, True),  # an integer is a number
-    (("frames_stationary_fall",), 1.0, True),
-    (("collide_objects",), [True], True),
+    (("frames_stationary_fall",), 1.0, False),  # "int 0..3 or nil": a float is refused
+    (("collide_objects",), [True], False),  # "array of uint64": a boolean is not one
+    (("frames_stationary_fall",), 2, True),
     (("position", "orientation"), None, True),  # default: identity
 ]
 
