@@ -18,7 +18,7 @@ from typing import Any
 from engine import limits
 from engine.constants import HUGE_QUANTUM
 from engine.errors import EngineError
-from engine.geometry import Plane, Position, Quat, Vec3
+from engine.geometry import IDENTITY, Plane, Position, Quat, Vec3
 from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
 
 from .errors import ProtocolError
@@ -72,15 +72,11 @@ VECTOR = Vector(Vec3)
 QUAT = Quaternion(Quat)
 
 
-def _position(cell: int, origin: Vec3, orientation: Quat | None) -> Position:
-    return Position.at(cell, origin, Quat() if orientation is None else orientation)
-
-
 POSITION = Map("Position", (
     Field("cell", UInt(32), required=True, src="{}.cell_id"),
     Field("origin", VECTOR, required=True, src="{}.frame.origin", doc="[x, y, z]"),
-    Field("orientation", QUAT, src="{}.frame.orientation"),
-), _position)
+    Field("orientation", QUAT, default=IDENTITY, src="{}.frame.orientation"),
+), Position.at)
 
 
 @dataclass(slots=True)
@@ -102,7 +98,7 @@ TARGET = Map("Target", (
     Field("cell", UInt(32), src="{}.cell_id"),
     Field("origin", VECTOR, required=True, src="{}.frame.origin"),
     Field("orientation", QUAT, src="{}.frame.orientation"),
-), lambda cell, origin, q: Target(cell, origin, q))
+), Target)
 
 
 def _unit_normal(p: Plane) -> bool:
@@ -113,7 +109,7 @@ def _unit_normal(p: Plane) -> bool:
 PLANE = Map("Plane", (
     Field("normal", VECTOR, required=True),
     Field("d", Number(), required=True),
-), lambda normal, d: Plane(normal, d), rules=(
+), Plane, rules=(
     Rule(_unit_normal, lambda _p, path: ProtocolError(ErrorKind.BAD_VALUE, f"{path}.normal: not a unit vector",
                                                       f"{path}.normal" if path else "normal")),
 ))
@@ -121,13 +117,13 @@ PLANE = Map("Plane", (
 SPHERE = Map("Sphere", (
     Field("center", Vector(), required=True),
     Field("radius", Number(POSITIVE, "number > 0"), required=True),
-), lambda center, radius: SphereSpec(center, radius))
+), SphereSpec)
 
 CYL_SPHERE = Map("CylSphere", (
     Field("origin", Vector(), required=True),
     Field("radius", Number(POSITIVE, "number > 0"), required=True),
     Field("height", Number(NON_NEGATIVE, "number ≥ 0"), required=True),
-), lambda origin, radius, height: CylSphereSpec(origin, radius, height))
+), CylSphereSpec)
 
 
 def _mover_spec(spheres: list[SphereSpec], step_up: float, step_down_height: float, state: list[str],
@@ -198,11 +194,12 @@ STATE = Map("State", (
 # -- moves --------------------------------------------------------------------------------------------
 @dataclass(slots=True)
 class MoveItem:
-    """One move: exactly one of `to`, `offset` (transition) or `motion` + `dt` (physics step)."""
+    """One move: exactly one of `to`, `offset` (transition) or `motion` + `dt` (physics step); `path`
+    is where it stood in the request (`moves[3]`), for its errors."""
 
+    path: str
     id: int
     tag: int | str | None
-    path: str
     to: Target | None = None
     offset: Vec3 | None = None
     motion: Vec3 | None = None
@@ -222,8 +219,7 @@ MOVE = Map("Move", (
                        f"number in (0, {HUGE_QUANTUM:g}]"), required=True, with_field="motion", omit=True),
     # its speed limit is the engine's to check (World.move)
     Field("velocity", VECTOR, omit=True, excludes=("motion", "a physics step integrates its own velocity")),
-), lambda path, mid, tag, to, offset, motion, dt, velocity: MoveItem(mid, tag, path, to, offset, motion, dt, velocity),
-    one_of=("to", "offset", "motion"), label="move", with_path=True)
+), MoveItem, one_of=("to", "offset", "motion"), label="move", with_path=True)
 
 #: the envelope's fields beside `v` (requests.parse_moves reads it: a batch item's error is its own)
 MOVE_REQUEST = Map("MoveRequest", (

@@ -43,6 +43,7 @@ from .requests import (
     parse_id,
     parse_moves,
     parse_register,
+    parse_single_move,
     parse_update,
 )
 from .stats import ServiceStats
@@ -351,10 +352,7 @@ class ServiceNode:
         answers: the same decoding, engine call and reply as `_work`'s, with one closure instead of three."""
         core = self.core
         assert core is not None
-        batch = parse_moves(msg)
-        item = batch.items[0]
-        assert not isinstance(item, ItemError)  # a single move's error is raised by parse_moves
-        batch_mode = batch.publish_batch
+        item, batch_mode = parse_single_move(msg)
 
         def job() -> None:
             try:

@@ -138,6 +138,13 @@ def _item_or_error(value: Any, path: str) -> MoveItem | ItemError:
         return ItemError(e, mid, tag)
 
 
+def parse_single_move(msg: dict[str, Any]) -> tuple[MoveItem, bool]:
+    """`{"move": Move}` (the caller has seen `move` and no `moves`): the move, and whether its State is
+    published on P/states (`"publish": "batch"`). What `parse_moves` gives, without the batch around it."""
+    batch = _parse_publish(msg)  # checked first, as in parse_moves
+    return parse_move_item(msg["move"], "move"), batch
+
+
 def parse_moves(msg: dict[str, Any]) -> MoveBatch:
     """`{"move": Move}` or `{"moves": [Move, ...]}`."""
     has_one, has_many = msg.get("move") is not None, msg.get("moves") is not None

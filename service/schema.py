@@ -197,7 +197,7 @@ class Bool(Kind):
         return x
 
     def pack(self, g: _Gen, src: str, out: _Packed) -> None:
-        out.fixed(b"", "B", f"(0xC3 if {src} else 0xC2)")
+        out.flag(src)
 
 
 class Str(Kind):
@@ -211,8 +211,10 @@ class Str(Kind):
         return x
 
     def pack(self, g: _Gen, src: str, out: _Packed) -> None:
-        cache = g.const({}, "strs")  # the handful of names a field takes, packed once each
-        out.expr(f"({cache}.get({src}) or _cached({cache}, {src}))")
+        # the handful of names a field takes, packed once each (with the key before them)
+        prefix = g.const(out.take_prefix(), "B")
+        cache = g.const({}, "strs")
+        out.expr(f"({cache}.get({src}) or _cached({cache}, {prefix}, {src}))")
 
 
 class Enum(Kind):
@@ -322,10 +324,11 @@ class Vector(Kind):
 
 
 def _vec_list(v: Any) -> list[float]:
-    """A Vec3 or any three numbers as the wire's list."""
-    if hasattr(v, "x"):
-        return [v.x, v.y, v.z]
-    return [float(c) for c in v]
+    """A Vec3, or three numbers in a tuple or list, as the wire's list."""
+    if type(v) is tuple or type(v) is list:
+        x, y, z = v
+        return [float(x), float(y), float(z)]
+    return [v.x, v.y, v.z]
 
 
 class Quaternion(Kind):
@@ -397,11 +400,13 @@ class ListOf(Kind):
         return f"[{self.item.encode(g, e)} for {e} in {src}]"
 
     def pack(self, g: _Gen, src: str, out: _Packed) -> None:
-        if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each
+        prefix = out.take_prefix()
+        if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each, key and all
             cache = g.const({}, "lists")
-            out.expr(f"({cache}.get(tuple({src})) or _cached_list({cache}, {src}))")
+            out.expr(f"({cache}.get(tuple({src})) or _cached_list({cache}, {g.const(prefix, 'B')}, {src}))")
         else:
-            out.expr(f"(_packb({src}) if {src} else b'\\x90')")
+            empty = g.const(prefix + b"\x90", "B")  # an empty array
+            out.expr(f"({g.const(prefix, 'B')} + _packb({src}) if {src} else {empty})")
 
 
 @dataclass(frozen=True, slots=True)
@@ -533,37 +538,46 @@ class Map(Kind):
             raise TypeError(f"{self.name}: a map without a build has no fast reader")
         n = g.var("n")
         g.emit(ind, f"if type({x}) is not dict: return None")
-        g.emit(ind, f"{n} = 0")
+        # the keys read: the required ones counted here, the others as they come
+        plain_required = [f for f in self.fields if f.read and f.required and f.with_field is None]
+        g.emit(ind, f"{n} = {len(plain_required)}")
         out: dict[str, str] = {}
         for f in self.fields:
             if not f.read:  # written only: ignored when read, as the full reader does
                 g.emit(ind, f"{n} += {x}.get({f.name!r}) is not None")
                 continue
-            if self.one_of and f.name == self.one_of[0]:
-                given = " + ".join(f"({x}.get({k!r}) is not None)" for k in self.one_of)
-                g.emit(ind, f"if {given} != 1: return None")
-            raw, v = g.var("x"), g.var()
-            out[f.name] = v
-            g.emit(ind, f"{raw} = {x}.get({f.name!r})")
+            if f.name in self.one_of:
+                if f.name == self.one_of[0]:
+                    self._fast_one_of(g, ind, x, path, n, out)
+                continue
             fp = f"field_path({path}, {f.name!r})"
-            if f.with_field is not None:
+            if f.with_field is not None:  # read only when the field it belongs to was given
+                v = out[f.name] = g.var()
                 g.emit(ind, f"if {out[f.with_field]} is None: {v} = None")
-                g.emit(ind, f"elif {raw} is None: {'return None' if f.required else f'{v} = None'}")
                 g.emit(ind, "else:")
-            elif f.required:
-                g.emit(ind, f"if {raw} is None: return None")
-                g.emit(ind, "if True:")
-            else:
-                default = "[]" if f.default == [] else g.const(f.default, "d")
-                # a nullable field's nil is the usual shape: its key counts
-                present = f"; {n} += {f.name!r} in {x}" if f.nullable else ""
-                g.emit(ind, f"if {raw} is None: {v} = {default}{present}")
-                g.emit(ind, "else:")
+                raw = g.var("x")
+                g.emit(ind + 1, f"{raw} = {x}.get({f.name!r})")
+                g.emit(ind + 1, f"if {raw} is None: {'return None' if f.required else f'{v} = None'}")
+                g.emit(ind + 1, "else:")
+                g.emit(ind + 2, f"{v} = {self._fast_value(g, ind + 2, f, raw, fp)}")
+                g.emit(ind + 2, f"{n} += 1")
+                continue
+            raw = g.var("x")
+            g.emit(ind, f"{raw} = {x}.get({f.name!r})")
+            if f in plain_required:  # straight on, no branch (every kind's type test refuses nil, but Value's)
+                if isinstance(f.kind, Value):
+                    g.emit(ind, f"if {raw} is None: return None")
+                out[f.name] = self._fast_value(g, ind, f, raw, fp)
+                continue
+            v = out[f.name] = g.var()
+            default = "[]" if f.default == [] else "None" if f.default is None else g.const(f.default, "d")
+            # a nullable field's nil is the usual shape: its key counts
+            present = f"; {n} += {f.name!r} in {x}" if f.nullable else ""
+            g.emit(ind, f"if {raw} is None: {v} = {default}{present}")
+            g.emit(ind, "else:")
             if f.excludes is not None:
                 g.emit(ind + 1, f"if {out[f.excludes[0]]} is not None: return None")
-            g.emit(ind + 1, f"{v} = {f.kind.fast(g, ind + 1, raw, fp)}")
-            if f.check is not None:
-                g.emit(ind + 1, f"{g.const(f.check, 'check')}({v}, {fp})")
+            g.emit(ind + 1, f"{v} = {self._fast_value(g, ind + 1, f, raw, fp)}")
             g.emit(ind + 1, f"{n} += 1")
         g.emit(ind, f"if {n} != len({x}): return None")  # an unknown key: the full reader ignores it or refuses
         built = g.var("m")
@@ -574,6 +588,39 @@ class Map(Kind):
         for c in self.checks:
             g.emit(ind, f"{g.const(c, 'check')}({built}, {path})")
         return built
+
+    def _fast_one_of(self, g: _Gen, ind: int, x: str, path: str, n: str, out: dict[str, str]) -> None:
+        """The `one_of` fields: the first one given is read and the others not looked at; one of them given
+        as well is then a key not counted, so the key count refuses the map (and the full reader says why)."""
+        names = [v for v in self.one_of]
+        for k in names:
+            out[k] = g.var()
+        for depth, k in enumerate(names):
+            f = self.by_name[k]
+            at = ind + depth
+            raw = g.var("x")
+            g.emit(at, f"{raw} = {x}.get({k!r})")
+            last = depth == len(names) - 1
+            g.emit(at, f"if {raw} is {'None: return None' if last else 'not None:'}")
+            body = at if last else at + 1
+            for other in names:
+                if other != k:
+                    g.emit(body, f"{out[other]} = None")
+            g.emit(body, f"{out[k]} = {self._fast_value(g, body, f, raw, f'field_path({path}, {k!r})')}")
+            g.emit(body, f"{n} += 1")
+            if not last:
+                g.emit(at, "else:")
+
+    @staticmethod
+    def _fast_value(g: _Gen, ind: int, f: Field, raw: str, fp: str) -> str:
+        """The field's value read fast (its further check run), as an expression."""
+        value = f.kind.fast(g, ind, raw, fp)
+        if f.check is None:
+            return value
+        v = g.var()
+        g.emit(ind, f"{v} = {value}")
+        g.emit(ind, f"{g.const(f.check, 'check')}({v}, {fp})")
+        return v
 
     # -- writing --------------------------------------------------------------------------------------
     def written(self, values: dict[str, Any]) -> dict[str, Any]:
@@ -653,13 +700,15 @@ def _hoisted(g: _Gen, src: str, out: _Packed, hoist: bool) -> str:
 def _pack_field(g: _Gen, f: Field, src: str, out: _Packed, hoist: bool) -> None:
     """The field's key and value. `hoist`: locals may be set at the function's start (not inside a
     branch taken only when an enclosing value is given)."""
-    out.const(_packb(f.name))
-    if f.nullable:
+    key = _packb(f.name)
+    if f.nullable:  # the key goes into both branches: one piece, not two
         local = _hoisted(g, src, out, hoist)
         inner = _Packed(g)
+        inner.const(key)
         _pack_value(g, f.kind, local, inner, False)
-        out.expr(f"(_NIL if {local} is None else {inner.join()})")
+        out.expr(f"({g.const(key + _NIL, 'B')} if {local} is None else {inner.join()})")
     else:
+        out.const(key)
         _pack_value(g, f.kind, src, out, hoist)
 
 
@@ -685,18 +734,37 @@ class _Packed:
         self._fmt = ""
         self._args: list[str] = []
         self._consts: set[str] = set()
+        self._flags: dict[int, str] = {}  # argument index: the boolean it packs
 
     def const(self, b: bytes) -> None:
         if b:
+            if self._args and self._args[-1] in self._consts:  # one constant, not two beside each other
+                b = self.take_prefix() + b
             self._fmt += f"{len(b)}s"
             name = self.g.const(b, "B")
             self._consts.add(name)
             self._args.append(name)
 
+    def flag(self, cond: str) -> None:
+        """A boolean: one byte, true or false."""
+        self._fmt += "B"
+        self._args.append(f"(0xC3 if {cond} else 0xC2)")
+        self._flags[len(self._args) - 1] = cond
+
     def fixed(self, prefix: bytes, code: str, value: str) -> None:
         self.const(prefix)
         self._fmt += code
         self._args.append(value)
+
+    def take_prefix(self) -> bytes:
+        """The constant bytes at the end of the pending run, taken out of it (the next piece includes them)."""
+        taken = b""
+        while self._args and self._args[-1] in self._consts:
+            name = self._args.pop()
+            b = self.g.ns[name]
+            self._fmt = self._fmt[: -len(f"{len(b)}s")]
+            taken = b + taken
+        return taken
 
     def expr(self, e: str) -> None:
         self._flush()
@@ -707,15 +775,30 @@ class _Packed:
             return
         if all(a in self._consts for a in self._args):  # constants only
             self.parts.append(self.g.const(b"".join(self.g.ns[a] for a in self._args), "B"))
+        elif len(self._flags) <= 3 and all(a in self._consts or i in self._flags for i, a in enumerate(self._args)):
+            # constants and a few booleans: every combination packed once, looked up
+            table = {}
+            for bits in range(1 << len(self._flags)):
+                values = dict(zip(self._flags, ((bits >> k) & 1 == 1 for k in range(len(self._flags)))))
+                table[tuple(values.values())] = b"".join(
+                    (_TRUE if values[i] else _FALSE) if i in values else self.g.ns[a] for i, a in enumerate(self._args))
+            conds = list(self._flags.values())
+            if len(conds) == 1:
+                t = self.g.const(table[(True,)], "B")
+                f = self.g.const(table[(False,)], "B")
+                self.parts.append(f"({t} if {conds[0]} else {f})")
+            else:
+                self.parts.append(f"{self.g.const(table, 'flags')}[{', '.join(f'bool({c})' for c in conds)}]")
         else:
             s = self.g.const(Struct(">" + self._fmt).pack, "pack")
             self.parts.append(f"{s}({', '.join(self._args)})")
         self._fmt, self._args = "", []
+        self._consts, self._flags = set(), {}
 
     def join(self) -> str:
         self._flush()
-        if len(self.parts) == 1:
-            return self.parts[0]
+        if len(self.parts) <= 2:
+            return " + ".join(self.parts) if self.parts else "b''"
         return f"b''.join(({', '.join(self.parts)},))"
 
 
@@ -726,15 +809,15 @@ def _packb(value: Any) -> bytes:
 _SMALL = [_packb(i) for i in range(128)]  # positive fixints
 
 
-def _cached(cache: dict[str, bytes], s: str) -> bytes:
-    b = _packb(s)
+def _cached(cache: dict[str, bytes], prefix: bytes, s: str) -> bytes:
+    b = prefix + _packb(s)
     if len(cache) < 64:  # the names are a handful; anything else is packed each time
         cache[s] = b
     return b
 
 
-def _cached_list(cache: dict[tuple[str, ...], bytes], names: list[str]) -> bytes:
-    b = _packb(names)
+def _cached_list(cache: dict[tuple[str, ...], bytes], prefix: bytes, names: list[str]) -> bytes:
+    b = prefix + _packb(names)
     if len(cache) < 256:
         cache[tuple(names)] = b
     return b
