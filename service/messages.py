@@ -46,7 +46,7 @@ from .wire import MAX_BATCH, ErrorKind
 __all__ = [
     "MAX_SPHERES", "PUBLISH_MODES", "Target", "MoveItem", "RegisterRequest", "HandoverRequest",
     "POSITION", "TARGET", "PLANE", "SPHERE", "CYL_SPHERE", "MOVER_SPEC", "STATE", "MOVE", "MOVE_REQUEST",
-    "REGISTER", "HANDOVER", "UPDATE", "ID_REQUEST", "ERROR", "HEALTH", "STATS", "LANDBLOCK_LIST", "MESSAGES",
+    "REGISTER", "HANDOVER", "UPDATE", "ID_REQUEST", "ERROR", "HEALTH", "STATS", "LANDBLOCK_LIST",
 ]
 
 MAX_SPHERES = 32
@@ -362,8 +362,3 @@ LANDBLOCK_LIST = Map("Landblocks", (
     Field("workers", _COUNT, omit=True),
     Field("worker_processes", Value("array"), omit=True),
 ))
-
-#: every map-form message and value, by its name in docs/protocol.md
-MESSAGES: dict[str, Map] = {m.name: m for m in (
-    POSITION, PLANE, MOVER_SPEC, STATE, MOVE, MOVE_REQUEST, REGISTER, HANDOVER, UPDATE, ID_REQUEST, ERROR, HEALTH,
-    STATS, LANDBLOCK_LIST)}

@@ -141,18 +141,25 @@ def _item_or_error(value: Any, path: str) -> MoveItem | ItemError:
 def parse_single_move(msg: dict[str, Any]) -> tuple[MoveItem, bool]:
     """`{"move": Move}` (the caller has seen `move` and no `moves`): the move, and whether its State is
     published on P/states (`"publish": "batch"`). What `parse_moves` gives, without the batch around it."""
+    _single(msg)
     batch = _parse_publish(msg)  # checked first, as in parse_moves
     return parse_move_item(msg["move"], "move"), batch
 
 
-def parse_moves(msg: dict[str, Any]) -> MoveBatch:
-    """`{"move": Move}` or `{"moves": [Move, ...]}`."""
+def _single(msg: dict[str, Any]) -> bool:
+    """Whether the request is one move (`move`), not a batch (`moves`); refused when neither or both."""
     has_one, has_many = msg.get("move") is not None, msg.get("moves") is not None
     if has_one == has_many:
         raise ProtocolError(
             ErrorKind.MISSING_FIELD if not has_one else ErrorKind.BAD_VALUE,
             "give exactly one of move (one move) or moves (a batch)",
         )
+    return has_one
+
+
+def parse_moves(msg: dict[str, Any]) -> MoveBatch:
+    """`{"move": Move}` or `{"moves": [Move, ...]}`."""
+    has_one = _single(msg)
     publish_batch = _parse_publish(msg)
     if has_one:
         return MoveBatch(True, [parse_move_item(msg["move"], "move")], publish_batch)

@@ -10,8 +10,8 @@ a nested map). From that one declaration (service/messages.py holds every map-fo
   usual shape only (floats as floats, known keys only) and returns None for anything else, so the full
   reader decides and names the field. It runs the same checks and builds the same value;
 - `Map.encode(obj)`: the msgpack-ready map of a value (generated too: one dict display per map);
-- `Map.packer(...)`: for the per-move State, a function that writes the msgpack bytes directly (fixed
-  widths in one `struct` call per run of fixed-size fields), generated from the same fields;
+- `Map.packer(...)`: for the per-move State, a function that writes the msgpack bytes directly
+  (service/packing.py), generated from the same fields;
 - `Field.doc_type` and `Map.required_names`: what docs/protocol.md's tables are checked against
   (tests/test_service_schema.py).
 
@@ -23,14 +23,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from struct import Struct
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import msgpack
-
-from .errors import ProtocolError
 from engine.limits import FLOAT32_MAX
 
+from .errors import ProtocolError
 from .validate import (
     as_bool,
     as_float,
@@ -44,13 +41,15 @@ from .validate import (
 )
 from .wire import ErrorKind
 
+if TYPE_CHECKING:
+    from .packing import Packed
+
 __all__ = [
     "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Value", "UInt", "Number", "Bool", "Str", "Enum", "Tag", "Vector", "Quaternion", "ListOf", "Field", "Map",
     "Rule", "MAX_TAG_LEN",
 ]
 
 MAX_TAG_LEN = 256
-_NIL, _TRUE, _FALSE = b"\xc0", b"\xc3", b"\xc2"
 
 
 class _Gen:
@@ -95,7 +94,7 @@ class Kind:
     def encode(self, g: _Gen, src: str) -> str:
         return src
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         """Append the msgpack bytes of `src` to `out` (default: msgpack's own packing)."""
         out.expr(f"_packb({self.encode(g, src)})")
 
@@ -112,7 +111,7 @@ class UInt(Kind):
         g.emit(ind, f"if type({x}) is not int or {x} < 0 or {x} >= {1 << self.bits}: return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         # fixed width (msgpack allows any width for a value): the run of fixed-size fields stays one Struct
         code = {64: ("\xcf", "Q"), 32: ("\xce", "I"), 16: ("\xcd", "H"), 8: ("\xcc", "B")}[self.bits]
         out.fixed(code[0].encode("latin-1"), code[1], src)
@@ -132,7 +131,7 @@ class Int(Kind):
         g.emit(ind, f"if type({x}) is not int: return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.expr(f"(_SMALL[{src}] if 0 <= {src} < 128 else _packb({src}))")
 
 
@@ -182,7 +181,7 @@ class Number(Kind):
         g.emit(ind, f"if type({x}) is not float or not (-F32 <= {x} <= F32{r}): return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.fixed(b"\xcb", "d", src)  # every real as float64, whatever its value
 
 
@@ -196,7 +195,7 @@ class Bool(Kind):
         g.emit(ind, f"if type({x}) is not bool: return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.flag(src)
 
 
@@ -210,7 +209,7 @@ class Str(Kind):
         g.emit(ind, f"if type({x}) is not str: return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         # the handful of names a field takes, packed once each (with the key before them)
         prefix = g.const(out.take_prefix(), "B")
         cache = g.const({}, "strs")
@@ -276,7 +275,7 @@ class Tag(Kind):
                     f"or (type({x}) is str and len({x}) <= {MAX_TAG_LEN})): return None")
         return x
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.expr(f"_packb({src})")
 
 
@@ -317,7 +316,7 @@ class Vector(Kind):
     def encode(self, g: _Gen, src: str) -> str:
         return f"{g.const(_vec_list, 'vec')}({src})"
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.fixed(b"\x93\xcb", "d", f"{src}.x")
         out.fixed(b"\xcb", "d", f"{src}.y")
         out.fixed(b"\xcb", "d", f"{src}.z")
@@ -356,7 +355,7 @@ class Quaternion(Kind):
     def encode(self, g: _Gen, src: str) -> str:
         return f"[{src}.w, {src}.x, {src}.y, {src}.z]"
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.fixed(b"\x94\xcb", "d", f"{src}.w")
         for c in "xyz":
             out.fixed(b"\xcb", "d", f"{src}.{c}")
@@ -399,7 +398,7 @@ class ListOf(Kind):
         e = g.var("e")
         return f"[{self.item.encode(g, e)} for {e} in {src}]"
 
-    def pack(self, g: _Gen, src: str, out: _Packed) -> None:
+    def pack(self, g: _Gen, src: str, out: Packed) -> None:
         prefix = out.take_prefix()
         if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each, key and all
             cache = g.const({}, "lists")
@@ -663,161 +662,7 @@ class Map(Kind):
         return f"{g.const(self.encode_fn(), 'enc')}({src})"
 
     def packer(self, args: str) -> Callable[..., bytes]:
-        """A function of `args` writing this map's msgpack bytes: fields whose `src` reads the arguments,
-        nested maps flattened, fixed-size values packed together. `omit` fields come last, and the map's
-        entry count counts them when given."""
-        g = _Gen()
-        g.ns.update(_packb=_packb, _cached=_cached, _cached_list=_cached_list, _NIL=_NIL, _SMALL=_SMALL)
-        out = _Packed(g)
-        always = [f for f in self.fields if not f.omit]
-        omissible = [f for f in self.fields if f.omit]
-        count = f"{len(always)}" + "".join(f" + ({f.source('')} is not None)" for f in omissible)
-        out.fixed(b"\xde", "H", count)
-        for f in always:
-            _pack_field(g, f, f.source(""), out, True)
-        tail = _Packed(g)
-        for f in omissible:
-            inner = _Packed(g)
-            _pack_field(g, f, f.source(""), inner, False)
-            tail.expr(f"(b'' if {f.source('')} is None else {inner.join()})")
-        fn = f"pack_{self.name}"
-        g.emit(0, f"def {fn}({args}):")
-        for line in out.pre:
-            g.emit(1, line)
-        g.emit(1, f"return {out.join()}{' + ' + tail.join() if omissible else ''}")
-        return g.compile(fn)  # type: ignore[no-any-return]
+        """A function of `args` writing this map's msgpack bytes directly (service/packing.py)."""
+        from .packing import make_packer  # the packer generator needs this module's kinds
 
-
-def _hoisted(g: _Gen, src: str, out: _Packed, hoist: bool) -> str:
-    """`src` as a local (evaluated once) where it is an expression and locals may be set up front."""
-    if not hoist or src.isidentifier():
-        return src
-    local = g.var("o")
-    out.pre.append(f"{local} = {src}")
-    return local
-
-
-def _pack_field(g: _Gen, f: Field, src: str, out: _Packed, hoist: bool) -> None:
-    """The field's key and value. `hoist`: locals may be set at the function's start (not inside a
-    branch taken only when an enclosing value is given)."""
-    key = _packb(f.name)
-    if f.nullable:  # the key goes into both branches: one piece, not two
-        local = _hoisted(g, src, out, hoist)
-        inner = _Packed(g)
-        inner.const(key)
-        _pack_value(g, f.kind, local, inner, False)
-        out.expr(f"({g.const(key + _NIL, 'B')} if {local} is None else {inner.join()})")
-    else:
-        out.const(key)
-        _pack_value(g, f.kind, src, out, hoist)
-
-
-def _pack_value(g: _Gen, kind: Kind, src: str, out: _Packed, hoist: bool) -> None:
-    if isinstance(kind, Map):  # flattened into the enclosing bytes; every field present
-        obj = _hoisted(g, src, out, hoist)
-        out.const(bytes((0x80 | len(kind.fields),)))
-        for f in kind.fields:
-            _pack_field(g, f, f.source(obj), out, hoist)
-    elif isinstance(kind, (Vector, Quaternion)):
-        kind.pack(g, _hoisted(g, src, out, hoist), out)
-    else:
-        kind.pack(g, src, out)
-
-
-class _Packed:
-    """Bytes being put together: runs of constants and fixed-size values become one Struct each."""
-
-    def __init__(self, g: _Gen) -> None:
-        self.g = g
-        self.parts: list[str] = []
-        self.pre: list[str] = []  # statements the parts need first (locals)
-        self._fmt = ""
-        self._args: list[str] = []
-        self._consts: set[str] = set()
-        self._flags: dict[int, str] = {}  # argument index: the boolean it packs
-
-    def const(self, b: bytes) -> None:
-        if b:
-            if self._args and self._args[-1] in self._consts:  # one constant, not two beside each other
-                b = self.take_prefix() + b
-            self._fmt += f"{len(b)}s"
-            name = self.g.const(b, "B")
-            self._consts.add(name)
-            self._args.append(name)
-
-    def flag(self, cond: str) -> None:
-        """A boolean: one byte, true or false."""
-        self._fmt += "B"
-        self._args.append(f"(0xC3 if {cond} else 0xC2)")
-        self._flags[len(self._args) - 1] = cond
-
-    def fixed(self, prefix: bytes, code: str, value: str) -> None:
-        self.const(prefix)
-        self._fmt += code
-        self._args.append(value)
-
-    def take_prefix(self) -> bytes:
-        """The constant bytes at the end of the pending run, taken out of it (the next piece includes them)."""
-        taken = b""
-        while self._args and self._args[-1] in self._consts:
-            name = self._args.pop()
-            b = self.g.ns[name]
-            self._fmt = self._fmt[: -len(f"{len(b)}s")]
-            taken = b + taken
-        return taken
-
-    def expr(self, e: str) -> None:
-        self._flush()
-        self.parts.append(e)
-
-    def _flush(self) -> None:
-        if not self._args:
-            return
-        if all(a in self._consts for a in self._args):  # constants only
-            self.parts.append(self.g.const(b"".join(self.g.ns[a] for a in self._args), "B"))
-        elif len(self._flags) <= 3 and all(a in self._consts or i in self._flags for i, a in enumerate(self._args)):
-            # constants and a few booleans: every combination packed once, looked up
-            table = {}
-            for bits in range(1 << len(self._flags)):
-                values = dict(zip(self._flags, ((bits >> k) & 1 == 1 for k in range(len(self._flags)))))
-                table[tuple(values.values())] = b"".join(
-                    (_TRUE if values[i] else _FALSE) if i in values else self.g.ns[a] for i, a in enumerate(self._args))
-            conds = list(self._flags.values())
-            if len(conds) == 1:
-                t = self.g.const(table[(True,)], "B")
-                f = self.g.const(table[(False,)], "B")
-                self.parts.append(f"({t} if {conds[0]} else {f})")
-            else:
-                self.parts.append(f"{self.g.const(table, 'flags')}[{', '.join(f'bool({c})' for c in conds)}]")
-        else:
-            s = self.g.const(Struct(">" + self._fmt).pack, "pack")
-            self.parts.append(f"{s}({', '.join(self._args)})")
-        self._fmt, self._args = "", []
-        self._consts, self._flags = set(), {}
-
-    def join(self) -> str:
-        self._flush()
-        if len(self.parts) <= 2:
-            return " + ".join(self.parts) if self.parts else "b''"
-        return f"b''.join(({', '.join(self.parts)},))"
-
-
-def _packb(value: Any) -> bytes:
-    return bytes(msgpack.packb(value, use_bin_type=True))
-
-
-_SMALL = [_packb(i) for i in range(128)]  # positive fixints
-
-
-def _cached(cache: dict[str, bytes], prefix: bytes, s: str) -> bytes:
-    b = prefix + _packb(s)
-    if len(cache) < 64:  # the names are a handful; anything else is packed each time
-        cache[s] = b
-    return b
-
-
-def _cached_list(cache: dict[tuple[str, ...], bytes], prefix: bytes, names: list[str]) -> bytes:
-    b = prefix + _packb(names)
-    if len(cache) < 256:
-        cache[tuple(names)] = b
-    return b
+        return make_packer(self, args)
