@@ -352,6 +352,7 @@ STATS = Map("Stats", (
     Field("cache", Value("map string → number"), required=True),
     Field("handovers", Value("map"), required=True),
     Field("workers", _COUNT, omit=True),
+    Field("workers_ok", _COUNT, omit=True),
     Field("worker_processes", Value("array"), omit=True),
 ))
 
