@@ -219,7 +219,7 @@ MOVE = Map("Move", (
                        f"number in (0, {HUGE_QUANTUM:g}]"), required=True, with_field="motion", omit=True),
     # its speed limit is the engine's to check (World.move)
     Field("velocity", VECTOR, omit=True, excludes=("motion", "a physics step integrates its own velocity")),
-), MoveItem, one_of=("to", "offset", "motion"), label="move", with_path=True)
+), MoveItem, one_of=("to", "offset", "motion"), label="move", with_path=True, usual=("offset", "to", "motion"))
 
 #: the envelope's fields beside `v` (requests.parse_moves reads it: a batch item's error is its own)
 MOVE_REQUEST = Map("MoveRequest", (

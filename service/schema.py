@@ -452,7 +452,8 @@ class Map(Kind):
     """A map of `fields`, read into `build(*values)` (values in field order; a list default copied; with
     `with_path`, the map's path first).
 
-    `one_of`: exactly one of these fields is given (checked where the first of them is read). `rules`:
+    `one_of`: exactly one of these fields is given (checked where the first of them is read; the fast
+    reader tries them in the order of `usual`, the commonest first). `rules`:
     checks of the built value. `checks`: further checks that raise ProtocolError themselves (engine
     limits). `label`: how an error at the top (path "") names the message.
     """
@@ -460,7 +461,7 @@ class Map(Kind):
     def __init__(self, name: str, fields: tuple[Field, ...], build: Callable[..., Any] | None = None, *,
                  one_of: tuple[str, ...] = (), rules: tuple[Rule, ...] = (),
                  checks: tuple[Callable[[Any, str], None], ...] = (), label: str = "message",
-                 doc: str | None = None, with_path: bool = False) -> None:
+                 doc: str | None = None, with_path: bool = False, usual: tuple[str, ...] = ()) -> None:
         self.name = name
         self.fields = fields
         self.by_name = {f.name: f for f in fields}
@@ -470,6 +471,7 @@ class Map(Kind):
         self.checks = checks
         self.label = label
         self.with_path = with_path
+        self.usual = usual
         self.doc = doc or name
         self._fast: Callable[[Any, str], Any] | None = None
         self._encode: Callable[[Any], dict[str, Any]] | None = None
@@ -580,7 +582,7 @@ class Map(Kind):
             g.emit(ind + 1, f"{n} += 1")
         g.emit(ind, f"if {n} != len({x}): return None")  # an unknown key: the full reader ignores it or refuses
         built = g.var("m")
-        args = ", ".join(([path] if self.with_path else []) + list(out.values()))
+        args = ", ".join(([path] if self.with_path else []) + [out[f.name] for f in self.fields if f.read])
         g.emit(ind, f"{built} = {g.const(self.build, 'build')}({args})")
         for r in self.rules:
             g.emit(ind, f"if not {g.const(r.holds, 'rule')}({built}): return None")
@@ -591,7 +593,7 @@ class Map(Kind):
     def _fast_one_of(self, g: _Gen, ind: int, x: str, path: str, n: str, out: dict[str, str]) -> None:
         """The `one_of` fields: the first one given is read and the others not looked at; one of them given
         as well is then a key not counted, so the key count refuses the map (and the full reader says why)."""
-        names = [v for v in self.one_of]
+        names = sorted(self.one_of, key=lambda k: self.usual.index(k) if k in self.usual else len(self.usual))
         for k in names:
             out[k] = g.var()
         for depth, k in enumerate(names):
