@@ -185,29 +185,29 @@ class Number(Kind):
         out.fixed(b"\xcb", "d", src)  # every real as float64, whatever its value
 
 
-class Bool(Kind):
-    doc = "bool"
+class _Exact(Kind):
+    """A value of one msgpack type, read by validate.py's reader for it (the fast reader: its exact type)."""
 
-    def read(self, value: Any, path: str) -> bool:
-        return as_bool(value, path)
+    type_name = ""
+
+    def read(self, value: Any, path: str) -> Any:
+        return (as_bool if self.type_name == "bool" else as_str)(value, path)
 
     def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not bool: return None")
+        g.emit(ind, f"if type({x}) is not {self.type_name}: return None")
         return x
+
+
+class Bool(_Exact):
+    doc = type_name = "bool"
 
     def pack(self, g: _Gen, src: str, out: Packed) -> None:
         out.flag(src)
 
 
-class Str(Kind):
+class Str(_Exact):
     doc = "string"
-
-    def read(self, value: Any, path: str) -> str:
-        return as_str(value, path)
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not str: return None")
-        return x
+    type_name = "str"
 
     def pack(self, g: _Gen, src: str, out: Packed) -> None:
         # the handful of names a field takes, packed once each (with the key before them)
