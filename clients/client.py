@@ -22,7 +22,8 @@ import zenoh
 
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec
-from service.codec import encode_mover_spec, encode_plane, encode_position, encode_vec
+from service.codec import encode_mover_spec
+from service.messages import REGISTER, RegisterRequest
 from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind, Keys
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
@@ -40,6 +41,9 @@ _REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
 _MAX_REDIRECTS = 4
 #: most per-landblock request keys kept parsed (`Client._lb_key`)
 _KEY_CACHE = 4096
+
+
+_encode_register = REGISTER.encode_fn()
 
 
 def _pack(content: dict[str, Any]) -> bytes:
@@ -225,16 +229,8 @@ class Client(SpatialQueries):
         timeout: float | None = None,
     ) -> MoverState:
         """Add a mover at `position`; its id is `mover_id` or one the service assigns."""
-        content: dict[str, Any] = {"mover": encode_mover_spec(spec), "position": encode_position(position)}
-        if mover_id is not None:
-            content["id"] = mover_id
-        if contact_plane is not None:
-            content["contact_plane"] = encode_plane(contact_plane)
-            content["contact_plane_cell"] = position.cell_id if contact_plane_cell is None else contact_plane_cell
-        if sliding_normal is not None:
-            content["sliding_normal"] = encode_vec(sliding_normal)
-        if water_contact:
-            content["water_contact"] = True
+        content = _encode_register(RegisterRequest(mover_id, spec, position, contact_plane, contact_plane_cell,
+                                                   sliding_normal, water_contact or None))
         reply = self._lb_request(position.landblock, "register", content, timeout=timeout)
         return self._learn(MoverState.from_wire(reply["state"]))
 

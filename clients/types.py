@@ -7,7 +7,8 @@ from typing import Any
 
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoveResult
-from service.codec import decode_state, encode_position, encode_vec
+from service.codec import decode_state
+from service.messages import MOVE
 from service.wire import ErrorKind
 
 from .errors import ServiceError
@@ -77,27 +78,14 @@ class Move:
     keep_cell: bool = True
 
     def to_wire(self) -> dict[str, Any]:
-        m: dict[str, Any] = {"id": self.id}
-        if self.to is not None:
-            m["to"] = encode_position(self.to)
-            if not self.keep_cell:
-                del m["to"]["cell"]
-        if self.offset is not None:
-            m["offset"] = _vec(self.offset)
-        if self.motion is not None:
-            m["motion"] = _vec(self.motion)
-            m["dt"] = self.dt
-        if self.velocity is not None:
-            m["velocity"] = _vec(self.velocity)
-        if self.tag is not None:
-            m["tag"] = self.tag
+        """The Move map (service/messages.py, MOVE)."""
+        m = _encode_move(self)
+        if not self.keep_cell and "to" in m:
+            del m["to"]["cell"]
         return m
 
 
-def _vec(v: Vec3 | tuple[float, float, float]) -> list[float]:
-    if isinstance(v, Vec3):
-        return encode_vec(v) or []
-    return [float(c) for c in v]
+_encode_move = MOVE.encode_fn()
 
 
 @dataclass(slots=True)

@@ -18,9 +18,10 @@ import msgpack
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec, MoveResult
 
-from .codec import encode_mover_spec, encode_plane, encode_position, encode_state, encode_vec, pack_state
+from .codec import encode_mover_spec, encode_state, encode_vec, pack_state
 from .engine_errors import to_protocol_error
 from .errors import ProtocolError
+from .messages import HANDOVER
 from .ownership import Ownership
 from .requests import HandoverRequest, ItemError, MoveBatch, MoveItem, RegisterRequest
 from .stats import ServiceStats
@@ -29,6 +30,8 @@ from .wire import ErrorKind, lb_hex
 __all__ = ["BusPort", "MoverRecord", "ServiceCore"]
 
 log = logging.getLogger("acphys.service")
+
+_encode_handover = HANDOVER.encode_fn()
 
 #: How many handed-over movers an instance remembers (to answer `moved`).
 FORWARD_MEMORY = 100_000
@@ -184,7 +187,7 @@ class ServiceCore:
             if mover_id in self.movers:
                 raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {mover_id:X} is already registered", "id")
         rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
-                        sliding_normal=req.sliding_normal, water_contact=req.water_contact)
+                        sliding_normal=req.sliding_normal, water_contact=bool(req.water_contact))
         state = self._state(rec)
         self._refresh()  # a dat world loads the start landblock on demand
         self.bus.publish_state(rec.id, self._packer.pack(state))
@@ -345,18 +348,11 @@ class ServiceCore:
 
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:
+        """The Hand-over map (service/messages.py, HANDOVER) of the mover as it stands."""
         r = rec.last
-        return {
-            "id": rec.id,
-            "seq": rec.seq,
-            "mover": encode_mover_spec(spec_with_contact(rec.spec, r)),
-            "position": encode_position(r.position),
-            "contact_plane": encode_plane(r.contact_plane),
-            "contact_plane_cell": r.contact_plane_cell,
-            "sliding_normal": encode_vec(r.sliding_normal),
-            "water_contact": r.water_contact,
-            "from": self.instance,
-        }
+        return _encode_handover(HandoverRequest(
+            rec.id, rec.seq, spec_with_contact(rec.spec, r), r.position, r.contact_plane, r.contact_plane_cell,
+            r.sliding_normal, r.water_contact, self.instance))
 
     def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int) -> None:
         """Pass the mover to `lb`'s owner, or put it back where it was and refuse the move."""

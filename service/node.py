@@ -34,6 +34,7 @@ from .core import ServiceCore
 from .errors import ProtocolError
 from .frames import STATE_HEAD, pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
+from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
 from .requests import (
     ItemError,
@@ -42,6 +43,7 @@ from .requests import (
     parse_id,
     parse_moves,
     parse_register,
+    parse_single_move,
     parse_update,
 )
 from .stats import ServiceStats
@@ -350,10 +352,7 @@ class ServiceNode:
         answers: the same decoding, engine call and reply as `_work`'s, with one closure instead of three."""
         core = self.core
         assert core is not None
-        batch = parse_moves(msg)
-        item = batch.items[0]
-        assert not isinstance(item, ItemError)  # a single move's error is raised by parse_moves
-        batch_mode = batch.publish_batch
+        item, batch_mode = parse_single_move(msg)
 
         def job() -> None:
             try:
@@ -511,7 +510,7 @@ class ServiceNode:
         if not self._instance_request(query, "health"):
             return
         core = self.core
-        self._reply_ok(query, {
+        self._reply_ok(query, HEALTH.written({
             "instance": self.instance,
             "status": "draining" if self._draining else "ok",
             **capabilities(),
@@ -520,7 +519,7 @@ class ServiceNode:
             "queue_capacity": self.queue.capacity,
             "movers": len(core.movers) if core else 0,
             "workers": 1,
-        })
+        }))
 
     def _on_stats(self, query: zenoh.Query) -> None:
         if not self._instance_request(query, "stats"):
@@ -528,7 +527,7 @@ class ServiceNode:
         core = self.core
         snap = self.stats.snapshot()
         snap["cache"] = {**snap.pop("landblock_cache"), **(core.engine_cache if core else {})}
-        self._reply_ok(query, {
+        self._reply_ok(query, STATS.written({
             "instance": self.instance,
             **snap,
             "loaded_landblocks": list(core.loaded) if core else [],
@@ -536,18 +535,18 @@ class ServiceNode:
             "queue_depth": len(self.queue),
             "queue_capacity": self.queue.capacity,
             "workers": 1,
-        })
+        }))
 
     def _on_landblocks(self, query: zenoh.Query) -> None:
         if not self._instance_request(query, "landblocks"):
             return
         core = self.core
         assert core is not None
-        self._reply_ok(query, {
+        self._reply_ok(query, LANDBLOCK_LIST.written({
             "instance": self.instance,
             "owned": self.options.ownership.to_wire(),
             "loaded": list(core.loaded),
-        })
+        }))
 
     # -- BusPort (called by the core on the engine thread) -------------------------
     def _put(self, key: str, content: dict[str, Any]) -> None:

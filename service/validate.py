@@ -28,8 +28,6 @@ __all__ = [
     "as_quat",
     "get_field",
     "opt_field",
-    "plain_floats3",
-    "plain_unit_quat",
 ]
 
 _TYPE_NAMES = {
@@ -147,27 +145,3 @@ def get_field(obj: dict[str, Any], key: str, path: str) -> Any:
 def opt_field(obj: dict[str, Any], key: str) -> Any:
     """An optional field: None when absent or nil."""
     return obj.get(key)
-
-
-# -- fast paths: accept only what the readers above accept, return None for anything else -----------
-def plain_floats3(v: Any) -> tuple[float, float, float] | None:
-    """Three floats that fit single precision; None for anything else (then the full reader says what is wrong)."""
-    if type(v) is list and len(v) == 3:
-        x, y, z = v
-        # a NaN fails every comparison; an infinity or a number beyond float32 the bounds
-        if (type(x) is float and type(y) is float and type(z) is float
-                and -FLOAT32_MAX <= x <= FLOAT32_MAX and -FLOAT32_MAX <= y <= FLOAT32_MAX and -FLOAT32_MAX <= z <= FLOAT32_MAX):
-            return (x, y, z)
-    return None
-
-
-def plain_unit_quat(v: Any) -> tuple[float, float, float, float] | None:
-    """Four finite floats of length within 1e-3 of 1 (as `as_quat`); None for anything else."""
-    if type(v) is list and len(v) == 4:
-        w, x, y, z = v
-        if type(w) is float and type(x) is float and type(y) is float and type(z) is float:
-            n2 = w * w + x * x + y * y + z * z
-            # finite components of a unit-length quaternion all lie within [-1.001, 1.001]
-            if math.isfinite(n2) and abs(math.sqrt(n2) - 1.0) <= 1e-3:
-                return (w, x, y, z)
-    return None

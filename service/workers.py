@@ -52,6 +52,7 @@ import zenoh
 from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
 from .errors import ProtocolError
 from .frames import pack
+from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
 from .capabilities import capabilities
 from .certificates import INSTANCE_CN, make_certificates
@@ -282,8 +283,9 @@ class WorkerSupervisor:
         # indirect: each answer waits on a query to the workers, which must not hold up Zenoh's own threads
         self._declared = [
             s.declare_queryable(key, zenoh.handlers.Callback(self._answer(op, build), indirect=True))
-            for key, op, build in ((self.keys.health, "health", self._health), (self.keys.stats, "stats", self._stats),
-                                   (self.keys.landblocks, "landblocks", self._landblocks))
+            for key, op, build in ((self.keys.health, "health", lambda: HEALTH.written(self._health())),
+                                   (self.keys.stats, "stats", lambda: STATS.written(self._stats())),
+                                   (self.keys.landblocks, "landblocks", lambda: LANDBLOCK_LIST.written(self._landblocks())))
         ]
         for w in self.workers:
             log.info("worker %d: pid %d, instance %s, owns %s", w.index, w.proc.pid if w.proc else -1, w.instance,

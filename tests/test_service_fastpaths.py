@@ -1,7 +1,8 @@
 """The service's fast paths agree with the per-field readers they stand in for.
 
 Moves and States of the usual shape are read without the per-field readers
-(service.requests._plain_move, service.codec._plain_state) and whole
+(service.requests._plain_move, service.codec._plain_state: the fast readers
+service/schema.py generates from the MOVE and STATE declarations) and whole
 messages are put together from packed States (service.frames). Each must
 give exactly what the slow path gives, and must never accept what the slow
 path refuses: whatever the fast path cannot vouch for goes to the slow path,
@@ -219,8 +220,9 @@ STATE_MUTATIONS: list[tuple[tuple[str, ...], Any, bool]] = [
     (("ok",), 1, False),
     (("transition_state",), None, False),
     (("contact_plane", "d"), 4, True),  # an integer is a number
-    (("frames_stationary_fall",), 1.0, True),
-    (("collide_objects",), [True], True),
+    (("frames_stationary_fall",), 1.0, False),  # "int 0..3 or nil": a float is refused
+    (("collide_objects",), [True], False),  # "array of uint64": a boolean is not one
+    (("frames_stationary_fall",), 2, True),
     (("position", "orientation"), None, True),  # default: identity
 ]
 
