@@ -368,6 +368,7 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
     from engine import load_scene
     from engine.geometry import Vec3
     from engine.world.batch import OFFSET, BatchRows, run_batch
+    from engine.world.mover import Mover
 
     from .scenes import PLAYER
 
@@ -384,7 +385,7 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
     share = len(ids) // ISSUE_PROCESSES
     batches = []
     for k in range(ISSUE_PROCESSES):  # as the clients send them: each mover of a share out, then back
-        movers = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
+        movers: list[Mover | None] = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
         batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
 
     def batched() -> int:

@@ -328,6 +328,7 @@ HEALTH = Map("Health", (
     Field("publish", ListOf(Str(), doc="[string]"), omit=True),
     Field("move_forms", ListOf(Str(), doc="[string]"), omit=True),
     Field("queries", ListOf(Str(), doc="[string]"), omit=True),
+    Field("query_forms", ListOf(Str(), doc="[string]"), omit=True),
     Field("uptime_s", Number(doc="float"), required=True),
     Field("queue_depth", _COUNT, required=True),
     Field("queue_capacity", _COUNT, required=True),
