@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
-from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, sub_f32, unrotate_f32, vec_f32
+from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, unrotate_f32, vec_f32
 from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .slide import slide_sphere
@@ -35,7 +35,6 @@ class SpherePath:
         "global_sphere",
         "global_low_point",
         "local_space_sphere",
-        "local_space_low_point",
         "local_space_curr_center",
         "global_curr_center",
         "local_space_pos",
@@ -53,7 +52,6 @@ class SpherePath:
         "check_pos",
         "insert_type",
         "step_down",
-        "backup",
         "backup_cell",
         "backup_check_pos",
         "obstruction_ethereal",
@@ -68,7 +66,6 @@ class SpherePath:
         "walkable_up",
         "walkable_pos",
         "walkable_scale",
-        "cell_array_valid",
         "neg_step_up",
         "neg_collision_normal",
         "neg_poly_hit",
@@ -86,7 +83,6 @@ class SpherePath:
         self.global_sphere: list[Sphere] = []
         self.global_low_point = ZERO
         self.local_space_sphere: list[Sphere] = []
-        self.local_space_low_point = ZERO
         self.local_space_curr_center: list[Sphere] = []
         self.global_curr_center: list[Sphere] = []
         self.local_space_pos: Position | None = None
@@ -104,7 +100,6 @@ class SpherePath:
         self.check_pos: Position = None  # type: ignore[assignment]
         self.insert_type = InsertType.TRANSITION
         self.step_down = False
-        self.backup = InsertType.TRANSITION
         self.backup_cell: Any = None
         self.backup_check_pos: Position | None = None
         self.obstruction_ethereal = False
@@ -119,7 +114,6 @@ class SpherePath:
         self.walkable_up = ZERO
         self.walkable_pos: Position | None = None
         self.walkable_scale = 1.0
-        self.cell_array_valid = False
         self.neg_step_up = False
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
@@ -169,7 +163,6 @@ class SpherePath:
 
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
-        self.cell_array_valid = False
         self.shift_check_pos(offset)
 
     def shift_check_pos(self, offset: Vec3) -> None:
@@ -206,7 +199,6 @@ class SpherePath:
     def set_check_pos(self, position: Position, cell: Any) -> None:
         self.check_pos = position
         self.check_cell = cell
-        self.cell_array_valid = False
         self.cache_global_sphere(None)
 
     def save_check_pos(self) -> None:
@@ -217,7 +209,6 @@ class SpherePath:
         assert self.backup_check_pos is not None
         self.check_pos = self.backup_check_pos
         self.check_cell = self.backup_cell
-        self.cell_array_valid = False
         self.cache_global_sphere(None)
 
     # -- sphere caches -----------------------------------------------------
@@ -271,10 +262,6 @@ class SpherePath:
         self.local_space_pos = pos
         z = pos.global_to_local_vec(UNIT_Z)
         self.local_space_z = z
-        s0 = self.local_space_sphere[0]
-        c = s0.center
-        r = s0.radius
-        self.local_space_low_point = Vec3(c.x - z.x * r, c.y - z.y * r, c.z - z.z * r)
 
     def _cache_local_space_sphere_f32(self, pos: Position, curr: Position, check: Position, scale: float) -> None:
         """cache_local_space_sphere in the client's single precision: each
@@ -313,15 +300,7 @@ class SpherePath:
                 # step's movement in BSPTREE::find_collisions)
                 self.local_space_curr_center[0].center = _into_frame_f32(pos, curr.cell_id, cx, cy, cz, inv)
         self.local_space_pos = pos
-        s0 = self.local_space_sphere[0]
-        if ident:
-            z = UNIT_Z
-            c0 = s0.center
-            self.local_space_low_point = Vec3(c0.x, c0.y, to_single(c0.z - s0.radius))
-        else:
-            z = local_z_f32(q)
-            self.local_space_low_point = sub_f32(s0.center, scale_f32(z, s0.radius))
-        self.local_space_z = z
+        self.local_space_z = UNIT_Z if ident else local_z_f32(q)
 
     # -- walkable bookkeeping -----------------------------------------------
     def check_walkables(self) -> bool:

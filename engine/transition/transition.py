@@ -149,7 +149,6 @@ class Transition:
         if num_steps <= 0:
             if not oi.state & OI.FREE_ROTATE:
                 path.curr_pos = Position(path.curr_pos.cell_id, path.curr_pos.frame.with_orientation(path.end_pos.frame.orientation.normalized()))
-            path.cell_array_valid = True
             path.hits_interior_cell = False
             find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, False, path)
             return True
@@ -376,10 +375,10 @@ class Transition:
                 reset = False
                 path.collide = False
                 if ci.contact_plane_valid and stepping.check_walkable(self, LANDING_Z):
-                    path.backup = path.insert_type
+                    saved_insert_type = path.insert_type
                     path.insert_type = InsertType.PLACEMENT
                     state = self.transitional_insert(num_insertion_attempts)
-                    path.insert_type = path.backup
+                    path.insert_type = saved_insert_type
                     if state != _OK:
                         state = _OK
                         reset = True
@@ -421,7 +420,6 @@ class Transition:
         check position into the cell that holds it (CheckOtherCells)."""
         path = self.sphere_path
         ci = self.collision_info
-        path.cell_array_valid = True
         path.hits_interior_cell = False
         new_cell = find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, True, path)
 
@@ -452,13 +450,11 @@ class Transition:
         if cell_id != 0:
             path.adjust_check_pos(cell_id)
             path.set_check_pos(Position(cell_id, check_pos.frame.with_origin(origin)), None)
-            path.cell_array_valid = True
             return _OK
         return _COLLIDED
 
     def build_cell_array(self) -> None:
         path = self.sphere_path
-        path.cell_array_valid = True
         path.hits_interior_cell = False
         find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, False, path)
 
