@@ -541,6 +541,11 @@ class Transition:
     def step_down(self, step_down_height: float, z_val: float) -> bool:
         return stepping.step_down(self, step_down_height, z_val)
 
+    def slide_sphere(self, collision_normal: Vec3, curr_center: Vec3) -> int:
+        """SlideSphere of the path's foot sphere along a global normal (slide.py),
+        for the BSP and the objects, which see the transition only through its methods."""
+        return slide_sphere(self, collision_normal, curr_center)
+
     def check_walkable(self, z_check: float) -> bool:
         return stepping.check_walkable(self, z_check)
 

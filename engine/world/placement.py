@@ -10,16 +10,20 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..geometry import Position
+from .. import limits
+from ..geometry import Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
+from ..transition.state import OI
 from ..transition.transition import Transition
 from . import shadows
-from .types import MoveResult
+from .mover import Mover
+from .resolve import move_result
+from .types import MoveResult, MoverSpec, ObjectState
 
 if TYPE_CHECKING:
     from .world import World
 
-__all__ = ["place_mover", "run_placement", "PLACEMENT_MODES"]
+__all__ = ["mover_from_spec", "place_mover", "run_placement", "PLACEMENT_MODES"]
 
 PLACEMENT_MODES = ("enter_world", "teleport")
 
@@ -92,7 +96,6 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     shift under 5 cm is accepted. The result's `placement_result` is "OK",
     "NoValidPosition" or "NoCell(lost)".
     """
-    from .resolve import move_result as _result
 
     if mode not in PLACEMENT_MODES:
         raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")
@@ -103,15 +106,38 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     if outcome == "NoCell(lost)":
         mover.position = position
         mover.cell = None
-        result = _result(mover, False, "Invalid", t)
+        result = move_result(mover, False, "Invalid", t)
         result.placement_result = "NoCell(lost)"  # type: ignore[attr-defined]
         return result
     if outcome != "OK":
-        result = _result(mover, False, "Invalid", t)
+        result = move_result(mover, False, "Invalid", t)
         result.placement_result = "NoValidPosition"  # type: ignore[attr-defined]
         return result
     mover.set_position_internal(t)
     shadows.reshadow(mover, t.cell_array)
-    result = _result(mover, True, "OK", t)
+    result = move_result(mover, True, "OK", t)
     result.placement_result = "OK"  # type: ignore[attr-defined]
     return result
+
+
+def mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
+    """A Mover of shape `spec` (checked against engine.limits), not yet anywhere."""
+    limits.check_mover_spec(spec, "spec")
+    flags = ObjectState.from_names(spec.state)
+    spheres = [Sphere(Vec3(*s.center), float(s.radius)) for s in spec.spheres]
+    creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
+    return Mover(
+        mover_id,
+        spheres,
+        oi_flags=flags,
+        scale=spec.scale,
+        step_up_height=spec.step_up_height,
+        step_down_height=spec.step_down_height,
+        gravity=spec.gravity,
+        missile=bool(flags & OI.PATH_CLIPPED),
+        step_down=spec.step_down,
+        ethereal=spec.ethereal,
+        creature=creature,
+        cyl_spheres=list(spec.cyl_spheres),
+        sledding=spec.sledding,
+    )

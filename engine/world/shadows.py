@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
+from ..objects.obstacle import MoverObstacle
 
 if TYPE_CHECKING:
     from .mover import Mover
@@ -25,8 +26,6 @@ def obstacle_of(mover: Mover) -> Any:
     """The mover as others see it (created on first use)."""
     obstacle = mover.obstacle
     if obstacle is None:
-        from ..objects.obstacle import MoverObstacle
-
         obstacle = mover.obstacle = MoverObstacle(mover)
     return obstacle
 

@@ -8,7 +8,7 @@ objects newest first.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 from collections.abc import Mapping
 
 from ..geometry import Position
@@ -17,9 +17,7 @@ from ..objects.obstacle import Obstacle
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
-
-if TYPE_CHECKING:
-    from .indoor_loader import PortalCache
+from .portal_cache import PortalCache, frame_from_dict
 
 __all__ = ["attach_static_objects"]
 
@@ -41,8 +39,6 @@ def _make_object(cache: PortalCache, model_id: int, position: Position) -> Any:
 
 def attach_static_objects(landblock: Any, lb_data: Mapping[str, Any], cache: PortalCache) -> None:
     """Create the landblock's static objects and register them in their cells."""
-    from .indoor_loader import frame_from_dict
-
     for entry in lb_data.get("objects", []):
         model_id = int(entry["id"], 16)
         frame = frame_from_dict(entry.get("frame", {}))
