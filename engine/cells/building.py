@@ -11,6 +11,7 @@ from .env_cell import EnvCell
 
 if TYPE_CHECKING:
     from ..objects.gfx_obj import PhysicsPart
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
@@ -53,14 +54,12 @@ class BuildingObj:
         return state
 
     def find_building_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """EnvCells behind the doors that the spheres reach into."""
         block = self.cell.id & 0xFFFF0000
         world = cell_array.world
         for portal in self.portals:
             other = world.get_landcell(block | portal.other_cell_id)
-            if isinstance(other, EnvCell):  # the usual case, called natively
-                other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)
-            elif other is not None:
+            if isinstance(other, EnvCell):  # a building's portals lead into EnvCells
                 other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)

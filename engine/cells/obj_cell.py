@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..geometry import Position, Vec3
+from ..geometry import Position, Sphere, Vec3
 from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
 from ..transition.state import InsertType, TransitionState
 
 if TYPE_CHECKING:
     from ..objects.obstacle import Obstacle
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
@@ -89,7 +90,7 @@ class ObjCell:
         return False
 
     def find_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Any], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """Add the cells this cell's contents let the spheres reach (none here)."""
         return None

@@ -29,6 +29,7 @@ from ..geometry.f32 import cross_f32, dot_f32, f32, normalize_check_small_f32, p
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
+from .interface import CellLookup
 from .object_info import ObjectInfo
 from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
@@ -56,7 +57,7 @@ class Transition:
 
     __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "world")
 
-    def __init__(self, world: Any, settings: EngineSettings = RETAIL) -> None:
+    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL) -> None:
         self.world = world
         self.settings = settings
         self.object_info = ObjectInfo()
