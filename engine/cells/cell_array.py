@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Final
+from typing import TYPE_CHECKING, Final
 from collections.abc import Iterator
 
 from .obj_cell import ObjCell
@@ -75,7 +75,7 @@ class CellArray:
     def __len__(self) -> int:
         return len(self._index)
 
-    def live_entry(self, i: int) -> Any:
+    def live_entry(self, i: int) -> object:
         """The cell of the i-th live entry in iteration order, or END."""
         if i >= len(self._index):
             return END

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import get_block_offset
 from .cell_array import CellArray
+from .env_cell import EnvCell
 from .land_cell import add_all_outside_cells
 from .landscape import Landscape
 from .obj_cell import ObjCell
@@ -74,7 +75,7 @@ def find_cell_list(
                             path.hits_interior_cell = True
                         return found
 
-    if not cell_array.load_cells and (cell_id & 0xFFFF) >= 0x100 and visible_cell is not None:
+    if not cell_array.load_cells and (cell_id & 0xFFFF) >= 0x100 and isinstance(visible_cell, EnvCell):
         # Indoors, only cells on the current EnvCell's stab list stay.
         stab = visible_cell.visible_cell_ids
         for cell in cell_array.cells():

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Final, TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import BLOCK_LENGTH, CELL_LENGTH, EPSILON, LAND_LENGTH
 from ..geometry import Position, Sphere, Vec3
@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from ..transition.interface import CellLookup
+    from .building import BuildingObj
     from .cell_array import CellArray
 
 __all__ = ["LandCell", "add_all_outside_cells", "outdoor_cell_id_at_lcoord"]
@@ -39,7 +40,7 @@ class LandCell(ObjCell):
     def __init__(self, cell_id: int, pos: Position, polygons: tuple[TerrainTriangle, TerrainTriangle]) -> None:
         super().__init__(cell_id, pos)
         self.polygons = polygons
-        self.building: Any = None
+        self.building: BuildingObj | None = None
         # the south-west corner of the cell's square, landblock-local
         self.x0 = pos.frame.origin.x - CELL_LENGTH * 0.5
         self.y0 = pos.frame.origin.y - CELL_LENGTH * 0.5

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from ..geometry import Position, Sphere, Vec3
 from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
@@ -10,6 +11,7 @@ from ..transition.state import InsertType, TransitionState
 
 if TYPE_CHECKING:
     from ..objects.obstacle import Obstacle
+    from ..world.landblock import Landblock
     from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
@@ -17,7 +19,7 @@ if TYPE_CHECKING:
 __all__ = ["ObjCell", "EntryRestriction"]
 
 #: Signature of an entry-restriction hook: (cell, transition) -> TransitionState.
-EntryRestriction = Any
+EntryRestriction = Callable[["ObjCell", "Transition"], int] | None
 
 
 class ObjCell:
@@ -33,7 +35,7 @@ class ObjCell:
         self.id = cell_id
         self.pos = pos
         self.water_type = WaterType.NOT_WATER
-        self.landblock: Any = None
+        self.landblock: Landblock | None = None
         self.shadow_objects: list[Obstacle] = []
         #: Optional hook: an entry restriction (housing barrier, PK zone) that
         #: may refuse a mover. None means anyone may enter.

@@ -14,7 +14,7 @@ so the query changes no mover.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .. import limits
 from ..geometry import Position
@@ -23,10 +23,13 @@ from ..world.transient import TS
 from ..world.types import MoverSpec
 from .results import PlacementResult
 
+if TYPE_CHECKING:
+    from ..world.world import World
+
 __all__ = ["PlacementResult", "place"]
 
 
-def place(world: Any, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
+def place(world: World, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
     """Place an object of shape `spec` at `position` as the client does on spawn
     (`mode` "enter_world", a placement ending in another landblock refused)
     or on teleport ("teleport"); `slide` lets it search for a free spot

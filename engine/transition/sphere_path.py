@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
@@ -13,6 +13,7 @@ from .slide import slide_sphere
 from .state import InsertType, TransitionState
 
 if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
     from ..geometry.polygon import Polygon
     from .transition import Transition
 
@@ -87,20 +88,20 @@ class SpherePath:
         self.global_curr_center: list[Sphere] = []
         self.local_space_pos: Position | None = None
         self.local_space_z = UNIT_Z
-        self.begin_cell: Any = None
+        self.begin_cell: ObjCell | None = None
         self.begin_pos: Position | None = None
         self.end_pos: Position | None = None
-        self.curr_cell: Any = None
+        self.curr_cell: ObjCell | None = None
         self.curr_pos: Position | None = None
         self.global_offset = ZERO
         self.step_up = False
         self.step_up_normal = ZERO
         self.collide = False
-        self.check_cell: Any = None
+        self.check_cell: ObjCell | None = None
         self.check_pos: Position = None  # type: ignore[assignment]
         self.insert_type = InsertType.TRANSITION
         self.step_down = False
-        self.backup_cell: Any = None
+        self.backup_cell: ObjCell | None = None
         self.backup_check_pos: Position | None = None
         self.obstruction_ethereal = False
         self.hits_interior_cell = False
@@ -127,7 +128,7 @@ class SpherePath:
         self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
-    def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
+    def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
         self.begin_pos = begin_pos
         self.begin_cell = begin_cell
         self.end_pos = end_pos
@@ -196,7 +197,7 @@ class SpherePath:
                 return
         self.check_pos = self.check_pos.with_cell(cell_id)
 
-    def set_check_pos(self, position: Position, cell: Any) -> None:
+    def set_check_pos(self, position: Position, cell: ObjCell | None) -> None:
         self.check_pos = position
         self.check_cell = cell
         self.cache_global_sphere(None)

@@ -18,11 +18,12 @@ placement in `placement.py`, the terrain contact rule in `walkable.py`.
 from __future__ import annotations
 
 import math
-from typing import Any, Final
+from typing import Final
 
 from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
+from ..cells.obj_cell import ObjCell
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
 from ..geometry.f32 import cross_f32, dot_f32, f32, normalize_check_small_f32, plane_dist_f32, scale_f32, sub_f32
@@ -73,7 +74,7 @@ class Transition:
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         self.sphere_path.init_sphere(spheres, scale)
 
-    def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
+    def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
         self.sphere_path.init_path(begin_cell, begin_pos, end_pos)
 
     def init_contact_plane(self, cell_id: int, plane: Plane, is_water: bool) -> None:
@@ -401,7 +402,7 @@ class Transition:
                 return _COLLIDED
         return state
 
-    def insert_into_cell(self, cell: Any, num_insertion_attempts: int) -> int:
+    def insert_into_cell(self, cell: ObjCell | None, num_insertion_attempts: int) -> int:
         """Collide with one cell until it stops sliding us (InsertIntoCell)."""
         if cell is None:
             return _COLLIDED
@@ -416,7 +417,7 @@ class Transition:
                 ci.contact_plane_is_water = False
         return state
 
-    def check_other_cells(self, curr_cell: Any) -> int:
+    def check_other_cells(self, curr_cell: ObjCell | None) -> int:
         """Collide with every other cell the spheres touch, then re-home the
         check position into the cell that holds it (CheckOtherCells)."""
         path = self.sphere_path

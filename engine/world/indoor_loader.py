@@ -15,13 +15,14 @@ from ..cells.env_cell import CellPortal, EnvCell
 from ..errors import SceneFormatError
 from ..geometry import Position
 from ..geometry.landdefs import outdoor_cell_id
+from .landblock import Landblock
 from .portal_cache import PortalCache, frame_from_dict, hex_id
 from .static_objects import attach_static_objects
 
 __all__ = ["attach_indoor"]
 
 
-def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str, Any], cache: PortalCache | None = None) -> None:
+def attach_indoor(landblock: Landblock, lb_data: Mapping[str, Any], scene: Mapping[str, Any], cache: PortalCache | None = None) -> None:
     """Build the EnvCells, buildings and static objects of `lb_data` into `landblock`."""
     if cache is None:
         cache = PortalCache(scene)
@@ -75,7 +76,7 @@ def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str
             for p in b.get("portals", [])
         ]
         building = BuildingObj(model_id, parts, doors, int(b.get("num_leaves", 0)))
-        land_cell = landblock.get_cell(cell_id)
+        land_cell = landblock.cells[(cell_id & 0xFFFF) - 1]
         building.cell = land_cell
         land_cell.building = building
         landblock.buildings.append(building)

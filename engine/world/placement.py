@@ -8,9 +8,11 @@ with a LandingZ step-down), and apply the result (SetPositionInternal).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .. import limits
+from ..cells.env_cell import EnvCell
+from ..cells.obj_cell import ObjCell
 from ..geometry import Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.state import OI
@@ -28,7 +30,7 @@ __all__ = ["mover_from_spec", "place_mover", "run_placement", "PLACEMENT_MODES"]
 PLACEMENT_MODES = ("enter_world", "teleport")
 
 
-def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[Any, Position]:
+def _adjust_position(world: World, position: Position, low_point: Vec3) -> tuple[ObjCell | None, Position]:
     """The cell a placement target lies in, and the target re-homed there
     (PhysicsObj.AdjustPosition, searching the stab list)."""
     index = position.cell_id & 0xFFFF
@@ -39,7 +41,7 @@ def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[
         position = Position(cell_id, position.frame.with_origin(origin))
         return (world.get_landcell(cell_id) if cell_id else None), position
     visible = world.get_landcell(position.cell_id)
-    if visible is None:
+    if not isinstance(visible, EnvCell):  # an indoor id names an EnvCell, when its landblock is loaded
         return None, position
     point = position.frame.local_to_global(low_point)
     if visible.point_in_cell(point):
@@ -54,7 +56,7 @@ def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[
     return (world.get_landcell(cell_id) if cell_id else None), position
 
 
-def run_placement(world: World, mover: Any, target: Position, mode: str, slide: bool) -> tuple[str, Transition, Position]:
+def run_placement(world: World, mover: Mover, target: Position, mode: str, slide: bool) -> tuple[str, Transition, Position]:
     """The placement transition for `mover` at `target` (PhysicsObj.SetPosition
     up to, not including, SetPositionInternal): "OK", "NoValidPosition" or
     "NoCell(lost)", the transition, and the target re-homed into its cell.

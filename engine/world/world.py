@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .. import limits
 from ..constants import MAX_VELOCITY
@@ -21,6 +21,7 @@ from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from .landblock import Landblock
 from ..cells.landscape import Landscape
+from ..cells.obj_cell import ObjCell
 from ..queries import batch, sweep
 from ..queries.ground import MAX_GROUND_DROP
 from ..queries.ground import ground as ground_query
@@ -35,6 +36,8 @@ from .rollback import MoverSnapshot
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
 
+if TYPE_CHECKING:
+    from ..formats.dat_world import DatLandblockSource
 
 __all__ = ["World"]
 
@@ -53,7 +56,7 @@ class World:
         self._loader = loader
         self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
         #: the DatLandblockSource of a World opened on dat files, else None
-        self.dat_source: Any = None
+        self.dat_source: DatLandblockSource | None = None
 
     @property
     def settings(self) -> EngineSettings:
@@ -98,7 +101,7 @@ class World:
     def loaded_landblocks(self) -> list[int]:
         return sorted(self.landblocks)
 
-    def get_landcell(self, cell_id: int) -> Any:
+    def get_landcell(self, cell_id: int) -> ObjCell | None:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
         return self.landscape.get_landcell(cell_id)
 
@@ -314,7 +317,7 @@ class World:
     def _ensure_loaded(self, cell_id: int) -> None:
         self.landscape.ensure_loaded(cell_id)
 
-    def _cell_for(self, position: Position) -> Any:
+    def _cell_for(self, position: Position) -> ObjCell | None:
         cell = self.get_landcell(position.cell_id)
         if cell is None and (position.cell_id & 0xFFFF) < 0x100:
             cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
