@@ -68,7 +68,7 @@ class PortalCache:
         return g
 
     def setup(self, setup_id: int) -> Mapping[str, Any]:
-        d = self.scene.get("setups", {}).get(f"{setup_id:08X}")
+        d: Mapping[str, Any] | None = self.scene.get("setups", {}).get(f"{setup_id:08X}")
         if d is None:
             raise SceneFormatError(f"Setup {setup_id:08X} is not in the scene")
         return d
