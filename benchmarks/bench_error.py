@@ -132,12 +132,7 @@ class Acc:
 
 
 def _run_single(world: engine.World, case: dict[str, Any], settings: engine.EngineSettings) -> tuple[list[dict[str, Any]], list[float]]:
-    from engine.formats.trace import (
-        _add_case_mover,
-        _vec,
-        replay_move,
-        result_to_expect,
-    )
+    from engine.formats.trace import add_case_mover, replay_move, result_to_expect, trace_vec
 
     saved = world.settings
     world.settings = settings
@@ -146,11 +141,11 @@ def _run_single(world: engine.World, case: dict[str, Any], settings: engine.Engi
     results: list[dict[str, Any]] = []
     times: list[float] = []
     try:
-        mid = _add_case_mover(world, case)
+        mid = add_case_mover(world, case)
         physics = case.get("physics")
         dt = float(physics["dt"]) if physics else 0.0
         if physics and physics.get("velocity") is not None:
-            world.mover(mid).velocity = _vec(physics["velocity"])
+            world.mover(mid).velocity = trace_vec(physics["velocity"])
         for move in case["moves"]:
             t0 = clock()
             r = replay_move(world, mid, move, physics is not None, dt, False)

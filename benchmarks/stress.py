@@ -299,7 +299,7 @@ class CellPolys:
         out = []
         cell = self.world.get_landcell(cell_id)
         cs = getattr(cell, "cell_struct", None)
-        if cs is not None:
+        if cs is not None and cell is not None:
             f = cell.pos.frame
             for poly in cs.physics_polygons.values():
                 vs = [f.local_to_global(v) for v in poly.vertices]
@@ -449,7 +449,7 @@ def _touching_wall(world: engine.World, mid: int, polys: CellPolys, rng: random.
     cell_id = m.position.cell_id
     cell = world.get_landcell(cell_id)
     cs = getattr(cell, "cell_struct", None)
-    if cs is None or cs.cell_bsp is None:
+    if cs is None or cs.cell_bsp is None or cell is None:
         return None
     low = min(m.spheres, key=lambda s: s.center.z - s.radius)
     r, cz = low.radius * m.scale, low.center.z * m.scale
@@ -597,7 +597,7 @@ def run_scenario(args: tuple[str, int, int, float]) -> dict[str, Any]:
             if (cell_id & 0xFFFF) >= 0x100 and label == "player":
                 cell = world.get_landcell(cell_id)
                 cs = getattr(cell, "cell_struct", None)
-                if cs is not None and cs.cell_bsp is not None:
+                if cs is not None and cs.cell_bsp is not None and cell is not None:
                     c0 = centres[0][0]
                     if not cs.point_in_cell(cell.pos.frame.global_to_local(c0)):
                         out["outside_cell"] += 1

@@ -198,7 +198,8 @@ def run_load_region(args: argparse.Namespace, out: TextIO | None = None) -> int:
     try:
         loaded, missing, errors = _load_all(world, ids, not args.no_progress)
     finally:
-        world.dat_source.close()
+        if world.dat_source is not None:
+            world.dat_source.close()
     seconds = time.perf_counter() - t0
     s = world.stats
     print(f"region {args.corner1:04X}..{args.corner2:04X}: {len(ids)} landblocks, {loaded} loaded,"

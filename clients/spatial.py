@@ -9,8 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.geometry import Position
-from engine.queries.placement import PlacementResult
-from engine.queries.results import Ground, RayHit, SightResult
+from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
 from engine.world.types import MoverSpec
 from service.codec import encode_mover_spec, encode_position
 from service.queries import BATCH_FIELDS, decode_ground, decode_placement, decode_ray_hit, decode_sight

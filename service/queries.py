@@ -17,8 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from engine.geometry import Plane, Position, Quat, Vec3
-from engine.queries.placement import PlacementResult
-from engine.queries.results import Blocker, Ground, RayHit, SightResult
+from engine.queries.results import Blocker, Ground, PlacementResult, RayHit, SightResult
 
 from .codec import decode_mover_spec, decode_plane, decode_position, encode_plane, encode_position, encode_vec
 from .engine_errors import to_protocol_error

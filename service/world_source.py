@@ -16,12 +16,12 @@ def open_world(scene: str | None = None, dat_dir: str | None = None) -> Any:
     """
     if (scene is None) == (dat_dir is None):
         raise ValueError("give exactly one of a scene file or a dat directory")
-    from engine import World, load_scene
+    from engine import load_scene, open_dat_world
 
     if dat_dir is not None:
         if not os.path.isdir(dat_dir):
             raise FileNotFoundError(f"dat directory {dat_dir!r} does not exist")
-        return World.open_dat_dir(dat_dir)
+        return open_dat_world(dat_dir)
     assert scene is not None
     if not os.path.isfile(scene):
         raise FileNotFoundError(f"scene file {scene!r} does not exist")

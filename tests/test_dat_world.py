@@ -251,7 +251,7 @@ def test_cache_size_must_be_positive(two_blocks: Path) -> None:
 
 def test_environment_variable_names_the_dat_directory(two_blocks: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(DAT_DIR_ENV, str(two_blocks))
-    for world in (open_dat_world(), World.open_dat_dir()):  # type: ignore[attr-defined]
+    for world in (open_dat_world(), engine.open_dat_world()):
         assert isinstance(world.dat_source, DatLandblockSource)  # type: ignore[attr-defined]
         assert world.load_landblock(B).id == B
     monkeypatch.delenv(DAT_DIR_ENV)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import pytest
 
 import engine
-from engine.formats.trace import _plane, _quat, _vec
+from engine.formats.trace import trace_plane as _plane, trace_quat as _quat, trace_vec as _vec
 from engine.geometry import Frame, Position, Quat, Vec3
 from engine.geometry.single import to_single
 from engine.geometry.f32 import rotate_f32

@@ -170,7 +170,7 @@ def test_x_stripe_instances_hand_over(tmp_path: Path) -> None:
 def test_dat_dir_workers_split_by_x_stripes() -> None:
     """A dat directory's landblocks are not known in advance: `--own x=A8-AA --workers 2` gives the
     workers the X stripes A8 and A9-AA, and a mover walking east out of A8B4 changes worker."""
-    from engine import World
+    from engine import open_dat_world
 
     from service_support import human, start_on_ground
     from support.shared_data import DATS
@@ -184,7 +184,7 @@ def test_dat_dir_workers_split_by_x_stripes() -> None:
         (health,) = c.wait_ready()
         assert [p["owned"] for p in health["worker_processes"]] == [{"x_min": 0xA8, "x_max": 0xA8},
                                                                     {"x_min": 0xA9, "x_max": 0xAA}]
-        world = World.open_dat_dir(str(dats))
+        world = open_dat_world(str(dats))
         x, y = 185.0, 100.0
         cell = 0xA8B40000 | (int(x // 24) * 8 + int(y // 24) + 1)
         start = start_on_ground(world, cell, x, y)

@@ -14,9 +14,9 @@ multiplied by `scale`, as the reference does.
 What this module needs from the transition (duck-typed):
 `transition.sphere_path` (a SpherePath), `transition.collision_info` (a
 CollisionInfo), `transition.object_info.state` (OI bits),
-`transition.step_up(global_normal) -> bool`, `path.step_up_slide(transition)
--> int` and `engine.transition.slide.slide_sphere(transition, normal,
-curr_center) -> int`.
+`transition.step_up(global_normal) -> bool`, `transition.slide_sphere(normal,
+curr_center) -> int` and `path.step_up_slide(transition) -> int`: the
+interface engine.transition.interface spells out.
 """
 
 from __future__ import annotations
@@ -308,11 +308,9 @@ class BSPTree:
         """Slide the foot sphere along a local-space normal
         (BSPTREE::slide_sphere, i.e. the global sphere's SlideSphere from the
         current center)."""
-        from ..transition.slide import slide_sphere
-
         path = transition.sphere_path
         glob_normal = _global_vec(path, collision_normal)
-        return slide_sphere(transition, glob_normal, path.global_curr_center[0].center)
+        return transition.slide_sphere(glob_normal, path.global_curr_center[0].center)
 
     def neg_poly_hit(self, path: SpherePath, hit_poly: Polygon, step_up: bool) -> int:
         """Defer a polygon hit to the transition (BSPTREE::NegPolyHit); OK."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..geometry import Position, Sphere
 from ..transition.state import OI, TransitionState
@@ -11,6 +11,8 @@ from .env_cell import EnvCell
 
 if TYPE_CHECKING:
     from ..objects.gfx_obj import PhysicsPart
+    from .land_cell import LandCell
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
@@ -30,14 +32,13 @@ class BldPortal:
 class BuildingObj:
     """The client's CBuildingObj: attached to the LandCell holding its origin."""
 
-    __slots__ = ("id", "parts", "portals", "cell", "world", "num_leaves")
+    __slots__ = ("id", "parts", "portals", "cell", "num_leaves")
 
     def __init__(self, model_id: int, parts: list[PhysicsPart], portals: list[BldPortal], num_leaves: int = 0) -> None:
         self.id = model_id
         self.parts = parts
         self.portals = portals
-        self.cell: Any = None
-        self.world: Any = None
+        self.cell: LandCell | None = None
         self.num_leaves = num_leaves
 
     def find_building_collisions(self, transition: Transition) -> int:
@@ -53,14 +54,14 @@ class BuildingObj:
         return state
 
     def find_building_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """EnvCells behind the doors that the spheres reach into."""
-        block = self.cell.id & 0xFFFF0000
+        cell = self.cell
+        assert cell is not None  # set when the loader attaches the building to its cell
+        block = cell.id & 0xFFFF0000
         world = cell_array.world
         for portal in self.portals:
             other = world.get_landcell(block | portal.other_cell_id)
-            if isinstance(other, EnvCell):  # the usual case, called natively
-                other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)
-            elif other is not None:
+            if isinstance(other, EnvCell):  # a building's portals lead into EnvCells
                 other.check_building_transit(portal.other_portal_id, position, num_sphere, spheres, cell_array, path)

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any, Final
+from typing import TYPE_CHECKING, Final
 from collections.abc import Iterator
 
 from .obj_cell import ObjCell
+
+if TYPE_CHECKING:
+    from ..transition.interface import CellLookup
 
 __all__ = ["CellArray", "END"]
 
@@ -25,7 +28,7 @@ class CellArray:
 
     __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_slots", "_index", "_free")
 
-    def __init__(self, world: Any = None) -> None:
+    def __init__(self, world: CellLookup) -> None:
         #: Where cells are looked up by id (the client's LScape).
         self.world = world
         self.added_outside = False
@@ -72,7 +75,7 @@ class CellArray:
     def __len__(self) -> int:
         return len(self._index)
 
-    def live_entry(self, i: int) -> Any:
+    def live_entry(self, i: int) -> object:
         """The cell of the i-th live entry in iteration order, or END."""
         if i >= len(self._index):
             return END

@@ -14,6 +14,7 @@ from .land_cell import add_all_outside_cells
 from .obj_cell import ObjCell
 
 if TYPE_CHECKING:
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
@@ -109,7 +110,7 @@ class EnvCell(ObjCell):
         return self.cell_struct.point_in_cell(self.pos.frame.global_to_local(point))
 
     def find_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """Neighbour cells the spheres reach through this cell's portals
         (EnvCell.find_transit_cells, sphere variant)."""
@@ -157,7 +158,7 @@ class EnvCell(ObjCell):
             add_all_outside_cells(cell_array.world, position, num_sphere, spheres, cell_array)
 
     def check_building_transit(
-        self, portal_id: int, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+        self, portal_id: int, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """Add this cell when a sphere outside reaches into it through a building's
         door (EnvCell.check_building_transit)."""

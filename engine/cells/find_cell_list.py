@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import get_block_offset
 from .cell_array import CellArray
+from .env_cell import EnvCell
 from .land_cell import add_all_outside_cells
 from .landscape import Landscape
+from .obj_cell import ObjCell
+
+if TYPE_CHECKING:
+    from ..transition.sphere_path import SpherePath
 
 __all__ = ["find_cell_list"]
 
@@ -19,8 +24,8 @@ def find_cell_list(
     spheres: list[Sphere],
     cell_array: CellArray,
     find_cell: bool,
-    path: Any,
-) -> Any:
+    path: SpherePath | None,
+) -> ObjCell | None:
     """Fill `cell_array` with the cells the spheres touch (ObjCell.find_cell_list).
 
     With `find_cell`, also return the cell that contains the first sphere's
@@ -70,7 +75,7 @@ def find_cell_list(
                             path.hits_interior_cell = True
                         return found
 
-    if not cell_array.load_cells and (cell_id & 0xFFFF) >= 0x100 and visible_cell is not None:
+    if not cell_array.load_cells and (cell_id & 0xFFFF) >= 0x100 and isinstance(visible_cell, EnvCell):
         # Indoors, only cells on the current EnvCell's stab list stay.
         stab = visible_cell.visible_cell_ids
         for cell in cell_array.cells():

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Final, TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..constants import BLOCK_LENGTH, CELL_LENGTH, EPSILON, LAND_LENGTH
 from ..geometry import Position, Sphere, Vec3
@@ -15,7 +15,10 @@ from .landscape import Landscape
 from .obj_cell import ObjCell
 
 if TYPE_CHECKING:
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
+    from ..transition.interface import CellLookup
+    from .building import BuildingObj
     from .cell_array import CellArray
 
 __all__ = ["LandCell", "add_all_outside_cells", "outdoor_cell_id_at_lcoord"]
@@ -37,7 +40,7 @@ class LandCell(ObjCell):
     def __init__(self, cell_id: int, pos: Position, polygons: tuple[TerrainTriangle, TerrainTriangle]) -> None:
         super().__init__(cell_id, pos)
         self.polygons = polygons
-        self.building: Any = None
+        self.building: BuildingObj | None = None
         # the south-west corner of the cell's square, landblock-local
         self.x0 = pos.frame.origin.x - CELL_LENGTH * 0.5
         self.y0 = pos.frame.origin.y - CELL_LENGTH * 0.5
@@ -102,7 +105,7 @@ class LandCell(ObjCell):
         return self.find_terrain_poly(point) is not None
 
     def find_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """Outdoor neighbours, then whatever the building lets the spheres reach."""
         add_all_outside_cells(cell_array.world, position, num_sphere, spheres, cell_array)
@@ -110,7 +113,7 @@ class LandCell(ObjCell):
             self.building.find_building_transit_cells(position, num_sphere, spheres, cell_array, path)
 
 
-def _add_outside_cell(world: Any, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
+def _add_outside_cell(world: CellLookup, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
     if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
         cell_id = outdoor_cell_id_at_lcoord(x, y)
         # the World's own Landscape is called natively; anything else by name
@@ -120,7 +123,7 @@ def _add_outside_cell(world: Any, landscape: Landscape | None, cell_array: CellA
 
 
 def add_all_outside_cells(
-    world: Any, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray
+    world: CellLookup, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray
 ) -> None:
     """Add the outdoor cells under each sphere and those its radius reaches into
     (LandCell.add_all_outside_cells with check_add_cell_boundary).

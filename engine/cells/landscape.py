@@ -8,7 +8,7 @@ the interpreted facade around it.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 from collections.abc import Callable
 
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError
@@ -16,7 +16,23 @@ from ..geometry.landdefs import cell_in_range
 from ..geometry.position import Position
 from ..transition.settings import EngineSettings
 
-__all__ = ["Landscape"]
+if TYPE_CHECKING:
+    from ..world.landblock import Landblock
+    from .obj_cell import ObjCell
+
+__all__ = ["Landscape", "TrackedLandblocks"]
+
+#: where a landblock that is not loaded comes from (the World's loader)
+LandblockLoad = Callable[[int], "Landblock | None"]
+
+
+class TrackedLandblocks(Protocol):
+    """A landblock table that sees every use (the dat world's LRU, a dict
+    subclass): reached through its own methods, never the dict's."""
+
+    def get(self, landblock_id: int, default: None = None) -> Landblock | None: ...
+
+    def __contains__(self, landblock_id: object) -> bool: ...
 
 
 class Landscape:
@@ -30,35 +46,35 @@ class Landscape:
 
     def __init__(
         self,
-        landblocks: dict[int, Any],
+        landblocks: dict[int, Landblock],
         settings: EngineSettings,
-        load: Callable[[int], Any] | None = None,
+        load: LandblockLoad | None = None,
     ) -> None:
         self.settings = settings
-        self._landblocks: dict[int, Any] = landblocks
+        self._landblocks: dict[int, Landblock] = landblocks
         # a dict subclass, reached through its own (overridden) methods
-        self._tracked: Any = None if type(landblocks) is dict else landblocks
+        self._tracked: TrackedLandblocks | None = None if type(landblocks) is dict else landblocks
         self._load = load
 
     @property
-    def landblocks(self) -> dict[int, Any]:
+    def landblocks(self) -> dict[int, Landblock]:
         return self._landblocks
 
-    def set_landblocks(self, landblocks: dict[int, Any]) -> None:
+    def set_landblocks(self, landblocks: dict[int, Landblock]) -> None:
         self._landblocks = landblocks
         self._tracked = None if type(landblocks) is dict else landblocks
 
-    def set_loader(self, load: Callable[[int], Any] | None) -> None:
+    def set_loader(self, load: LandblockLoad | None) -> None:
         self._load = load
 
-    def landblock(self, landblock_id: int) -> Any:
+    def landblock(self, landblock_id: int) -> Landblock | None:
         """The loaded landblock with this id, or None."""
         tracked = self._tracked
         if tracked is None:
             return self._landblocks.get(landblock_id)
         return tracked.get(landblock_id)
 
-    def get_landcell(self, cell_id: int) -> Any:
+    def get_landcell(self, cell_id: int) -> ObjCell | None:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
         lb = self.landblock((cell_id >> 16) & 0xFFFF)
         if lb is None:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from ..geometry import Position, Vec3
+from ..geometry import Position, Sphere, Vec3
 from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
 from ..objects.obstacle import MoverObstacle
 from ..transition.state import InsertType, TransitionState
@@ -12,13 +13,15 @@ from .broad_phase import may_touch
 
 if TYPE_CHECKING:
     from ..objects.obstacle import Obstacle
+    from ..world.landblock import Landblock
+    from ..transition.sphere_path import SpherePath
     from ..transition.transition import Transition
     from .cell_array import CellArray
 
 __all__ = ["ObjCell", "EntryRestriction"]
 
 #: Signature of an entry-restriction hook: (cell, transition) -> TransitionState.
-EntryRestriction = Any
+EntryRestriction = Callable[["ObjCell", "Transition"], int] | None
 
 
 class ObjCell:
@@ -34,7 +37,7 @@ class ObjCell:
         self.id = cell_id
         self.pos = pos
         self.water_type = WaterType.NOT_WATER
-        self.landblock: Any = None
+        self.landblock: Landblock | None = None
         self.shadow_objects: list[Obstacle] = []
         #: Optional hook: an entry restriction (housing barrier, PK zone) that
         #: may refuse a mover. None means anyone may enter.
@@ -101,7 +104,7 @@ class ObjCell:
         return False
 
     def find_transit_cells(
-        self, position: Position, num_sphere: int, spheres: list[Any], cell_array: CellArray, path: Any
+        self, position: Position, num_sphere: int, spheres: list[Sphere], cell_array: CellArray, path: SpherePath | None
     ) -> None:
         """Add the cells this cell's contents let the spheres reach (none here)."""
         return None

@@ -1,37 +1,20 @@
-"""acphys-scene/1: build a World from a scene file, a scene dict, or a dat directory."""
+"""acphys-scene/1: build a World from a scene dict (engine.formats.load opens files and dat directories)."""
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 from typing import Any
 
 from ..errors import SceneFormatError
 from ..terrain.landblock import LandblockTerrain
 from ..transition.settings import RETAIL, EngineSettings
+from ..world.indoor_loader import attach_indoor
 from ..world.landblock import Landblock
 from ..world.world import World
 
-__all__ = ["load_scene", "world_from_scene_dict", "build_landblock", "SCENE_FORMAT"]
+__all__ = ["world_from_scene_dict", "build_landblock", "SCENE_FORMAT"]
 
 SCENE_FORMAT = "acphys-scene/1"
-
-
-def load_scene(path: str | Path, settings: EngineSettings = RETAIL) -> World:
-    """Load an acphys-scene/1 JSON file, or a directory holding the client's
-    `client_cell_1.dat` and `client_portal.dat`, into a World."""
-    p = Path(path)
-    if p.is_dir():
-        from .dat_world import open_dat_world
-
-        return open_dat_world(p, settings=settings)
-    try:
-        with open(p, encoding="utf-8") as f:
-            data = json.load(f)
-    except json.JSONDecodeError as e:
-        raise SceneFormatError(f"{p}: not valid JSON ({e})") from None
-    return world_from_scene_dict(data, settings=settings, name=str(p))
 
 
 def world_from_scene_dict(data: Any, settings: EngineSettings = RETAIL, name: str = "scene") -> World:
@@ -72,7 +55,5 @@ def build_landblock(lb_data: Any, height_table: list[float], scene: dict[str, An
         raise SceneFormatError(f"{name}: landblock {lb_id:04X}: {e}") from None
     landblock = Landblock(terrain, source=lb_data)
     if any(k in lb_data for k in ("env_cells", "buildings", "objects")):
-        from ..world.indoor_loader import attach_indoor
-
         attach_indoor(landblock, lb_data, scene)
     return landblock

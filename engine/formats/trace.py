@@ -15,11 +15,23 @@ from typing import Any
 from ..errors import SceneFormatError
 from ..geometry import Frame, Plane, Position, Quat, Vec3
 from ..geometry.f32 import f32, vec_f32
-from ..transition.settings import ACE_COMPAT, EngineSettings
+from ..world.placement import place_mover
 from ..world.types import CylSphereSpec, MoveResult, MoverSpec, SphereSpec
 from ..world.world import World
 
-__all__ = ["load_trace", "run_case", "mover_spec_from_case", "result_to_expect"]
+__all__ = [
+    "EXPECT_FIELDS",
+    "add_case_mover",
+    "expect_keys",
+    "load_trace",
+    "mover_spec_from_case",
+    "replay_move",
+    "result_to_expect",
+    "trace_cell",
+    "trace_plane",
+    "trace_quat",
+    "trace_vec",
+]
 
 TRACE_FORMAT = "acphys-trace/1"
 
@@ -37,16 +49,16 @@ def load_trace(path: str | Path) -> dict[str, Any]:
 
 # The reference's numbers are single precision written as shortest decimals:
 # reading them back as float32 recovers exactly what it computed with.
-def _vec(v: Any) -> Vec3:
+def trace_vec(v: Any) -> Vec3:
     return vec_f32(Vec3(float(v[0]), float(v[1]), float(v[2])))
 
 
-def _quat(q: Any) -> Quat:
+def trace_quat(q: Any) -> Quat:
     return Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3])))
 
 
-def _plane(p: Any) -> Plane:
-    return Plane(_vec(p["normal"]), f32(float(p["d"])))
+def trace_plane(p: Any) -> Plane:
+    return Plane(trace_vec(p["normal"]), f32(float(p["d"])))
 
 
 def mover_spec_from_case(obj: dict[str, Any], scene: dict[str, Any] | None = None) -> MoverSpec:
@@ -75,7 +87,7 @@ def mover_spec_from_case(obj: dict[str, Any], scene: dict[str, Any] | None = Non
     )
 
 
-def _cell(text: str) -> int:
+def trace_cell(text: str) -> int:
     return int(text, 16)
 
 
@@ -122,64 +134,29 @@ def _target(world: World, mover_id: int, move: dict[str, Any], physics: bool) ->
     to = move.get("to")
     if to is not None:
         cell_text = to.get("cell", "current")
-        cell_id = cur.cell_id if cell_text == "current" else _cell(cell_text)
-        orientation = _quat(to["orientation"]) if "orientation" in to else cur.frame.orientation
-        return Position(cell_id, Frame(_vec(to["origin"]), orientation)), None
-    offset = _vec(move["offset"])
+        cell_id = cur.cell_id if cell_text == "current" else trace_cell(cell_text)
+        orientation = trace_quat(to["orientation"]) if "orientation" in to else cur.frame.orientation
+        return Position(cell_id, Frame(trace_vec(to["origin"]), orientation)), None
+    offset = trace_vec(move["offset"])
     if physics:
         return None, offset
     return Position(cur.cell_id, cur.frame.with_origin(cur.frame.origin + offset)), None
 
 
-def run_case(world: World, case: dict[str, Any], settings: EngineSettings = ACE_COMPAT, use_offsets: bool = False) -> Any:
-    """Replay one acphys-trace/1 case on `world`.
-
-    Returns a list of per-move dicts (the keys of each move's `expect`), or for
-    a case with `movers`, a dict from mover id to such a list. Replay runs with
-    the reference port's settings unless told otherwise. With `use_offsets`, a
-    physics case is driven from its offsets through the physics step instead
-    of from the targets the reference computed.
-    """
-    if "movers" in case:
-        from .trace_movers import run_movers_case
-
-        return run_movers_case(world, case, settings, use_offsets)
-    saved = world.settings
-    world.settings = settings
-    mover_id = None
-    try:
-        mover_id = _add_case_mover(world, case)
-        physics = case.get("physics")
-        dt = float(physics["dt"]) if physics else 0.0
-        if physics and physics.get("velocity") is not None:
-            world.mover(mover_id).velocity = _vec(physics["velocity"])
-        results: list[dict[str, Any]] = []
-        for move in case["moves"]:
-            result = replay_move(world, mover_id, move, physics is not None, dt, use_offsets)
-            results.append(result_to_expect(result, expect_keys(move)))
-            if move.get("placement") is not None and result.placement_result != "OK":  # type: ignore[attr-defined]
-                break
-        return results
-    finally:
-        world.settings = saved
-        if mover_id is not None:
-            world.remove_mover(mover_id)
-
-
-def _add_case_mover(world: World, case: dict[str, Any]) -> int:
+def add_case_mover(world: World, case: dict[str, Any]) -> int:
     scene = getattr(world, "scene", None)
     spec = mover_spec_from_case(case["object"], scene)
     start = case["start"]
-    position = Position(_cell(start["cell"]), Frame(_vec(start["origin"]), _quat(start.get("orientation", [1, 0, 0, 0]))))
+    position = Position(trace_cell(start["cell"]), Frame(trace_vec(start["origin"]), trace_quat(start.get("orientation", [1, 0, 0, 0]))))
     plane = case.get("start_contact_plane")
     plane_cell = case.get("start_contact_plane_cell")
     sliding = case.get("start_sliding_normal")
     return world.add_mover(
         spec,
         position,
-        _plane(plane) if plane else None,
-        _cell(plane_cell) if plane_cell else None,
-        sliding_normal=_vec(sliding) if sliding else None,
+        trace_plane(plane) if plane else None,
+        trace_cell(plane_cell) if plane_cell else None,
+        sliding_normal=trace_vec(sliding) if sliding else None,
         water_contact=bool(case.get("start_water_contact", False)),
     )
 
@@ -190,17 +167,15 @@ def replay_move(world: World, mover_id: int, move: dict[str, Any], physics: bool
     velocity = move.get("velocity")
     placement = move.get("placement")
     if placement is not None:
-        from ..world.placement import place_mover
-
         to = move["to"]
         target = Position(
-            _cell(to["cell"]) if to.get("cell", "current") != "current" else mover.position.cell_id,
-            Frame(_vec(to["origin"]), _quat(to["orientation"]) if "orientation" in to else mover.position.frame.orientation),
+            trace_cell(to["cell"]) if to.get("cell", "current") != "current" else mover.position.cell_id,
+            Frame(trace_vec(to["origin"]), trace_quat(to["orientation"]) if "orientation" in to else mover.position.frame.orientation),
         )
         return place_mover(world, mover_id, target, placement.get("mode", "teleport"), bool(placement.get("slide", False)))
     if physics and (use_offsets or "to" not in move) and "offset" in move:
-        return world.step(mover_id, _vec(move["offset"]), dt)
-    mover.velocity = _vec(velocity) if velocity is not None else Vec3(0.0, 0.0, 0.0)
+        return world.step(mover_id, trace_vec(move["offset"]), dt)
+    mover.velocity = trace_vec(velocity) if velocity is not None else Vec3(0.0, 0.0, 0.0)
     target_pos, _ = _target(world, mover_id, move, physics)
     assert target_pos is not None
     return world.move(mover_id, target_pos)

@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import Any
 from collections.abc import Callable, Mapping
 
+from ..bsp import build_bsp, build_polygons
 from ..geometry import Frame, Position, Quat, Sphere, Vec3
 from .cylsphere_collision import CylSphere
 from .obstacle import Obstacle, ObstaclePart
@@ -71,8 +72,6 @@ class PhysicsGfx:
         """From a scene GfxObj dict (`vertices`, `physics_polygons`, `physics_bsp`)."""
         if d.get("physics_bsp") is None:
             return cls(gfx_id)
-        from ..bsp import build_bsp, build_polygons
-
         polygons = build_polygons(d.get("physics_polygons") or {}, d.get("vertices") or {})
         return cls(gfx_id, build_bsp(d["physics_bsp"], polygons), polygons)
 

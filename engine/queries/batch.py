@@ -9,10 +9,11 @@ ends, as the service's columnar batches carry them.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import limits
 from ..errors import EngineError, OutOfRangeError
@@ -20,6 +21,10 @@ from ..geometry import Position, Vec3
 from .ground import MAX_GROUND_DROP, _ground_checked
 from .results import Ground, RayHit, SightResult
 from .sweep import SIGHT_RADIUS, _ray_checked, _sight_checked, check_point, check_radius, check_segment, start_outside_viewer
+
+if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
+    from ..world.world import World
 
 __all__ = ["rays", "rays_array", "sights", "sights_array", "grounds", "grounds_array", "positions_from_arrays"]
 
@@ -29,7 +34,7 @@ def _refuse(index: int, error: EngineError) -> EngineError:
     return type(error)(f"query {index}: {error}")
 
 
-def _check_pairs(world: Any, starts: Sequence[Position], ends: Sequence[Position], radius: float) -> float:
+def _check_pairs(world: World, starts: Sequence[Position], ends: Sequence[Position], radius: float) -> float:
     if len(starts) != len(ends):
         raise ValueError(f"a batch needs as many ends as starts ({len(starts)} starts, {len(ends)} ends)")
     r = check_radius(radius)
@@ -43,15 +48,15 @@ def _check_pairs(world: Any, starts: Sequence[Position], ends: Sequence[Position
     return r
 
 
-def rays(world: Any, starts: Sequence[Position], ends: Sequence[Position], radius: float, *, target_id: int = 0) -> list[RayHit]:
+def rays(world: World, starts: Sequence[Position], ends: Sequence[Position], radius: float, *, target_id: int = 0) -> list[RayHit]:
     """`ray` for each (start, end) pair, in order."""
     r = _check_pairs(world, starts, ends, radius)
-    cache: dict[int, Any] = {}
+    cache: dict[int, ObjCell | None] = {}
     return [_ray_checked(world, s, e, r, target_id, cache) for s, e in zip(starts, ends)]
 
 
 def sights(
-    world: Any,
+    world: World,
     eyes: Sequence[Position],
     targets: Sequence[Position],
     radius: float = SIGHT_RADIUS,
@@ -73,7 +78,7 @@ def sights(
                     world.mover(int(viewer))
                 except EngineError as error:
                     raise _refuse(i, error) from None
-    cache: dict[int, Any] = {}
+    cache: dict[int, ObjCell | None] = {}
     out = []
     for i, (a, b) in enumerate(zip(eyes, targets)):
         viewer = int(viewer_ids[i]) if viewer_ids is not None else 0
@@ -83,7 +88,7 @@ def sights(
     return out
 
 
-def grounds(world: Any, positions: Sequence[Position], max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
+def grounds(world: World, positions: Sequence[Position], max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
     """`ground` for each position, in order."""
     for i, p in enumerate(positions):
         try:
@@ -93,11 +98,11 @@ def grounds(world: Any, positions: Sequence[Position], max_drop: float = MAX_GRO
     drop = limits.check_number(max_drop, "max_drop")
     if not drop > 0.0:
         raise OutOfRangeError(f"max_drop must be above 0 m, got {max_drop!r}")
-    cache: dict[int, Any] = {}
+    cache: dict[int, ObjCell | None] = {}
     return [_ground_checked(world, p, drop, cache) for p in positions]
 
 
-def positions_from_arrays(cells: Any, xyz: Any, field: str) -> list[Position]:
+def positions_from_arrays(cells: ArrayLike, xyz: ArrayLike, field: str) -> list[Position]:
     """Positions from a (n,) array of cell ids and a (n, 3) array of coordinates."""
     cell_array = np.asarray(cells)
     coords = np.asarray(xyz, dtype=np.float64)
@@ -108,20 +113,20 @@ def positions_from_arrays(cells: Any, xyz: Any, field: str) -> list[Position]:
     return [Position.at(int(c), Vec3(float(x), float(y), float(z))) for c, (x, y, z) in zip(cell_array.tolist(), coords.tolist())]
 
 
-def rays_array(world: Any, start_cells: Any, start_xyz: Any, end_cells: Any, end_xyz: Any, radius: float) -> list[RayHit]:
+def rays_array(world: World, start_cells: ArrayLike, start_xyz: ArrayLike, end_cells: ArrayLike, end_xyz: ArrayLike, radius: float) -> list[RayHit]:
     """`rays` on numpy columns: cell ids (n,) and xyz (n, 3) of starts and ends."""
     starts = positions_from_arrays(start_cells, start_xyz, "starts")
     ends = positions_from_arrays(end_cells, end_xyz, "ends")
     return rays(world, starts, ends, radius)
 
 
-def sights_array(world: Any, eye_cells: Any, eye_xyz: Any, target_cells: Any, target_xyz: Any, radius: float = SIGHT_RADIUS) -> list[SightResult]:
+def sights_array(world: World, eye_cells: ArrayLike, eye_xyz: ArrayLike, target_cells: ArrayLike, target_xyz: ArrayLike, radius: float = SIGHT_RADIUS) -> list[SightResult]:
     """`sights` on numpy columns: cell ids (n,) and xyz (n, 3) of eyes and targets."""
     eyes = positions_from_arrays(eye_cells, eye_xyz, "eyes")
     targets = positions_from_arrays(target_cells, target_xyz, "targets")
     return sights(world, eyes, targets, radius)
 
 
-def grounds_array(world: Any, cells: Any, xyz: Any, max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
+def grounds_array(world: World, cells: ArrayLike, xyz: ArrayLike, max_drop: float = MAX_GROUND_DROP) -> list[Ground | None]:
     """`grounds` on numpy columns: cell ids (n,) and xyz (n, 3)."""
     return grounds(world, positions_from_arrays(cells, xyz, "positions"), max_drop)

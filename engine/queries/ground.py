@@ -19,14 +19,19 @@ one triangle lookup.
 
 from __future__ import annotations
 
-from typing import Any, Final
+from typing import TYPE_CHECKING, Final
 
 from .. import limits
+from ..cells.land_cell import LandCell
 from ..constants import FLOOR_Z
 from ..errors import OutOfRangeError, UnknownCellError
 from ..geometry import Plane, Position, Vec3
 from .results import Ground
 from .sweep import _ray_checked, cell_for, check_point
+
+if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
+    from ..world.world import World
 
 __all__ = ["ground", "GROUND_PROBE_RADIUS", "MAX_GROUND_DROP"]
 
@@ -39,7 +44,7 @@ MAX_GROUND_DROP: Final = 50.0
 _ABOVE_LAND: Final = 1e-3
 
 
-def ground(world: Any, position: Position, max_drop: float = MAX_GROUND_DROP, cache: dict[int, Any] | None = None) -> Ground | None:
+def ground(world: World, position: Position, max_drop: float = MAX_GROUND_DROP, cache: dict[int, ObjCell | None] | None = None) -> Ground | None:
     """The surface under `position`, or None when an indoor point has no
     surface within `max_drop` metres below it."""
     check_point(world, position, "position")
@@ -49,13 +54,14 @@ def ground(world: Any, position: Position, max_drop: float = MAX_GROUND_DROP, ca
     return _ground_checked(world, position, drop, cache)
 
 
-def _ground_checked(world: Any, position: Position, drop: float, cache: dict[int, Any] | None) -> Ground | None:
+def _ground_checked(world: World, position: Position, drop: float, cache: dict[int, ObjCell | None] | None) -> Ground | None:
     cell, home = cell_for(world, position, cache)
     if cell is None:
         raise UnknownCellError(f"no cell under {position!r} in the loaded world")
     o = home.frame.origin
     if (home.cell_id & 0xFFFF) >= 0x100:
         return _probe_down(world, home, o.z - drop, cache)
+    assert isinstance(cell, LandCell)  # an outdoor id names a LandCell
     tri = cell.find_terrain_poly(o, False)
     if tri is None:  # on the cell's edge against float rounding: the next cell owns it
         raise UnknownCellError(f"no terrain triangle under {position!r}")
@@ -70,7 +76,7 @@ def _ground_checked(world: Any, position: Position, drop: float, cache: dict[int
     return Ground(z, plane, home.cell_id, plane.normal.z >= FLOOR_Z, cell.get_water_depth(Vec3(o.x, o.y, z)))
 
 
-def _probe_down(world: Any, home: Position, bottom: float, cache: dict[int, Any] | None) -> Ground | None:
+def _probe_down(world: World, home: Position, bottom: float, cache: dict[int, ObjCell | None] | None) -> Ground | None:
     """What a probe sphere swept straight down from `home` to height `bottom` first rests on, creatures
     and players passed; None when nothing is met or what is met faces down."""
     o = home.frame.origin

@@ -14,50 +14,32 @@ so the query changes no mover.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .. import limits
-from ..geometry import Plane, Position
-from ..world.placement import PLACEMENT_MODES, run_placement
+from ..geometry import Position
+from ..world.placement import PLACEMENT_MODES, mover_from_spec, run_placement
 from ..world.transient import TS
 from ..world.types import MoverSpec
+from .results import PlacementResult
+
+if TYPE_CHECKING:
+    from ..world.world import World
 
 __all__ = ["PlacementResult", "place"]
 
 
-@dataclass(frozen=True, slots=True)
-class PlacementResult:
-    """Where a placement puts an object, and the contact state it leaves.
-
-    `placement_result` is the client's outcome: "OK", "NoValidPosition" (no
-    free spot: `ok` False, `position` None) or "NoCell(lost)" (no cell at
-    the target). On "OK", `position` is where the object stands and the
-    rest its contact state there (as a move's result reports it)."""
-
-    ok: bool
-    placement_result: str
-    position: Position | None
-    contact: bool = False
-    on_walkable: bool = False
-    contact_plane: Plane | None = None
-    contact_plane_cell: int | None = None
-    water_contact: bool = False
-
-
-def place(world: Any, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
+def place(world: World, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
     """Place an object of shape `spec` at `position` as the client does on spawn
     (`mode` "enter_world", a placement ending in another landblock refused)
     or on teleport ("teleport"); `slide` lets it search for a free spot
     nearby (without it only a shift under 5 cm is accepted)."""
-    from ..world.world import _mover_from_spec
-
     if mode not in PLACEMENT_MODES:
         raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")
     limits.check_mover_spec(spec, "spec")
     limits.check_start(position, "position", limits.start_slack(spec))
     world._check_position(position)
-    probe = _mover_from_spec(-1, spec)
+    probe = mover_from_spec(-1, spec)
     probe.position = position
     outcome, t, _ = run_placement(world, probe, position, mode, slide)
     if outcome != "OK":

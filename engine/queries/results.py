@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from ..geometry import Plane, Position, Vec3
 
-__all__ = ["Blocker", "RayHit", "SightResult", "Ground", "BLOCKER_KINDS"]
+__all__ = ["Blocker", "RayHit", "SightResult", "Ground", "PlacementResult", "BLOCKER_KINDS"]
 
 #: what can stop a sweep: the terrain of an outdoor cell, a polygon of an
 #: indoor (Env) cell, a building's outer shell, or an object (a mover, or a
@@ -68,3 +68,22 @@ class Ground:
     cell: int
     walkable: bool
     water_depth: float
+
+
+@dataclass(frozen=True, slots=True)
+class PlacementResult:
+    """Where a placement puts an object, and the contact state it leaves.
+
+    `placement_result` is the client's outcome: "OK", "NoValidPosition" (no
+    free spot: `ok` False, `position` None) or "NoCell(lost)" (no cell at
+    the target). On "OK", `position` is where the object stands and the
+    rest its contact state there (as a move's result reports it)."""
+
+    ok: bool
+    placement_result: str
+    position: Position | None
+    contact: bool = False
+    on_walkable: bool = False
+    contact_plane: Plane | None = None
+    contact_plane_cell: int | None = None
+    water_contact: bool = False

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any, Final
+from typing import TYPE_CHECKING, Final
 
 from .. import limits
 from ..constants import BLOCK_LENGTH
@@ -56,6 +56,10 @@ from ..transition.state import OI
 from ..transition.transition import Transition
 from ..world.mover import Mover
 from .results import Blocker, RayHit, SightResult
+
+if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
+    from ..world.world import World
 
 __all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
 
@@ -91,7 +95,7 @@ def _global_xy(position: Position) -> tuple[float, float]:
     return ((cell >> 24) & 0xFF) * BLOCK_LENGTH + o.x, ((cell >> 16) & 0xFF) * BLOCK_LENGTH + o.y
 
 
-def check_point(world: Any, position: Position, field: str) -> None:
+def check_point(world: World, position: Position, field: str) -> None:
     """A query point: finite, in range, a real cell of a loaded (or loadable) landblock."""
     limits.check_position(position, field)
     world.landscape.check_position(position)
@@ -104,7 +108,7 @@ def check_radius(radius: float, field: str = "radius") -> float:
     return r
 
 
-def check_segment(world: Any, start: Position, end: Position, radius: float) -> None:
+def check_segment(world: World, start: Position, end: Position, radius: float) -> None:
     """Every landblock the swept sphere passes over is loaded (or loaded now
     from the World's source); else LandblockNotLoadedError names the first
     one the sweep would reach."""
@@ -136,7 +140,7 @@ def check_segment(world: Any, start: Position, end: Position, radius: float) -> 
                     ) from None
 
 
-def cell_for(world: Any, position: Position, cache: dict[int, Any] | None = None) -> tuple[Any, Position]:
+def cell_for(world: World, position: Position, cache: dict[int, ObjCell | None] | None = None) -> tuple[ObjCell | None, Position]:
     """The cell a query point lies in, and the point re-homed there for an
     outdoor cell (LandDefs.AdjustToOutside, as a move's start is found).
     `cache` keeps indoor cells found earlier in a batch."""
@@ -155,7 +159,7 @@ def cell_for(world: Any, position: Position, cache: dict[int, Any] | None = None
     return world.get_landcell(cell_id), position
 
 
-def _sweep(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+def _sweep(world: World, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, ObjCell | None] | None,
            pass_creatures: bool = False) -> tuple[Transition, bool, Position]:
     """Run one missile sweep from `start` to `end` (PhysicsObj.transition on a
     throwaway object). Returns the transition, whether it found a position,
@@ -176,7 +180,7 @@ def _sweep(world: Any, start: Position, end: Position, radius: float, target_id:
     return t, ok, start
 
 
-def _blocker(world: Any, t: Transition, stop: Position, radius: float) -> Blocker:
+def _blocker(world: World, t: Transition, stop: Position, radius: float) -> Blocker:
     """What stopped the sweep. A mover is named by the transition itself
     (CollisionInfo.collide_object); otherwise the stop is told apart by where
     it is: an indoor cell's polygon, the terrain when the sphere rests on (or
@@ -213,7 +217,7 @@ def _blocker(world: Any, t: Transition, stop: Position, radius: float) -> Blocke
     return Blocker("object", 0)
 
 
-def ray(world: Any, start: Position, end: Position, radius: float, *, target_id: int = 0, cache: dict[int, Any] | None = None) -> RayHit:
+def ray(world: World, start: Position, end: Position, radius: float, *, target_id: int = 0, cache: dict[int, ObjCell | None] | None = None) -> RayHit:
     """The first contact of a sphere of `radius` swept from `start` to `end`
     (the missile sweep above). `target_id` is the mover the sweep is aimed at
     (ProjectileTarget), 0 for none."""
@@ -224,8 +228,8 @@ def ray(world: Any, start: Position, end: Position, radius: float, *, target_id:
     return _ray_checked(world, start, end, radius, target_id, cache)
 
 
-def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius: float, target_id: int,
-                cache: dict[int, Any] | None, pass_creatures: bool) -> tuple[Transition, Position]:
+def _to_contact(world: World, t: Transition, stop: Position, end: Position, radius: float, target_id: int,
+                cache: dict[int, ObjCell | None] | None, pass_creatures: bool) -> tuple[Transition, Position]:
     """The sweep's stop carried on to the contact: the last position along the segment from which a
     short sweep of the same sphere still arrives, found by bisection to CONTACT_TOLERANCE.
 
@@ -266,7 +270,7 @@ def _to_contact(world: Any, t: Transition, stop: Position, end: Position, radius
     return collided, free
 
 
-def _ray_checked(world: Any, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, Any] | None,
+def _ray_checked(world: World, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, ObjCell | None] | None,
                  pass_creatures: bool = False) -> RayHit:
     t, ok, home = _sweep(world, start, end, radius, target_id, cache, pass_creatures)
     path = t.sphere_path
@@ -283,7 +287,7 @@ def _ray_checked(world: Any, start: Position, end: Position, radius: float, targ
     return RayHit(True, stop, stop.cell_id, normal, home.get_offset(stop).length(), _blocker(world, hit_t, stop, radius))
 
 
-def viewer_radius(world: Any, viewer_id: int) -> float:
+def viewer_radius(world: World, viewer_id: int) -> float:
     """How far the sight object starts from a viewer's eye: the viewer's physics radius, its first
     cylsphere's radius, else its first sphere's, times its scale (PhysicsObj.GetPhysicsRadius, as
     IsDirectVisible adds it to the sight object's own)."""
@@ -293,7 +297,7 @@ def viewer_radius(world: Any, viewer_id: int) -> float:
     return mover.spheres[0].radius * mover.scale if mover.spheres else 0.0
 
 
-def start_outside_viewer(world: Any, a: Position, b: Position, radius: float, viewer_id: int) -> Position:
+def start_outside_viewer(world: World, a: Position, b: Position, radius: float, viewer_id: int) -> Position:
     """`a` moved toward `b` by the viewer's radius plus the sight object's,
     so the sweep begins outside the viewer (IsDirectVisible)."""
     offset = a.get_offset(b)
@@ -305,14 +309,14 @@ def start_outside_viewer(world: Any, a: Position, b: Position, radius: float, vi
 
 
 def sight(
-    world: Any,
+    world: World,
     a: Position,
     b: Position,
     radius: float = SIGHT_RADIUS,
     *,
     target_id: int = 0,
     viewer_id: int = 0,
-    cache: dict[int, Any] | None = None,
+    cache: dict[int, ObjCell | None] | None = None,
 ) -> SightResult:
     """Is the line from eye `a` to eye `b` clear for the sight object?
 
@@ -330,7 +334,7 @@ def sight(
     return _sight_checked(world, a, b, radius, target_id, cache)
 
 
-def _sight_checked(world: Any, a: Position, b: Position, radius: float, target_id: int, cache: dict[int, Any] | None) -> SightResult:
+def _sight_checked(world: World, a: Position, b: Position, radius: float, target_id: int, cache: dict[int, ObjCell | None] | None) -> SightResult:
     hit = _ray_checked(world, a, b, radius, target_id, cache)
     if not hit.hit:
         return SightResult(True)

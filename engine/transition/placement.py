@@ -160,7 +160,7 @@ def find_placement_position(t: Transition) -> bool:
 
     path.walkable_allowance = LANDING_Z
     path.save_check_pos()
-    path.backup = path.insert_type
+    saved_insert_type = path.insert_type
     path.insert_type = InsertType.TRANSITION
 
     g = path.global_sphere[0]
@@ -180,6 +180,6 @@ def find_placement_position(t: Transition) -> bool:
             ci.contact_plane_valid = False
             ci.contact_plane_is_water = False
 
-    path.insert_type = path.backup
+    path.insert_type = saved_insert_type
     path.walkable = None
     return validate_placement(t, _OK, True) == _OK

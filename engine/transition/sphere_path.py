@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
-from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, sub_f32, unrotate_f32, vec_f32
+from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, unrotate_f32, vec_f32
 from ..geometry.single import to_single
 from ..geometry.landdefs import get_block_offset
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
 
 if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
     from ..geometry.polygon import Polygon
     from .transition import Transition
 
@@ -35,7 +36,6 @@ class SpherePath:
         "global_sphere",
         "global_low_point",
         "local_space_sphere",
-        "local_space_low_point",
         "local_space_curr_center",
         "global_curr_center",
         "local_space_pos",
@@ -53,7 +53,6 @@ class SpherePath:
         "check_pos",
         "insert_type",
         "step_down",
-        "backup",
         "backup_cell",
         "backup_check_pos",
         "obstruction_ethereal",
@@ -68,7 +67,6 @@ class SpherePath:
         "walkable_up",
         "walkable_pos",
         "walkable_scale",
-        "cell_array_valid",
         "neg_step_up",
         "neg_collision_normal",
         "neg_poly_hit",
@@ -86,26 +84,24 @@ class SpherePath:
         self.global_sphere: list[Sphere] = []
         self.global_low_point = ZERO
         self.local_space_sphere: list[Sphere] = []
-        self.local_space_low_point = ZERO
         self.local_space_curr_center: list[Sphere] = []
         self.global_curr_center: list[Sphere] = []
         self.local_space_pos: Position | None = None
         self.local_space_z = UNIT_Z
-        self.begin_cell: Any = None
+        self.begin_cell: ObjCell | None = None
         self.begin_pos: Position | None = None
         self.end_pos: Position | None = None
-        self.curr_cell: Any = None
+        self.curr_cell: ObjCell | None = None
         self.curr_pos: Position | None = None
         self.global_offset = ZERO
         self.step_up = False
         self.step_up_normal = ZERO
         self.collide = False
-        self.check_cell: Any = None
+        self.check_cell: ObjCell | None = None
         self.check_pos: Position = None  # type: ignore[assignment]
         self.insert_type = InsertType.TRANSITION
         self.step_down = False
-        self.backup = InsertType.TRANSITION
-        self.backup_cell: Any = None
+        self.backup_cell: ObjCell | None = None
         self.backup_check_pos: Position | None = None
         self.obstruction_ethereal = False
         self.hits_interior_cell = False
@@ -119,7 +115,6 @@ class SpherePath:
         self.walkable_up = ZERO
         self.walkable_pos: Position | None = None
         self.walkable_scale = 1.0
-        self.cell_array_valid = False
         self.neg_step_up = False
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
@@ -133,7 +128,7 @@ class SpherePath:
         self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
-    def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
+    def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
         self.begin_pos = begin_pos
         self.begin_cell = begin_cell
         self.end_pos = end_pos
@@ -169,7 +164,6 @@ class SpherePath:
 
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
-        self.cell_array_valid = False
         self.shift_check_pos(offset)
 
     def shift_check_pos(self, offset: Vec3) -> None:
@@ -203,10 +197,9 @@ class SpherePath:
                 return
         self.check_pos = self.check_pos.with_cell(cell_id)
 
-    def set_check_pos(self, position: Position, cell: Any) -> None:
+    def set_check_pos(self, position: Position, cell: ObjCell | None) -> None:
         self.check_pos = position
         self.check_cell = cell
-        self.cell_array_valid = False
         self.cache_global_sphere(None)
 
     def save_check_pos(self) -> None:
@@ -217,7 +210,6 @@ class SpherePath:
         assert self.backup_check_pos is not None
         self.check_pos = self.backup_check_pos
         self.check_cell = self.backup_cell
-        self.cell_array_valid = False
         self.cache_global_sphere(None)
 
     # -- sphere caches -----------------------------------------------------
@@ -271,10 +263,6 @@ class SpherePath:
         self.local_space_pos = pos
         z = pos.global_to_local_vec(UNIT_Z)
         self.local_space_z = z
-        s0 = self.local_space_sphere[0]
-        c = s0.center
-        r = s0.radius
-        self.local_space_low_point = Vec3(c.x - z.x * r, c.y - z.y * r, c.z - z.z * r)
 
     def _cache_local_space_sphere_f32(self, pos: Position, curr: Position, check: Position, scale: float) -> None:
         """cache_local_space_sphere in the client's single precision: each
@@ -313,15 +301,7 @@ class SpherePath:
                 # step's movement in BSPTREE::find_collisions)
                 self.local_space_curr_center[0].center = _into_frame_f32(pos, curr.cell_id, cx, cy, cz, inv)
         self.local_space_pos = pos
-        s0 = self.local_space_sphere[0]
-        if ident:
-            z = UNIT_Z
-            c0 = s0.center
-            self.local_space_low_point = Vec3(c0.x, c0.y, to_single(c0.z - s0.radius))
-        else:
-            z = local_z_f32(q)
-            self.local_space_low_point = sub_f32(s0.center, scale_f32(z, s0.radius))
-        self.local_space_z = z
+        self.local_space_z = UNIT_Z if ident else local_z_f32(q)
 
     # -- walkable bookkeeping -----------------------------------------------
     def check_walkables(self) -> bool:

@@ -67,7 +67,6 @@ def step_down(t: Transition, step_down_height: float, z_val: float) -> bool:
     path.walk_interp = 1.0
 
     if not path.step_up:
-        path.cell_array_valid = False
         path.shift_check_pos(Vec3(0.0, 0.0, -step_down_height))
 
     state = t.transitional_insert(5)
@@ -79,10 +78,10 @@ def step_down(t: Transition, step_down_height: float, z_val: float) -> bool:
         and ci.contact_plane.normal.z >= z_val
         and (not t.object_info.state & OI.EDGE_SLIDE or path.step_up or check_walkable(t, z_val))
     ):
-        path.backup = path.insert_type
+        saved_insert_type = path.insert_type
         path.insert_type = InsertType.PLACEMENT
         state = t.transitional_insert(1)
-        path.insert_type = path.backup
+        path.insert_type = saved_insert_type
         return state == _OK
     return False
 
@@ -162,7 +161,9 @@ def cliff_slide(t: Transition, contact_plane: Plane) -> int:
     return TransitionState.ADJUSTED
 
 
-def set_edge_slide(t: Transition, unwalkable: bool, valid_cell: bool, state: int) -> int:
+def set_edge_slide(t: Transition, unwalkable: bool, state: int) -> int:
+    """Undo an edge-slide probe (SetEdgeSlide). The client's valid_cell flag
+    only marked the cell array valid, which nothing reads, so it is gone."""
     path = t.sphere_path
     ci = t.collision_info
     if unwalkable:
@@ -170,8 +171,6 @@ def set_edge_slide(t: Transition, unwalkable: bool, valid_cell: bool, state: int
     path.restore_check_pos()
     ci.contact_plane_valid = False
     ci.contact_plane_is_water = False
-    if valid_cell:
-        path.cell_array_valid = True
     return state
 
 
@@ -185,17 +184,17 @@ def edge_slide(t: Transition, state: int, step_down_height: float, z_val: float)
     ci = t.collision_info
     oi = t.object_info
     if not oi.state & OI.ON_WALKABLE or not oi.state & OI.EDGE_SLIDE:
-        return True, set_edge_slide(t, True, True, _OK)
+        return True, set_edge_slide(t, True, _OK)
 
     if ci.contact_plane_valid and ci.contact_plane.normal.z < z_val:
-        return False, set_edge_slide(t, True, False, cliff_slide(t, ci.contact_plane))
+        return False, set_edge_slide(t, True, cliff_slide(t, ci.contact_plane))
 
     if path.walkable is not None:
-        state = set_edge_slide(t, False, False, path.precipice_slide(t))
+        state = set_edge_slide(t, False, path.precipice_slide(t))
         return state == _COLLIDED, state
 
     if ci.contact_plane_valid:
-        return True, set_edge_slide(t, True, True, _OK)
+        return True, set_edge_slide(t, True, _OK)
 
     # Nothing below: step back to where we were and look for the edge from there.
     back = path.global_curr_center[0].center - path.global_sphere[0].center
@@ -214,5 +213,4 @@ def edge_slide(t: Transition, state: int, step_down_height: float, z_val: float)
         return state == _COLLIDED, state
 
     path.walkable = None
-    path.cell_array_valid = True
     return True, _COLLIDED

@@ -18,17 +18,19 @@ placement in `placement.py`, the terrain contact rule in `walkable.py`.
 from __future__ import annotations
 
 import math
-from typing import Any, Final
+from typing import Final
 
 from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
+from ..cells.obj_cell import ObjCell
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
 from ..geometry.f32 import cross_f32, dot_f32, f32, normalize_check_small_f32, plane_dist_f32, scale_f32, sub_f32
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
+from .interface import CellLookup
 from .object_info import ObjectInfo
 from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
@@ -56,7 +58,7 @@ class Transition:
 
     __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "world")
 
-    def __init__(self, world: Any, settings: EngineSettings = RETAIL) -> None:
+    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL) -> None:
         self.world = world
         self.settings = settings
         self.object_info = ObjectInfo()
@@ -72,7 +74,7 @@ class Transition:
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         self.sphere_path.init_sphere(spheres, scale)
 
-    def init_path(self, begin_cell: Any, begin_pos: Position | None, end_pos: Position) -> None:
+    def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
         self.sphere_path.init_path(begin_cell, begin_pos, end_pos)
 
     def init_contact_plane(self, cell_id: int, plane: Plane, is_water: bool) -> None:
@@ -149,7 +151,6 @@ class Transition:
         if num_steps <= 0:
             if not oi.state & OI.FREE_ROTATE:
                 path.curr_pos = Position(path.curr_pos.cell_id, path.curr_pos.frame.with_orientation(path.end_pos.frame.orientation.normalized()))
-            path.cell_array_valid = True
             path.hits_interior_cell = False
             find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, False, path)
             return True
@@ -376,10 +377,10 @@ class Transition:
                 reset = False
                 path.collide = False
                 if ci.contact_plane_valid and stepping.check_walkable(self, LANDING_Z):
-                    path.backup = path.insert_type
+                    saved_insert_type = path.insert_type
                     path.insert_type = InsertType.PLACEMENT
                     state = self.transitional_insert(num_insertion_attempts)
-                    path.insert_type = path.backup
+                    path.insert_type = saved_insert_type
                     if state != _OK:
                         state = _OK
                         reset = True
@@ -401,7 +402,7 @@ class Transition:
                 return _COLLIDED
         return state
 
-    def insert_into_cell(self, cell: Any, num_insertion_attempts: int) -> int:
+    def insert_into_cell(self, cell: ObjCell | None, num_insertion_attempts: int) -> int:
         """Collide with one cell until it stops sliding us (InsertIntoCell)."""
         if cell is None:
             return _COLLIDED
@@ -416,12 +417,11 @@ class Transition:
                 ci.contact_plane_is_water = False
         return state
 
-    def check_other_cells(self, curr_cell: Any) -> int:
+    def check_other_cells(self, curr_cell: ObjCell | None) -> int:
         """Collide with every other cell the spheres touch, then re-home the
         check position into the cell that holds it (CheckOtherCells)."""
         path = self.sphere_path
         ci = self.collision_info
-        path.cell_array_valid = True
         path.hits_interior_cell = False
         new_cell = find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, True, path)
 
@@ -452,13 +452,11 @@ class Transition:
         if cell_id != 0:
             path.adjust_check_pos(cell_id)
             path.set_check_pos(Position(cell_id, check_pos.frame.with_origin(origin)), None)
-            path.cell_array_valid = True
             return _OK
         return _COLLIDED
 
     def build_cell_array(self) -> None:
         path = self.sphere_path
-        path.cell_array_valid = True
         path.hits_interior_cell = False
         find_cell_list(path.check_pos, path.num_sphere, path.global_sphere, self.cell_array, False, path)
 
@@ -544,6 +542,11 @@ class Transition:
 
     def step_down(self, step_down_height: float, z_val: float) -> bool:
         return stepping.step_down(self, step_down_height, z_val)
+
+    def slide_sphere(self, collision_normal: Vec3, curr_center: Vec3) -> int:
+        """SlideSphere of the path's foot sphere along a global normal (slide.py),
+        for the BSP and the objects, which see the transition only through its methods."""
+        return slide_sphere(self, collision_normal, curr_center)
 
     def check_walkable(self, z_check: float) -> bool:
         return stepping.check_walkable(self, z_check)

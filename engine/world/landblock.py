@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 from ..cells.land_cell import LandCell
+from ..geometry import Vec3
 from ..terrain.landblock import LandblockTerrain
+
+if TYPE_CHECKING:
+    from ..cells.building import BuildingObj
+    from ..cells.env_cell import EnvCell
+    from ..cells.obj_cell import ObjCell
+    from ..objects.obstacle import Obstacle
 
 __all__ = ["Landblock"]
 
@@ -15,13 +23,13 @@ class Landblock:
 
     __slots__ = ("id", "terrain", "cells", "env_cells", "buildings", "objects", "water_type", "source")
 
-    def __init__(self, terrain: LandblockTerrain, source: Any = None) -> None:
+    def __init__(self, terrain: LandblockTerrain, source: Mapping[str, Any] | None = None) -> None:
         self.id = terrain.landblock_id
         self.terrain = terrain
         self.water_type = terrain.water_type
-        self.env_cells: dict[int, Any] = {}
-        self.buildings: list[Any] = []
-        self.objects: list[Any] = []
+        self.env_cells: dict[int, EnvCell] = {}
+        self.buildings: list[BuildingObj] = []
+        self.objects: list[Obstacle] = []
         self.source = source
         cells: list[LandCell] = []
         for cx in range(8):
@@ -33,10 +41,10 @@ class Landblock:
                 cells.append(cell)
         self.cells = cells
 
-    def calc_water_depth(self, cell_id: int, point: Any) -> float:
+    def calc_water_depth(self, cell_id: int, point: Vec3) -> float:
         return self.terrain.calc_water_depth(cell_id, point)
 
-    def get_cell(self, cell_id: int) -> Any:
+    def get_cell(self, cell_id: int) -> ObjCell | None:
         index = cell_id & 0xFFFF
         if 1 <= index <= 64:
             return self.cells[index - 1]

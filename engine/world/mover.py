@@ -9,7 +9,7 @@ and the velocity collision responses act on.
 from __future__ import annotations
 
 import math
-from typing import Any, Final
+from typing import TYPE_CHECKING, Final
 
 from ..constants import (
     DEFAULT_FRICTION,
@@ -34,6 +34,13 @@ from ..transition.settings import EngineSettings
 from ..transition.state import OI
 from ..transition.transition import Transition
 from .transient import TS
+from .types import CylSphereSpec
+
+if TYPE_CHECKING:
+    from ..cells.broad_phase import ShapeBounds
+    from ..cells.obj_cell import ObjCell
+    from ..objects.obstacle import MoverObstacle
+    from ..transition.interface import CellLookup
 
 
 __all__ = ["Mover"]
@@ -98,7 +105,7 @@ class Mover:
         step_down: bool = True,
         ethereal: bool = False,
         creature: bool = False,
-        cyl_spheres: list[Any] | None = None,
+        cyl_spheres: list[CylSphereSpec] | None = None,
         sledding: bool = False,
     ) -> None:
         if not spheres:
@@ -119,7 +126,7 @@ class Mover:
         #: PhysicsState.Sledding: the sledding friction rule, and (retail) gravity on the ground
         self.sledding = sledding
         self.position: Position = Position(0, Frame(ZERO))
-        self.cell: Any = None
+        self.cell: ObjCell | None = None
         self.transient = TS.ACTIVE
         self.contact_plane = Plane(ZERO, 0.0)
         self.contact_plane_cell_id = 0
@@ -128,11 +135,11 @@ class Mover:
         self.acceleration = ZERO
         self.elasticity = DEFAULT_ELASTICITY
         self.friction = DEFAULT_FRICTION
-        self.shadow_cells: list[Any] = []
+        self.shadow_cells: list[ObjCell] = []
         #: this mover as an obstacle for others (engine.objects.obstacle.MoverObstacle)
-        self.obstacle: Any = None
+        self.obstacle: MoverObstacle | None = None
         #: the box round its shapes the others' broad phase keeps (engine.cells.broad_phase)
-        self.broad_phase_bounds: Any = None
+        self.broad_phase_bounds: ShapeBounds | None = None
         self.colliding_with_environment = False
         #: elapsed time not yet run as a physics step (the client's lag of
         #: update_time behind the clock), and the share of the caller's
@@ -172,7 +179,7 @@ class Mover:
         return contact
 
     # -- one transition (PhysicsObj.transition) --------------------------------
-    def make_transition(self, world: Any, settings: EngineSettings) -> Transition:
+    def make_transition(self, world: CellLookup, settings: EngineSettings) -> Transition:
         """A Transition set up from this object's carried state (get_object_info)."""
         t = Transition(world, settings)
         state = self.oi_flags
@@ -216,7 +223,7 @@ class Mover:
             gravity=self.gravity,
         )
 
-    def transition(self, world: Any, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
+    def transition(self, world: CellLookup, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
         t = self.make_transition(world, settings)
         t.init_path(self.cell, old_pos, new_pos)
         ci = t.collision_info

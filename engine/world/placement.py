@@ -8,23 +8,29 @@ with a LandingZ step-down), and apply the result (SetPositionInternal).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ..geometry import Position
+from .. import limits
+from ..cells.env_cell import EnvCell
+from ..cells.obj_cell import ObjCell
+from ..geometry import Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside
+from ..transition.state import OI
 from ..transition.transition import Transition
 from . import shadows
-from .types import MoveResult
+from .mover import Mover
+from .resolve import move_result
+from .types import MoveResult, MoverSpec, ObjectState
 
 if TYPE_CHECKING:
     from .world import World
 
-__all__ = ["place_mover", "run_placement", "PLACEMENT_MODES"]
+__all__ = ["mover_from_spec", "place_mover", "run_placement", "PLACEMENT_MODES"]
 
 PLACEMENT_MODES = ("enter_world", "teleport")
 
 
-def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[Any, Position]:
+def _adjust_position(world: World, position: Position, low_point: Vec3) -> tuple[ObjCell | None, Position]:
     """The cell a placement target lies in, and the target re-homed there
     (PhysicsObj.AdjustPosition, searching the stab list)."""
     index = position.cell_id & 0xFFFF
@@ -35,7 +41,7 @@ def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[
         position = Position(cell_id, position.frame.with_origin(origin))
         return (world.get_landcell(cell_id) if cell_id else None), position
     visible = world.get_landcell(position.cell_id)
-    if visible is None:
+    if not isinstance(visible, EnvCell):  # an indoor id names an EnvCell, when its landblock is loaded
         return None, position
     point = position.frame.local_to_global(low_point)
     if visible.point_in_cell(point):
@@ -50,7 +56,7 @@ def _adjust_position(world: World, position: Position, low_point: Any) -> tuple[
     return (world.get_landcell(cell_id) if cell_id else None), position
 
 
-def run_placement(world: World, mover: Any, target: Position, mode: str, slide: bool) -> tuple[str, Transition, Position]:
+def run_placement(world: World, mover: Mover, target: Position, mode: str, slide: bool) -> tuple[str, Transition, Position]:
     """The placement transition for `mover` at `target` (PhysicsObj.SetPosition
     up to, not including, SetPositionInternal): "OK", "NoValidPosition" or
     "NoCell(lost)", the transition, and the target re-homed into its cell.
@@ -92,7 +98,6 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     shift under 5 cm is accepted. The result's `placement_result` is "OK",
     "NoValidPosition" or "NoCell(lost)".
     """
-    from .resolve import move_result as _result
 
     if mode not in PLACEMENT_MODES:
         raise ValueError(f"placement mode must be one of {PLACEMENT_MODES}, got {mode!r}")
@@ -103,15 +108,38 @@ def place_mover(world: World, mover_id: int, target: Position, mode: str = "tele
     if outcome == "NoCell(lost)":
         mover.position = position
         mover.cell = None
-        result = _result(mover, False, "Invalid", t)
+        result = move_result(mover, False, "Invalid", t)
         result.placement_result = "NoCell(lost)"  # type: ignore[attr-defined]
         return result
     if outcome != "OK":
-        result = _result(mover, False, "Invalid", t)
+        result = move_result(mover, False, "Invalid", t)
         result.placement_result = "NoValidPosition"  # type: ignore[attr-defined]
         return result
     mover.set_position_internal(t)
     shadows.reshadow(mover, t.cell_array)
-    result = _result(mover, True, "OK", t)
+    result = move_result(mover, True, "OK", t)
     result.placement_result = "OK"  # type: ignore[attr-defined]
     return result
+
+
+def mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
+    """A Mover of shape `spec` (checked against engine.limits), not yet anywhere."""
+    limits.check_mover_spec(spec, "spec")
+    flags = ObjectState.from_names(spec.state)
+    spheres = [Sphere(Vec3(*s.center), float(s.radius)) for s in spec.spheres]
+    creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
+    return Mover(
+        mover_id,
+        spheres,
+        oi_flags=flags,
+        scale=spec.scale,
+        step_up_height=spec.step_up_height,
+        step_down_height=spec.step_down_height,
+        gravity=spec.gravity,
+        missile=bool(flags & OI.PATH_CLIPPED),
+        step_down=spec.step_down,
+        ethereal=spec.ethereal,
+        creature=creature,
+        cyl_spheres=list(spec.cyl_spheres),
+        sledding=spec.sledding,
+    )

@@ -9,9 +9,12 @@ can fail, so they need no copy.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .mover import Mover
+
+if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
 
 __all__ = ["MoverSnapshot"]
 
@@ -28,7 +31,7 @@ class MoverSnapshot:
     def __init__(self, mover: Mover) -> None:
         self.mover = mover
         self.position = mover.position
-        self.cell: Any = mover.cell
+        self.cell: ObjCell | None = mover.cell
         self.transient = mover.transient
         self.contact_plane = mover.contact_plane
         self.contact_plane_cell_id = mover.contact_plane_cell_id

@@ -9,24 +9,25 @@ that a cell search for its spheres at its start position finds.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
+from ..objects.obstacle import MoverObstacle
 
 if TYPE_CHECKING:
+    from ..cells.obj_cell import ObjCell
+    from ..transition.interface import CellLookup
     from .mover import Mover
 
 __all__ = ["enter_world", "reshadow", "remove_shadows", "obstacle_of"]
 
 
-def obstacle_of(mover: Mover) -> Any:
+def obstacle_of(mover: Mover) -> MoverObstacle:
     """The mover as others see it (created on first use)."""
     obstacle = mover.obstacle
     if obstacle is None:
-        from ..objects.obstacle import MoverObstacle
-
         obstacle = mover.obstacle = MoverObstacle(mover)
     return obstacle
 
@@ -43,9 +44,9 @@ def remove_shadows(mover: Mover) -> None:
     mover.shadow_cells = []
 
 
-def _add_shadows(mover: Mover, cells: list[Any]) -> None:
+def _add_shadows(mover: Mover, cells: list[ObjCell | None]) -> None:
     obstacle = obstacle_of(mover)
-    added = []
+    added: list[ObjCell] = []
     for cell in cells:
         if cell is None or cell in added:
             continue
@@ -60,7 +61,7 @@ def reshadow(mover: Mover, cell_array: CellArray) -> None:
     _add_shadows(mover, cell_array.cells())
 
 
-def enter_world(world: Any, mover: Mover) -> None:
+def enter_world(world: CellLookup, mover: Mover) -> None:
     """Shadows for a mover entering the world at its current position."""
     position = mover.position
     frame = position.frame

@@ -8,7 +8,7 @@ objects newest first.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 from collections.abc import Mapping
 
 from ..geometry import Position
@@ -17,9 +17,9 @@ from ..objects.obstacle import Obstacle
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
-
-if TYPE_CHECKING:
-    from .indoor_loader import PortalCache
+from ..cells.obj_cell import ObjCell
+from .landblock import Landblock
+from .portal_cache import PortalCache, frame_from_dict
 
 __all__ = ["attach_static_objects"]
 
@@ -31,7 +31,7 @@ def _setup_has_bsp(cache: PortalCache, model_id: int) -> bool:
     return any(cache.gfx_obj(int(p, 16)).physics_bsp is not None for p in setup.get("parts", []))
 
 
-def _make_object(cache: PortalCache, model_id: int, position: Position) -> Any:
+def _make_object(cache: PortalCache, model_id: int, position: Position) -> Obstacle:
     if _setup_has_bsp(cache, model_id):
         # a dat object (Static, no weenie) shaped by its parts' physics BSPs
         parts = cache.parts_of(model_id, position.frame, position.cell_id)
@@ -39,10 +39,8 @@ def _make_object(cache: PortalCache, model_id: int, position: Position) -> Any:
     return Obstacle.static_from_setup(model_id, cache.setup(model_id), position)
 
 
-def attach_static_objects(landblock: Any, lb_data: Mapping[str, Any], cache: PortalCache) -> None:
+def attach_static_objects(landblock: Landblock, lb_data: Mapping[str, Any], cache: PortalCache) -> None:
     """Create the landblock's static objects and register them in their cells."""
-    from .indoor_loader import frame_from_dict
-
     for entry in lb_data.get("objects", []):
         model_id = int(entry["id"], 16)
         frame = frame_from_dict(entry.get("frame", {}))
@@ -63,20 +61,20 @@ def attach_static_objects(landblock: Any, lb_data: Mapping[str, Any], cache: Por
 class _ThisLandblock:
     """Cell lookup during loading: only the landblock being built exists yet."""
 
-    def __init__(self, landblock: Any) -> None:
+    def __init__(self, landblock: Landblock) -> None:
         self.landblock = landblock
 
-    def get_landcell(self, cell_id: int) -> Any:
+    def get_landcell(self, cell_id: int) -> ObjCell | None:
         if (cell_id >> 16) & 0xFFFF != self.landblock.id:
             return None
         return self.landblock.get_cell(cell_id)
 
 
-def _register(landblock: Any, obj: Obstacle, cell_id: int) -> None:
+def _register(landblock: Landblock, obj: Obstacle, cell_id: int) -> None:
     """Put the object in the cells it occupies: a cylsphere object in every cell
     that a sphere of each cylsphere's radius at its low point touches
     (find_cell_list over the cylspheres), anything else in its own cell."""
-    cells: list[Any] = []
+    cells: list[ObjCell] = []
     if obj.cyl_spheres and not obj.has_physics_bsp:
         frame = obj.position.frame
         spheres = [Sphere(frame.local_to_global(c.low_point), c.radius) for c in obj.cyl_spheres[:10]]

@@ -10,27 +10,33 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .. import limits
 from ..constants import MAX_VELOCITY
 from ..errors import LandblockNotLoadedError, NonFiniteError, PlacementFailedError, UnknownMoverError
-from ..geometry import Plane, Position, Sphere, Vec3
+from ..geometry import Plane, Position, Vec3
 from ..geometry.landdefs import adjust_to_outside
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from .landblock import Landblock
 from ..cells.landscape import Landscape
+from ..cells.obj_cell import ObjCell
+from ..queries import batch, sweep
+from ..queries.ground import MAX_GROUND_DROP
+from ..queries.ground import ground as ground_query
+from ..queries.placement import place as place_query
+from ..queries.results import Ground, PlacementResult, RayHit, SightResult
 from . import shadows
 from .mover import Mover
 from .moves import move_checked, step_checked
+from .placement import PLACEMENT_MODES, mover_from_spec, place_mover
 from .resolve import move_result
 from .transient import TS
 from .types import MoveResult, MoverSpec, ObjectState
 
 if TYPE_CHECKING:
-    from ..queries.placement import PlacementResult
-    from ..queries.results import Ground, RayHit, SightResult
+    from ..formats.dat_world import DatLandblockSource
 
 __all__ = ["World"]
 
@@ -49,7 +55,7 @@ class World:
         self._loader = loader
         self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
         #: the DatLandblockSource of a World opened on dat files, else None
-        self.dat_source: Any = None
+        self.dat_source: DatLandblockSource | None = None
 
     @property
     def settings(self) -> EngineSettings:
@@ -94,21 +100,7 @@ class World:
     def loaded_landblocks(self) -> list[int]:
         return sorted(self.landblocks)
 
-    @classmethod
-    def from_scene_dict(cls, data: Any, settings: EngineSettings = RETAIL) -> World:
-        """A World from an acphys-scene/1 dict (engine.formats.scene)."""
-        from ..formats.scene import world_from_scene_dict
-
-        return world_from_scene_dict(data, settings=settings)
-
-    @classmethod
-    def open_dat_dir(cls, path: Any = None, settings: EngineSettings = RETAIL, cache_size: int = 64) -> World:
-        """A World on a client's dat directory, landblocks loaded on demand (engine.formats.dat_world)."""
-        from ..formats.dat_world import open_dat_world
-
-        return open_dat_world(path, settings=settings, cache_size=cache_size)
-
-    def get_landcell(self, cell_id: int) -> Any:
+    def get_landcell(self, cell_id: int) -> ObjCell | None:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
         return self.landscape.get_landcell(cell_id)
 
@@ -137,8 +129,6 @@ class World:
         Every number is checked against engine.limits first: a refused
         mover changes nothing."""
         if placement is not None:
-            from .placement import PLACEMENT_MODES
-
             if placement not in PLACEMENT_MODES:
                 raise ValueError(f"placement must be one of {PLACEMENT_MODES}, got {placement!r}")
         limits.check_mover_spec(spec, "spec")
@@ -148,7 +138,7 @@ class World:
         if sliding_normal is not None:
             limits.check_unit_vector(sliding_normal, "sliding_normal")
         self._check_position(position)
-        mover = _mover_from_spec(self._next_mover_id, spec)
+        mover = mover_from_spec(self._next_mover_id, spec)
         mover.position = position
         mover.cell = self._cell_for(position)
         flags = ObjectState.from_names(spec.state)
@@ -176,8 +166,6 @@ class World:
 
     def _place_new(self, mover_id: int, position: Position, mode: str, slide: bool) -> None:
         """Place a just-registered mover; unregister it again if there is no place."""
-        from .placement import place_mover
-
         try:
             placed = place_mover(self, mover_id, position, mode, slide)
         except BaseException:
@@ -205,7 +193,7 @@ class World:
     def update_mover(self, mover_id: int, spec: MoverSpec) -> None:
         """Change a mover's shape and flags, keeping its position and contact state."""
         old = self.mover(mover_id)
-        new = _mover_from_spec(mover_id, spec)  # checks the spec: a refused one changes nothing
+        new = mover_from_spec(mover_id, spec)  # checks the spec: a refused one changes nothing
         for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion"):
             setattr(new, name, getattr(old, name))
         shadows.remove_shadows(old)
@@ -269,7 +257,7 @@ class World:
     def _ensure_loaded(self, cell_id: int) -> None:
         self.landscape.ensure_loaded(cell_id)
 
-    def _cell_for(self, position: Position) -> Any:
+    def _cell_for(self, position: Position) -> ObjCell | None:
         cell = self.get_landcell(position.cell_id)
         if cell is None and (position.cell_id & 0xFFFF) < 0x100:
             cell_id, _ = adjust_to_outside(position.cell_id, position.frame.origin)
@@ -280,28 +268,20 @@ class World:
     def sight(self, a: Position, b: Position, radius: float | None = None, *, target_id: int = 0, viewer_id: int = 0) -> SightResult:
         """Is the line from eye `a` to eye `b` clear? A SightResult (engine.queries.sweep.sight);
         `target_id` the mover looked at, `viewer_id` the mover looking."""
-        from ..queries import sweep
-
         return sweep.sight(self, a, b, sweep.SIGHT_RADIUS if radius is None else radius, target_id=target_id, viewer_id=viewer_id)
 
     def ray(self, start: Position, end: Position, radius: float, *, target_id: int = 0) -> RayHit:
         """The first contact of a sphere swept from `start` to `end`: a RayHit (engine.queries.sweep.ray)."""
-        from ..queries import sweep
-
         return sweep.ray(self, start, end, radius, target_id=target_id)
 
     def ground(self, position: Position, max_drop: float | None = None) -> Ground | None:
         """The surface under `position`: a Ground, or None (engine.queries.ground)."""
-        from ..queries.ground import MAX_GROUND_DROP, ground
-
-        return ground(self, position, MAX_GROUND_DROP if max_drop is None else max_drop)
+        return ground_query(self, position, MAX_GROUND_DROP if max_drop is None else max_drop)
 
     def place(self, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True) -> PlacementResult:
         """Where an object of shape `spec` would be placed at `position`, without
         placing anything: a PlacementResult (engine.queries.placement)."""
-        from ..queries.placement import place
-
-        return place(self, spec, position, mode, slide)
+        return place_query(self, spec, position, mode, slide)
 
     def sights(
         self,
@@ -313,22 +293,15 @@ class World:
         viewer_ids: Sequence[int] | None = None,
     ) -> list[SightResult]:
         """`sight` for each pair: a list of SightResult (engine.queries.batch)."""
-        from ..queries import batch, sweep
-
         r = sweep.SIGHT_RADIUS if radius is None else radius
         return batch.sights(self, eyes, targets, r, target_ids=target_ids, viewer_ids=viewer_ids)
 
     def rays(self, starts: Sequence[Position], ends: Sequence[Position], radius: float) -> list[RayHit]:
         """`ray` for each pair: a list of RayHit (engine.queries.batch)."""
-        from ..queries import batch
-
         return batch.rays(self, starts, ends, radius)
 
     def grounds(self, positions: Sequence[Position], max_drop: float | None = None) -> list[Ground | None]:
         """`ground` for each position: a list of Ground or None (engine.queries.batch)."""
-        from ..queries import batch
-        from ..queries.ground import MAX_GROUND_DROP
-
         return batch.grounds(self, positions, MAX_GROUND_DROP if max_drop is None else max_drop)
 
     # -- terrain queries -----------------------------------------------------------------
@@ -338,25 +311,3 @@ class World:
         if lb is None:
             raise LandblockNotLoadedError(f"landblock {(cell_id >> 16) & 0xFFFF:04X} is not loaded")
         return lb.terrain.height_at(x, y)
-
-
-def _mover_from_spec(mover_id: int, spec: MoverSpec) -> Mover:
-    limits.check_mover_spec(spec, "spec")
-    flags = ObjectState.from_names(spec.state)
-    spheres = [Sphere(Vec3(*s.center), float(s.radius)) for s in spec.spheres]
-    creature = spec.creature if spec.creature is not None else bool(flags & OI.IS_PLAYER)
-    return Mover(
-        mover_id,
-        spheres,
-        oi_flags=flags,
-        scale=spec.scale,
-        step_up_height=spec.step_up_height,
-        step_down_height=spec.step_down_height,
-        gravity=spec.gravity,
-        missile=bool(flags & OI.PATH_CLIPPED),
-        step_down=spec.step_down,
-        ethereal=spec.ethereal,
-        creature=creature,
-        cyl_spheres=list(spec.cyl_spheres),
-        sledding=spec.sledding,
-    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, field
+from typing import Any
 
 from .errors import DatError
 
@@ -89,7 +90,7 @@ class RecordReader:
     def vec4(self, what: str = "quaternion") -> list[float]:
         return list(_VEC4.unpack_from(self._view, self._need(16, what)))
 
-    def array(self, fmt: str, count: int, what: str) -> tuple:
+    def array(self, fmt: str, count: int, what: str) -> tuple[Any, ...]:
         """`count` items of one struct code (`"H"`, `"B"`, `"f"`, ...)."""
         s = struct.Struct(f"<{count}{fmt}")
         return s.unpack_from(self._view, self._need(s.size, what))
