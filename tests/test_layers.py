@@ -15,7 +15,9 @@ The layers, bottom to top:
                 transition's enums), transition.settings
     geometry    vectors, frames, planes, polygons, land definitions
     terrain     landblock heights and triangles
-    bsp, cells, objects   what a transition collides with; they see the
+    bsp, objects, cells   what a transition collides with, in that order (an
+                object's shape is BSP trees and spheres; a cell holds objects
+                and culls them, engine.cells.broad_phase); they see the
                 transition only through its typed interface (TYPE_CHECKING
                 imports, engine.transition.interface), never its modules
                 (the objects also call the slides of transition/slide.py)
@@ -214,7 +216,7 @@ def test_collision_layer_sees_the_transition_only_through_its_interface() -> Non
 
 
 def test_each_layer_imports_only_layers_below() -> None:
-    order = ["engine.terrain", "engine.bsp", "engine.cells", "engine.objects", "engine.transition", "engine.world", "engine.queries", "engine.formats"]
+    order = ["engine.terrain", "engine.bsp", "engine.objects", "engine.cells", "engine.transition", "engine.world", "engine.queries", "engine.formats"]
     above = {p: order[i + 1:] for i, p in enumerate(order)}
     # the World facade sits on the queries it answers (it is the top of engine.world)
     exceptions = {("engine.world.world", "engine.queries")}
