@@ -18,8 +18,9 @@ from setuptools import setup
 # are not hot, and they use dynamic features mypyc does not compile).
 HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
-# The world's per-move part: the mover, its shadows and the move itself.
-WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch")
+# The world's per-move part: the mover, its shadows, the move itself, the batch entry point and the
+# MoveResult every move builds (types: a compiled dataclass is built and read natively).
+WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch", "types")
 
 
 def hot_modules() -> list[str]:
