@@ -15,7 +15,7 @@ from ..cells.cell_struct import CellStruct
 from ..cells.env_cell import CellPortal, EnvCell
 from ..errors import SceneFormatError
 from ..geometry import Frame, Position, Quat, Vec3
-from ..geometry.f32 import f32, vec_f32
+from ..geometry.single import to_single
 from ..geometry.landdefs import outdoor_cell_id
 from ..objects.gfx_obj import GfxObj, PhysicsPart
 
@@ -27,8 +27,8 @@ def frame_from_dict(d: Mapping[str, Any]) -> Frame:
     o = d.get("origin", [0.0, 0.0, 0.0])
     q = d.get("orientation", [1.0, 0.0, 0.0, 0.0])
     return Frame(
-        vec_f32(Vec3(float(o[0]), float(o[1]), float(o[2]))),
-        Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3]))),
+        Vec3(to_single(float(o[0])), to_single(float(o[1])), to_single(float(o[2]))),
+        Quat(to_single(float(q[0])), to_single(float(q[1])), to_single(float(q[2])), to_single(float(q[3]))),
     )
 
 

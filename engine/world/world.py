@@ -312,7 +312,7 @@ class World:
 
     def _physics_step(self, mover: Mover, motion: Vec3, quantum: float) -> MoveResult:
         """One physics step of `quantum` seconds (UpdateObjectInternal)."""
-        frame = mover.integrate(motion, quantum, self.settings.single_precision, self.settings)
+        frame = mover.integrate(motion, quantum, self.settings)
         target = Position(mover.position.cell_id, frame)
         return move_mover(self.landscape, mover, target)
 
