@@ -89,6 +89,7 @@ class CylSphere:
         normal is horizontal, from the axis to it, and definite when the
         sphere was level with the cylinder or did not move vertically.
         Otherwise it came through the top or bottom: the normal is +-z.
+        At the working precision (the client's: floats).
         """
         s = transition.settings.single_precision
         g = transition.sphere_path.global_curr_center[sphere_num].center
