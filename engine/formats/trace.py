@@ -14,6 +14,7 @@ from typing import Any
 
 from ..errors import SceneFormatError
 from ..geometry import Frame, Plane, Position, Quat, Vec3
+from ..geometry.precision import fl_vec
 from ..geometry.single import to_single
 from ..transition.settings import ACE_COMPAT, EngineSettings
 from ..world.types import CylSphereSpec, MoveResult, MoverSpec, SphereSpec
@@ -38,7 +39,7 @@ def load_trace(path: str | Path) -> dict[str, Any]:
 # The reference's numbers are single precision written as shortest decimals:
 # reading them back as float32 recovers exactly what it computed with.
 def _vec(v: Any) -> Vec3:
-    return Vec3(to_single(float(v[0])), to_single(float(v[1])), to_single(float(v[2])))
+    return fl_vec(Vec3(float(v[0]), float(v[1]), float(v[2])), True)
 
 
 def _quat(q: Any) -> Quat:

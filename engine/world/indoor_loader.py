@@ -15,6 +15,7 @@ from ..cells.cell_struct import CellStruct
 from ..cells.env_cell import CellPortal, EnvCell
 from ..errors import SceneFormatError
 from ..geometry import Frame, Position, Quat, Vec3
+from ..geometry.precision import fl_vec
 from ..geometry.single import to_single
 from ..geometry.landdefs import outdoor_cell_id
 from ..objects.gfx_obj import GfxObj, PhysicsPart
@@ -27,7 +28,7 @@ def frame_from_dict(d: Mapping[str, Any]) -> Frame:
     o = d.get("origin", [0.0, 0.0, 0.0])
     q = d.get("orientation", [1.0, 0.0, 0.0, 0.0])
     return Frame(
-        Vec3(to_single(float(o[0])), to_single(float(o[1])), to_single(float(o[2]))),
+        fl_vec(Vec3(float(o[0]), float(o[1]), float(o[2])), True),
         Quat(to_single(float(q[0])), to_single(float(q[1])), to_single(float(q[2])), to_single(float(q[3]))),
     )
 
