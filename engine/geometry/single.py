@@ -45,13 +45,16 @@ def fl(x: float, single: bool) -> float:
     and infinities take the struct path (which raises OverflowError beyond
     float32's range, as packing a float32 does).
     """
-    if not single or x == 0.0:
-        return x
-    ax = abs(x)
-    if _MIN_NORMAL <= ax < _SAFE_MAX:
-        scaled = _SPLIT * x
-        return scaled + (x - scaled)
-    return _through_struct(x)
+    if single:
+        # the test on `single` takes the place of main's zero test on the
+        # hot path: a zero fails the range test and is returned below
+        ax = abs(x)
+        if _MIN_NORMAL <= ax < _SAFE_MAX:
+            scaled = _SPLIT * x
+            return scaled + (x - scaled)
+        if x != 0.0:
+            return _through_struct(x)
+    return x
 
 
 def to_single(x: float) -> float:
