@@ -57,7 +57,8 @@ class EngineSettings:
       client's make_plane computes from those vertices in float32 once,
       when the data loads (loaded data serves Worlds of either setting,
       and a World's settings can change after it loads). Further from the
-      client, and no faster.
+      client and about as fast: the same routines run, only the rounding
+      is skipped.
     - `step_length`: the longest sub-step, in radii of the mover's foot
       sphere (client: 1.0). Longer sub-steps are fewer and cheaper and can
       pass through geometry thinner than the step.
