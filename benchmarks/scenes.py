@@ -21,7 +21,8 @@ from typing import Any
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
 from engine.geometry import Frame, Quat
-from engine.geometry.f32 import f32, vec_f32
+from engine.geometry.precision import fl_vec
+from engine.geometry.single import to_single
 
 from . import common
 
@@ -220,11 +221,11 @@ def trace_world(scene_file: str, settings: engine.EngineSettings) -> engine.Worl
 
 
 def _vec(v: Any) -> Vec3:
-    return vec_f32(Vec3(float(v[0]), float(v[1]), float(v[2])))
+    return fl_vec(Vec3(float(v[0]), float(v[1]), float(v[2])), True)
 
 
 def _quat(q: Any) -> Quat:
-    return Quat(*(f32(float(c)) for c in q))
+    return Quat(*(to_single(float(c)) for c in q))
 
 
 def add_case_mover(world: engine.World, case: dict[str, Any]) -> int:
@@ -238,7 +239,7 @@ def add_case_mover(world: engine.World, case: dict[str, Any]) -> int:
     sliding = case.get("start_sliding_normal")
     return world.add_mover(
         spec, pos,
-        Plane(_vec(plane["normal"]), f32(float(plane["d"]))) if plane else None,
+        Plane(_vec(plane["normal"]), to_single(float(plane["d"]))) if plane else None,
         int(cell, 16) if cell else None,
         sliding_normal=_vec(sliding) if sliding else None,
         water_contact=bool(case.get("start_water_contact", False)),

@@ -386,18 +386,22 @@ def test_bbox_basics() -> None:
 
 
 # -- plane transform ------------------------------------------------------------------------
-def test_plane_local_to_global() -> None:
+@pytest.mark.parametrize(("single", "tol"), [(True, 1e-6), (False, 1e-12)])
+def test_plane_local_to_global(single: bool, tol: float) -> None:
     floor = Plane(Vec3(0, 0, 1), 0.0)
-    g = plane_local_to_global(CELL_POS, CELL_POS, floor)
-    assert close(g.normal, 0, 0, 1, 1e-12) and g.d == pytest.approx(-20.0)
+    g = plane_local_to_global(CELL_POS, CELL_POS, floor, 1.0, single)
+    assert close(g.normal, 0, 0, 1, tol) and g.d == pytest.approx(-20.0)
     east = Plane(Vec3(-1, 0, 0), 2.0)  # local x = 2, facing -x
-    g = plane_local_to_global(CELL_POS, CELL_POS, east)
+    g = plane_local_to_global(CELL_POS, CELL_POS, east, 1.0, single)
     # global: the plane y = 52 facing -y
-    assert close(g.normal, 0, -1, 0, 1e-12) and g.d == pytest.approx(52.0)
+    assert close(g.normal, 0, -1, 0, tol) and g.d == pytest.approx(52.0)
     # measured from the next landblock east (0xAAB4): x shifts by -192
     unturned = Position(CELL, Frame(Vec3(100, 50, 20)))
-    g = plane_local_to_global(Position(0xAAB40001, Frame(Vec3(0, 0, 0))), unturned, east)
+    g = plane_local_to_global(Position(0xAAB40001, Frame(Vec3(0, 0, 0))), unturned, east, 1.0, single)
     assert close(g.normal, -1, 0, 0) and g.d == pytest.approx(-90.0)
+    # with a part's scale, d is multiplied by it (the floor contact plane the client keeps)
+    g = plane_local_to_global(Position(0xAAB40001, Frame(Vec3(0, 0, 0))), unturned, east, 3.0, single)
+    assert g.d == pytest.approx(-270.0)
 
 
 # -- find_collisions: every branch ------------------------------------------------------------

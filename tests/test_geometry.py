@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from engine.constants import EPSILON, FLOOR_Z
 from engine.geometry import Frame, Plane, Position, Quat, Vec3
 from engine.geometry.landdefs import adjust_to_outside, get_block_offset, lcoord_to_gid
@@ -19,18 +21,24 @@ def test_plane_distance_and_side() -> None:
     assert p.side(Vec3(0, 0, 1.0)) == 1  # BEHIND
 
 
-def test_plane_from_points_is_ccw_facing_and_mean_d() -> None:
+@pytest.mark.parametrize("single", [True, False])
+def test_plane_from_points_is_ccw_facing_and_mean_d(single: bool) -> None:
     # a unit square at z=1, counter-clockwise seen from above: normal +z, d = -1
-    p = Plane.from_points([Vec3(0, 0, 1), Vec3(1, 0, 1), Vec3(1, 1, 1), Vec3(0, 1, 1)])
+    p = Plane.from_points([Vec3(0, 0, 1), Vec3(1, 0, 1), Vec3(1, 1, 1), Vec3(0, 1, 1)], single)
     assert p.normal == Vec3(0, 0, 1)
     assert p.d == -1.0
 
 
-def test_snap_to_plane_follows_slope() -> None:
+@pytest.mark.parametrize(("single", "tol"), [(True, 1e-6), (False, 1e-12)])
+def test_snap_to_plane_follows_slope(single: bool, tol: float) -> None:
     # plane rising 1 m per metre of x: normal (-1, 0, 1)/sqrt2; moving 1 m in x must rise 1 m
     n = Vec3(-1, 0, 1) * (1 / math.sqrt(2))
-    v = Plane(n, 0.0).snap_to_plane(Vec3(1.0, 0.0, 0.0))
-    assert math.isclose(v.z, 1.0, abs_tol=1e-6)  # computed in single precision, as the client does
+    v = Plane(n, 0.0).snap_to_plane(Vec3(1.0, 0.0, 0.0), single)
+    assert math.isclose(v.z, 1.0, abs_tol=tol)
+    # 100 m up (d = -100 sqrt(1/2)): the client's d / n.z terms cancel, in
+    # float32 with an error of a few float32 ulps of 100 m (7.6e-6 m each)
+    v = Plane(n, -100.0 * math.sqrt(0.5)).snap_to_plane(Vec3(1.0, 0.0, 0.0), single)
+    assert math.isclose(v.z, 1.0, abs_tol=1e-4 if single else 1e-12)
 
 
 def test_block_offsets_between_landblocks() -> None:

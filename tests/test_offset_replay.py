@@ -22,7 +22,7 @@ import engine
 from engine.formats.trace import trace_plane as _plane, trace_quat as _quat, trace_vec as _vec
 from engine.geometry import Frame, Position, Quat, Vec3
 from engine.geometry.single import to_single
-from engine.geometry.f32 import rotate_f32
+from engine.geometry.precision import fl_rotate
 from engine.world.mover import Mover
 from engine.world.transient import TS
 from replay_check import case_mismatch
@@ -125,7 +125,7 @@ def _step_from_reference(case: dict, i: int) -> tuple[Vec3, Vec3] | None:
         mover.velocity = Vec3(0.0, 0.0, 0.0)
     elif e.get("collision_normal") and not ("OnWalkable" in before and mover.transient & TS.ON_WALKABLE):
         mover.velocity = mover._bounce(_vec(e["collision_normal"]), True)
-    frame = mover.integrate(_vec(move["offset"]), float(case["physics"]["dt"]), True)
+    frame = mover.integrate(_vec(move["offset"]), float(case["physics"]["dt"]))
     return frame.origin, mover.velocity
 
 
@@ -205,10 +205,10 @@ def test_a_bounce_in_single_precision() -> None:
 
 def test_rotating_the_motion_into_the_object_frame() -> None:
     # half a turn about z: (x, y, z) -> (-x, -y, z) exactly
-    assert rotate_f32(Quat(0.0, 0.0, 0.0, 1.0), Vec3(1.0, 2.0, 3.0)) == Vec3(-1.0, -2.0, 3.0)
+    assert fl_rotate(Quat(0.0, 0.0, 0.0, 1.0), Vec3(1.0, 2.0, 3.0), True) == Vec3(-1.0, -2.0, 3.0)
     # a quarter turn about z: (1, 0, 0) -> (0, 1, 0) within float32 rounding
     s = to_single(0.5**0.5)
-    r = rotate_f32(Quat(s, 0.0, 0.0, s), Vec3(1.0, 0.0, 0.0))
+    r = fl_rotate(Quat(s, 0.0, 0.0, s), Vec3(1.0, 0.0, 0.0), True)
     assert abs(r.x) < 1e-7 and abs(r.y - 1.0) < 1e-7 and r.z == 0.0
     # the motion follows the object's heading, off the ground it is not applied
     mover = _mover_on_flat_ground(Vec3(0.0, 0.0, 0.0))

@@ -14,7 +14,7 @@ import pytest
 
 import engine
 from engine.geometry import Frame, Plane, Position, Sphere, Vec3
-from engine.geometry.f32 import cross_f32, dot_f32, plane_dist_f32
+from engine.geometry.precision import fl_cross, fl_dot, fl_plane_dist
 from engine.transition.settings import ACE_COMPAT
 from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition
@@ -36,12 +36,12 @@ def test_dot_and_plane_distance_round_every_operation() -> None:
         fa = [F(x) for x in a]
         fb = [F(x) for x in b]
         expected = (fa[0] * fb[0] + fa[1] * fb[1]) + fa[2] * fb[2]
-        assert dot_f32(*a, *b) == float(expected)
-        assert plane_dist_f32(a[0], a[1], a[2], Plane(Vec3(*b), d)) == float(expected + F(d))
+        assert fl_dot(*a, *b, True) == float(expected)
+        assert fl_plane_dist(a[0], a[1], a[2], Plane(Vec3(*b), d), True) == float(expected + F(d))
         cx = fa[1] * fb[2] - fa[2] * fb[1]
         cy = fa[2] * fb[0] - fa[0] * fb[2]
         cz = fa[0] * fb[1] - fa[1] * fb[0]
-        c = cross_f32(Vec3(*a), Vec3(*b))
+        c = fl_cross(Vec3(*a), Vec3(*b), True)
         assert (c.x, c.y, c.z) == (float(cx), float(cy), float(cz))
 
 
@@ -143,7 +143,7 @@ def _np_inverse_transform(q: tuple[float, float, float, float], v: tuple[float, 
 
 def test_rotations_round_as_system_numerics_does() -> None:
     from engine.geometry import Quat
-    from engine.geometry.f32 import local_z_f32, rotate_f32, unrotate_f32
+    from engine.geometry.precision import fl_local_z, fl_rotate, fl_unrotate
 
     rng = random.Random(7)
     for _ in range(300):
@@ -154,17 +154,17 @@ def test_rotations_round_as_system_numerics_does() -> None:
         q = (float(F(np.cos(angle / 2))), float(F(axis.x * s)), float(F(axis.y * s)), float(F(axis.z * s)))
         v = (_rand_f32(rng, 200.0), _rand_f32(rng, 200.0), _rand_f32(rng, 5.0))
         quat = Quat(*q)
-        assert rotate_f32(quat, Vec3(*v)).as_tuple() == _np_transform_quat(q, v)
-        assert unrotate_f32(quat, Vec3(*v)).as_tuple() == _np_inverse_transform(q, v)
-        assert local_z_f32(quat).as_tuple() == _np_inverse_transform(q, (0.0, 0.0, 1.0))
+        assert fl_rotate(quat, Vec3(*v), True).as_tuple() == _np_transform_quat(q, v)
+        assert fl_unrotate(quat, Vec3(*v), True).as_tuple() == _np_inverse_transform(q, v)
+        assert fl_local_z(quat, True).as_tuple() == _np_inverse_transform(q, (0.0, 0.0, 1.0))
     # the identity leaves a vector as it is, bit for bit
     v0 = Vec3(0.1, -2.5, 1e-3)
-    assert rotate_f32(Quat(), v0) is v0 and unrotate_f32(Quat(), v0) is v0
+    assert fl_rotate(Quat(), v0, True) is v0 and fl_unrotate(Quat(), v0, True) is v0
 
 
 def test_an_obstacle_sphere_is_placed_in_float32() -> None:
     from engine.geometry import Quat
-    from engine.geometry.f32 import place_f32
+    from engine.geometry.precision import fl_place
 
     # a quarter turn about z at (100.3, 50.7, 20.1), scale 1.5, a point (0.48, 0.1, 1.35)
     # of the object: (x, y, z) -> (-y, x, z), times 1.5, plus the origin; all float32
@@ -176,8 +176,8 @@ def test_an_obstacle_sphere_is_placed_in_float32() -> None:
     scaled = tuple(float(F(c) * F(1.5)) for c in point)
     r = _np_transform_quat(q, scaled)  # type: ignore[arg-type]
     expected = tuple(float(F(o) + F(c)) for o, c in zip(origin, r))
-    assert place_f32(0xA9B40101, pos, Vec3(*point), 1.5).as_tuple() == expected
-    assert place_f32(0xA9B40101, pos, Vec3(*point), 1.5).as_tuple() == pytest.approx((100.3 - 0.15, 50.7 + 0.72, 20.1 + 2.025), abs=1e-5)
+    assert fl_place(0xA9B40101, pos, Vec3(*point), 1.5, True).as_tuple() == expected
+    assert fl_place(0xA9B40101, pos, Vec3(*point), 1.5, True).as_tuple() == pytest.approx((100.3 - 0.15, 50.7 + 0.72, 20.1 + 2.025), abs=1e-5)
     # from the next landblock east: 192 m further along x
-    east = place_f32(0xAAB40001, pos, Vec3(*point), 1.5)
+    east = fl_place(0xAAB40001, pos, Vec3(*point), 1.5, True)
     assert east.as_tuple() == (float(F(-192.0) + F(expected[0])), expected[1], expected[2])

@@ -24,10 +24,9 @@ from __future__ import annotations
 from typing import Final, TYPE_CHECKING
 
 from ..constants import ADJUST_TO_PLANE_ITERATIONS, LANDING_Z, PLACEMENT_ITERATIONS
-from ..geometry.f32 import dot_f32, rotate_f32, scale_f32, sub_f32
+from ..geometry.precision import fl, fl_dot, fl_rotate, fl_scale, fl_sub
 from ..geometry.landdefs import get_block_offset
 from ..geometry.plane import Plane
-from ..geometry.single import to_single
 from ..geometry.polygon import Polygon, PolyHit
 from ..geometry.sphere import Sphere
 from ..geometry.vec3 import Vec3
@@ -47,55 +46,44 @@ _COLLIDED: Final = TransitionState.COLLIDED
 _ADJUSTED: Final = TransitionState.ADJUSTED
 
 
-def plane_local_to_global(to: Position, from_: Position, local_plane: Plane) -> Plane:
-    """A plane given in from_'s local frame, in to's landblock frame
-    (PlaneExtensions.LocalToGlobal).
+def plane_local_to_global(to: Position, from_: Position, local_plane: Plane, scale: float, single: bool) -> Plane:
+    """A plane given in from_'s local frame, in to's landblock frame, with d
+    then multiplied by `scale` (PlaneExtensions.LocalToGlobal; what a found
+    floor's contact plane is).
 
     The normal is rotated by from_'s orientation; d is re-measured through
     the plane's point nearest from_'s origin (normal * -d), carried into to's
-    landblock.
+    landblock. At the working precision (`single`: the client's, the normal
+    and the point rotated as System.Numerics rotates, each sum, product and
+    the dot product rounded to float32).
     """
     n = local_plane.normal
-    normal = from_.frame.local_to_global_vec(n)
-    point = to.local_to_global_from(from_, n * -local_plane.d)
-    return Plane(normal, -normal.dot(point))
-
-
-def plane_local_to_global_f32(to: Position, from_: Position, local_plane: Plane, scale: float) -> Plane:
-    """plane_local_to_global in the client's single precision, with d then
-    multiplied by `scale` (what a found floor's contact plane is): the
-    normal and the point rotated as System.Numerics rotates (rotate_f32),
-    each sum, product and the dot product rounded to float32."""
-    n = local_plane.normal
     q = from_.frame.orientation
-    normal = rotate_f32(q, n)
-    r = rotate_f32(q, scale_f32(n, -local_plane.d))
+    normal = fl_rotate(q, n, single)
+    r = fl_rotate(q, fl_scale(n, -local_plane.d, single), single)
     o = from_.frame.origin
     block = get_block_offset(to.cell_id, from_.cell_id)
-    px = to_single(block.x + to_single(o.x + r.x))
-    py = to_single(block.y + to_single(o.y + r.y))
-    pz = to_single(block.z + to_single(o.z + r.z))
-    d = -dot_f32(normal.x, normal.y, normal.z, px, py, pz)
-    return Plane(normal, to_single(d * scale))
+    px = fl(block.x + fl(o.x + r.x, single), single)
+    py = fl(block.y + fl(o.y + r.y, single), single)
+    pz = fl(block.z + fl(o.z + r.z, single), single)
+    d = -fl_dot(normal.x, normal.y, normal.z, px, py, pz, single)
+    return Plane(normal, fl(d * scale, single))
 
 
 def _global_vec(path: SpherePath, v: Vec3) -> Vec3:
     """A vector of the path's local space in the landblock frame
-    (LocalSpacePos.LocalToGlobalVec), in float32 when the path is."""
+    (LocalSpacePos.LocalToGlobalVec), at the path's working precision."""
     lsp = path.local_space_pos
     assert lsp is not None
-    if path.single_precision:
-        return rotate_f32(lsp.frame.orientation, v)
-    return lsp.frame.local_to_global_vec(v)
+    return fl_rotate(lsp.frame.orientation, v, path.settings.single_precision)
 
 
 def _global_offset(path: SpherePath, moved: Vec3, start: Vec3, scale: float) -> Vec3:
     """How far a local-space sphere moved, in the landblock frame and scaled
-    (LocalToGlobalVec(moved - start) * scale), in float32 when the path is."""
-    if not path.single_precision:
-        return _global_vec(path, moved - start) * scale
-    v = _global_vec(path, sub_f32(moved, start))
-    return v if scale == 1.0 else scale_f32(v, to_single(scale))
+    (LocalToGlobalVec(moved - start) * scale), at the path's working precision."""
+    single = path.settings.single_precision
+    v = _global_vec(path, fl_sub(moved, start, single))
+    return v if scale == 1.0 else fl_scale(v, fl(scale, single), single)
 
 
 class BSPTree:
@@ -207,11 +195,7 @@ class BSPTree:
             assert local_space_pos is not None
             offset = _global_offset(path, valid_pos.center, local_sphere.center, scale)
             path.add_offset_to_check_pos(offset)
-            if path.single_precision:
-                plane = plane_local_to_global_f32(path.check_pos, local_space_pos, hit_poly.plane, scale)
-            else:
-                plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane)
-                plane = Plane(plane.normal, plane.d * scale)
+            plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane, scale, path.settings.single_precision)
             ci = transition.collision_info
             ci.set_contact_plane(plane, False)
             ci.contact_plane_cell_id = path.check_pos.cell_id
@@ -284,11 +268,7 @@ class BSPTree:
         assert local_space_pos is not None
         offset = _global_offset(path, valid_pos.center, check_pos.center, scale)
         path.shift_check_pos(offset)
-        if path.single_precision:
-            plane = plane_local_to_global_f32(path.check_pos, local_space_pos, poly_hit.plane, scale)
-        else:
-            plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane)
-            plane = Plane(plane.normal, plane.d * scale)
+        plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane, scale, path.settings.single_precision)
         ci = transition.collision_info
         ci.set_contact_plane(plane, False)
         ci.contact_plane_cell_id = path.check_pos.cell_id

@@ -98,7 +98,7 @@ class LandCell(ObjCell):
         g = path.global_sphere[0]
         check_sphere = Sphere(g.center - block_offset, g.radius)
         return transition.validate_walkable(
-            check_sphere, walkable.plane, self.water_type != WaterType.NOT_WATER, water_depth, self.id
+            check_sphere, walkable.plane_at(transition.settings.single_precision), self.water_type != WaterType.NOT_WATER, water_depth, self.id
         )
 
     def point_in_cell(self, point: Vec3) -> bool:

@@ -14,7 +14,8 @@ from typing import Any
 
 from ..errors import SceneFormatError
 from ..geometry import Frame, Plane, Position, Quat, Vec3
-from ..geometry.f32 import f32, vec_f32
+from ..geometry.precision import fl_vec
+from ..geometry.single import to_single
 from ..world.placement import place_mover
 from ..world.types import CylSphereSpec, MoveResult, MoverSpec, SphereSpec
 from ..world.world import World
@@ -50,15 +51,15 @@ def load_trace(path: str | Path) -> dict[str, Any]:
 # The reference's numbers are single precision written as shortest decimals:
 # reading them back as float32 recovers exactly what it computed with.
 def trace_vec(v: Any) -> Vec3:
-    return vec_f32(Vec3(float(v[0]), float(v[1]), float(v[2])))
+    return fl_vec(Vec3(float(v[0]), float(v[1]), float(v[2])), True)
 
 
 def trace_quat(q: Any) -> Quat:
-    return Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3])))
+    return Quat(to_single(float(q[0])), to_single(float(q[1])), to_single(float(q[2])), to_single(float(q[3])))
 
 
 def trace_plane(p: Any) -> Plane:
-    return Plane(trace_vec(p["normal"]), f32(float(p["d"])))
+    return Plane(trace_vec(p["normal"]), to_single(float(p["d"])))
 
 
 def mover_spec_from_case(obj: dict[str, Any], scene: dict[str, Any] | None = None) -> MoverSpec:

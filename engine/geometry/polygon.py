@@ -239,7 +239,8 @@ class Polygon:
             self._nx = self._ny = self._nz = self._d = 0.0
             self._edges = ()
             return
-        self.plane = plane = Plane.from_points_f32(verts)
+        # in single precision for every setting: see EngineSettings.single_precision
+        self.plane = plane = Plane.from_points(verts, True)
         nx, ny, nz = plane.normal.x, plane.normal.y, plane.normal.z
         self._nx, self._ny, self._nz, self._d = nx, ny, nz, plane.d
         edges: list[PolyEdge] = []

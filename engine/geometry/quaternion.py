@@ -40,7 +40,7 @@ class Mat3:
 class Quat:
     """An orientation quaternion (w + xi + yj + zk)."""
 
-    __slots__ = ("w", "x", "y", "z", "_m", "_m_known", "r32", "u32")
+    __slots__ = ("w", "x", "y", "z", "_m", "_m_known", "r32", "u32", "r64", "u64")
 
     w: float
     x: float
@@ -48,9 +48,12 @@ class Quat:
     z: float
     _m: Mat3 | None
     _m_known: bool
-    #: the client's float32 rotation matrices (engine.geometry.f32), once computed
+    #: the client's rotation matrices (engine.geometry.precision), once
+    #: computed: in single precision (r32, u32) and in double (r64, u64)
     r32: _Matrix | None
     u32: _Matrix | None
+    r64: _Matrix | None
+    u64: _Matrix | None
 
     def __init__(self, w: float = 1.0, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> None:
         self.w = w
@@ -61,6 +64,8 @@ class Quat:
         self._m_known = False
         self.r32 = None
         self.u32 = None
+        self.r64 = None
+        self.u64 = None
 
     def cached_matrix(self) -> Mat3 | None:
         """The rotation matrix, computed once; None for the identity (no work to do)."""

@@ -25,8 +25,7 @@ from typing import Any, Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, Plane, Position, Sphere, Vec3
-from ..geometry.f32 import normalize_check_small_f32, place_f32
-from ..geometry.single import to_single
+from ..geometry.precision import fl, fl_normalize_check_small, fl_place
 from ..geometry.landdefs import get_block_offset
 from ..transition.state import OI, InsertType, TransitionState
 from .sphere_collision import slide_sphere_env
@@ -41,8 +40,6 @@ _COLLIDED: Final = TransitionState.COLLIDED
 _ADJUSTED: Final = TransitionState.ADJUSTED
 _PLACEMENT: Final = InsertType.PLACEMENT
 _CONTACT_OR_WALKABLE: Final = OI.CONTACT | OI.ON_WALKABLE
-#: the client's EPSILON as the float32 it compares with
-_EPSILON_F32: Final = to_single(EPSILON)
 
 
 class CylSphere:
@@ -92,13 +89,20 @@ class CylSphere:
         normal is horizontal, from the axis to it, and definite when the
         sphere was level with the cylinder or did not move vertically.
         Otherwise it came through the top or bottom: the normal is +-z.
+        At the working precision (the client's: floats).
         """
-        curr = transition.sphere_path.global_curr_center[sphere_num].center - self.low_point
-        if radsum * radsum < curr.x * curr.x + curr.y * curr.y:
-            half = self.height * 0.5
-            definite = check_sphere.radius - EPSILON + half >= abs(half - curr.z) or abs(curr.z - disp.z) <= EPSILON
-            return definite, Vec3(curr.x, curr.y, 0.0)
-        return True, Vec3(0.0, 0.0, 1.0 if disp.z - curr.z <= 0.0 else -1.0)
+        s = transition.settings.single_precision
+        g = transition.sphere_path.global_curr_center[sphere_num].center
+        low = self.low_point
+        cx = fl(g.x - low.x, s)
+        cy = fl(g.y - low.y, s)
+        cz = fl(g.z - low.z, s)
+        if fl(radsum * radsum, s) < fl(fl(cx * cx, s) + fl(cy * cy, s), s):
+            half = fl(self.height * 0.5, s)
+            eps = fl(EPSILON, s)
+            definite = fl(fl(check_sphere.radius - eps, s) + half, s) >= abs(fl(half - cz, s)) or abs(fl(cz - disp.z, s)) <= eps
+            return definite, Vec3(cx, cy, 0.0)
+        return True, Vec3(0.0, 0.0, 1.0 if fl(disp.z - cz, s) <= 0.0 else -1.0)
 
     # -- the dispatcher ------------------------------------------------------
     def intersects_sphere_at(self, position: Position, scale: float, transition: Transition) -> int:
@@ -106,14 +110,12 @@ class CylSphere:
         scaled by `scale` (CylSphere.IntersectsSphere(Position, scale, ...))."""
         path = transition.sphere_path
         path.cache_local_space_sphere(position, 1.0)
-        if path.single_precision:
-            # the client's CylSphere(lowPoint, height, radius, scale) and
-            # CheckPos.LocalToGlobal(pos, lowPoint), in floats
-            f = to_single(scale)
-            low = place_f32(path.check_pos.cell_id, position, self.low_point, f)
-            return CylSphere(low, to_single(to_single(self.radius) * f), to_single(to_single(self.height) * f)).intersects_sphere(transition)
-        low = path.check_pos.local_to_global_from(position, self.low_point * scale)
-        return CylSphere(low, self.radius * scale, self.height * scale).intersects_sphere(transition)
+        # the client's CylSphere(lowPoint, height, radius, scale) and
+        # CheckPos.LocalToGlobal(pos, lowPoint), in floats
+        s = transition.settings.single_precision
+        f = fl(scale, s)
+        low = fl_place(path.check_pos.cell_id, position, self.low_point, f, s)
+        return CylSphere(low, fl(fl(self.radius, s) * f, s), fl(fl(self.height, s) * f, s)).intersects_sphere(transition)
 
     def intersects_sphere(self, transition: Transition) -> int:
         """Collide the path's spheres with this (placed) cylsphere and respond
@@ -135,10 +137,8 @@ class CylSphere:
             glob_sphere_1 = path.global_sphere[1]
             disp_1 = glob_sphere_1.center - self.low_point
 
-        if path.single_precision:
-            radsum = to_single(to_single(self.radius - _EPSILON_F32) + glob_sphere.radius)
-        else:
-            radsum = self.radius - EPSILON + glob_sphere.radius
+        s = transition.settings.single_precision
+        radsum = fl(fl(self.radius - fl(EPSILON, s), s) + glob_sphere.radius, s)
 
         if path.insert_type == _PLACEMENT or path.obstruction_ethereal:
             if self.collides_with_sphere(glob_sphere, disp, radsum):
@@ -235,7 +235,7 @@ class CylSphere:
         if transition.object_info.step_up_height < check_sphere.radius + self.height - disp.z:
             return self.slide_sphere(transition, check_sphere, disp, radsum, 0)
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, 0)
-        unit = normal.normalized_or_none()
+        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
         if unit is None:
             return _COLLIDED
         path = transition.sphere_path
@@ -248,7 +248,7 @@ class CylSphere:
         """Slide path sphere `sphere_num` along the cylinder's wall (or its
         top) (CylSphere.SlideSphere)."""
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
-        unit = normal.normalized_or_none()
+        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
         if unit is None:
             return _COLLIDED
         return slide_sphere_env(transition, check_sphere, unit, transition.sphere_path.global_curr_center[sphere_num].center)
@@ -258,7 +258,7 @@ class CylSphere:
         its collision normal, landing on anything not steeper than LandingZ
         (CylSphere.LandOnCylinder)."""
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, 0)
-        unit = normal.normalized_or_none()
+        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
         if unit is None:
             return _COLLIDED
         path = transition.sphere_path
@@ -274,118 +274,23 @@ class CylSphere:
         move the check position back to where the sphere meets the wall, top
         or bottom along the step and record that normal, ADJUSTED; COLLIDED
         when the meeting point is outside the step.
-        """
-        path = transition.sphere_path
-        if path.single_precision:
-            return self._collide_with_point_f32(transition, check_sphere, disp, radsum, sphere_num)
-        ci = transition.collision_info
-        definite, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
-        unit = normal.normalized_or_none()
-        if unit is None:
-            return _COLLIDED
-        normal = unit
-        if not transition.object_info.state & OI.PERFECT_CLIP:
-            ci.set_collision_normal(normal)
-            return _COLLIDED
-
-        glob_center = path.global_curr_center[0].center
-        assert path.curr_pos is not None
-        movement = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id) + (check_sphere.center - glob_center)
-        old_disp = glob_center - self.low_point
-        radsum += EPSILON
-
-        xy_move_len_sq = movement.x * movement.x + movement.y * movement.y
-        dot2d = movement.x * old_disp.x + movement.y * old_disp.y
-        xy_diff = -dot2d
-        diff_sq = xy_diff * xy_diff - (old_disp.x * old_disp.x + old_disp.y * old_disp.y - radsum * radsum) * xy_move_len_sq
-        diff = math.sqrt(diff_sq) if diff_sq >= 0.0 else math.nan
-
-        if not definite:
-            if abs(movement.z) < EPSILON:
-                return _COLLIDED
-            if movement.z > 0.0:
-                normal = Vec3(0.0, 0.0, -1.0)
-                time = -((movement.z + check_sphere.radius) / movement.z)
-            else:
-                normal = Vec3(0.0, 0.0, 1.0)
-                time = (check_sphere.radius + self.height - movement.z) / movement.z
-            scaled = movement * time
-            s = scaled + old_disp
-            if s.x * s.x + s.y * s.y >= radsum * radsum:
-                if abs(xy_move_len_sq) < EPSILON:
-                    return _COLLIDED
-                if diff_sq >= 0.0 and xy_move_len_sq > EPSILON:
-                    if xy_diff - diff < 0.0:
-                        time = (diff - dot2d) / xy_move_len_sq
-                    else:
-                        time = (xy_diff - diff) / xy_move_len_sq
-                    scaled = movement * time
-                n = (scaled + glob_center - self.low_point) * (1.0 / radsum)
-                normal = Vec3(n.x, n.y, 0.0)
-            if time < 0.0 or time > 1.0:
-                return _COLLIDED
-            path.add_offset_to_check_pos(glob_center - scaled - check_sphere.center)
-            ci.set_collision_normal(normal)
-            return _ADJUSTED
-
-        if normal.z != 0.0:
-            if abs(movement.z) < EPSILON:
-                return _COLLIDED
-            if movement.z > 0.0:
-                time = -((old_disp.z + check_sphere.radius) / movement.z)
-            else:
-                time = (check_sphere.radius + self.height - old_disp.z) / movement.z
-            scaled = movement * time
-            if time < 0.0 or time > 1.0:
-                return _COLLIDED
-            path.add_offset_to_check_pos(glob_center + scaled - check_sphere.center)
-            ci.set_collision_normal(normal)
-            return _ADJUSTED
-
-        if diff_sq < 0.0 or xy_move_len_sq < EPSILON:
-            return _COLLIDED
-        if xy_diff - diff < 0.0:
-            time = (diff - dot2d) / xy_move_len_sq
-        else:
-            time = (xy_diff - diff) / xy_move_len_sq
-        scaled = movement * time
-        if time < 0.0 or time > 1.0:
-            return _COLLIDED
-        n = (scaled + glob_center - self.low_point) * (1.0 / radsum)
-        path.add_offset_to_check_pos(glob_center + scaled - check_sphere.center)
-        ci.set_collision_normal(Vec3(n.x, n.y, 0.0))
-        return _ADJUSTED
-
-    def _collide_with_point_f32(self, transition: Transition, check_sphere: Sphere, disp: Vec3, radsum: float, sphere_num: int) -> int:
-        """collide_with_point in the client's precision (CylSphere.CollideWithPoint).
 
         The sphere meets the cylinder wall where a quadratic in the step's
         horizontal movement has its root; its discriminant cancels two terms
         of ~1e2, so float32 rounding moves the meeting point and the normal
         in the sixth digit (enough to steer a missile's bounce measurably).
-        As in the client, floats throughout except where its 2D squared
-        lengths are doubles: the discriminant is evaluated in double from
-        float-rounded squares, and the root's time is rounded back to float.
+        In single precision as in the client: floats throughout except where
+        its 2D squared lengths are doubles (the discriminant is evaluated in
+        double from float-rounded squares, and the root's time is rounded
+        back to float).
         """
         path = transition.sphere_path
         ci = transition.collision_info
         low = self.low_point
-        eps = _EPSILON_F32
-        g = path.global_curr_center[sphere_num].center
-        cx = to_single(g.x - low.x)
-        cy = to_single(g.y - low.y)
-        cz = to_single(g.z - low.z)
-        # CylSphere.CollisionNormal
-        if to_single(radsum * radsum) < to_single(to_single(cx * cx) + to_single(cy * cy)):
-            nx, ny, nz = cx, cy, 0.0
-            half = to_single(self.height * 0.5)
-            definite = to_single(to_single(check_sphere.radius - eps) + half) >= abs(to_single(half - cz)) or abs(
-                to_single(cz - disp.z)
-            ) <= eps
-        else:
-            nx, ny, nz = 0.0, 0.0, (1.0 if to_single(disp.z - cz) <= 0.0 else -1.0)
-            definite = True
-        unit = normalize_check_small_f32(Vec3(nx, ny, nz))
+        s = transition.settings.single_precision
+        eps = fl(EPSILON, s)
+        definite, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
+        unit = fl_normalize_check_small(normal, s)
         if unit is None:
             return _COLLIDED
         if not transition.object_info.state & OI.PERFECT_CLIP:
@@ -396,20 +301,20 @@ class CylSphere:
         assert path.curr_pos is not None
         block = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
         c = check_sphere.center
-        mx = to_single(block.x + to_single(c.x - gc.x))
-        my = to_single(block.y + to_single(c.y - gc.y))
-        mz = to_single(block.z + to_single(c.z - gc.z))
-        odx = to_single(gc.x - low.x)
-        ody = to_single(gc.y - low.y)
-        odz = to_single(gc.z - low.z)
-        radsum = to_single(radsum + eps)
-        rr = to_single(radsum * radsum)
+        mx = fl(block.x + fl(c.x - gc.x, s), s)
+        my = fl(block.y + fl(c.y - gc.y, s), s)
+        mz = fl(block.z + fl(c.z - gc.z, s), s)
+        odx = fl(gc.x - low.x, s)
+        ody = fl(gc.y - low.y, s)
+        odz = fl(gc.z - low.z, s)
+        radsum = fl(radsum + eps, s)
+        rr = fl(radsum * radsum, s)
 
-        xy_move_len_sq = to_single(to_single(mx * mx) + to_single(my * my))
-        dot2d = to_single(to_single(mx * odx) + to_single(my * ody))
+        xy_move_len_sq = fl(fl(mx * mx, s) + fl(my * my, s), s)
+        dot2d = fl(fl(mx * odx, s) + fl(my * ody, s), s)
         xy_diff = -dot2d
-        diff_sq = to_single(xy_diff * xy_diff) - (to_single(to_single(odx * odx) + to_single(ody * ody)) - rr) * xy_move_len_sq
-        diff = to_single(math.sqrt(diff_sq)) if diff_sq >= 0.0 else math.nan
+        diff_sq = fl(xy_diff * xy_diff, s) - (fl(fl(odx * odx, s) + fl(ody * ody, s), s) - rr) * xy_move_len_sq
+        diff = fl(math.sqrt(diff_sq), s) if diff_sq >= 0.0 else math.nan
         r = check_sphere.radius
 
         if not definite:
@@ -417,28 +322,28 @@ class CylSphere:
                 return _COLLIDED
             if mz > 0.0:
                 normal = Vec3(0.0, 0.0, -1.0)
-                time = -to_single(to_single(mz + r) / mz)
+                time = -fl(fl(mz + r, s) / mz, s)
             else:
                 normal = Vec3(0.0, 0.0, 1.0)
-                time = to_single(to_single(to_single(r + self.height) - mz) / mz)
-            sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
-            px = to_single(sx + odx)
-            py = to_single(sy + ody)
-            if to_single(to_single(px * px) + to_single(py * py)) >= rr:
+                time = fl(fl(fl(r + self.height, s) - mz, s) / mz, s)
+            sx, sy, sz = fl(mx * time, s), fl(my * time, s), fl(mz * time, s)
+            px = fl(sx + odx, s)
+            py = fl(sy + ody, s)
+            if fl(fl(px * px, s) + fl(py * py, s), s) >= rr:
                 if abs(xy_move_len_sq) < eps:
                     return _COLLIDED
                 if diff_sq >= 0.0 and xy_move_len_sq > eps:
-                    time = self._root_time_f32(xy_diff, diff, dot2d, xy_move_len_sq)
-                    sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+                    time = self._root_time(xy_diff, diff, dot2d, xy_move_len_sq, s)
+                    sx, sy, sz = fl(mx * time, s), fl(my * time, s), fl(mz * time, s)
                 normal = Vec3(
-                    to_single(to_single(to_single(sx + gc.x) - low.x) / radsum),
-                    to_single(to_single(to_single(sy + gc.y) - low.y) / radsum),
+                    fl(fl(fl(sx + gc.x, s) - low.x, s) / radsum, s),
+                    fl(fl(fl(sy + gc.y, s) - low.y, s) / radsum, s),
                     0.0,
                 )
             if time < 0.0 or time > 1.0:
                 return _COLLIDED
             path.add_offset_to_check_pos(
-                Vec3(to_single(to_single(gc.x - sx) - c.x), to_single(to_single(gc.y - sy) - c.y), to_single(to_single(gc.z - sz) - c.z))
+                Vec3(fl(fl(gc.x - sx, s) - c.x, s), fl(fl(gc.y - sy, s) - c.y, s), fl(fl(gc.z - sz, s) - c.z, s))
             )
             ci.set_collision_normal(normal)
             return _ADJUSTED
@@ -447,39 +352,39 @@ class CylSphere:
             if abs(mz) < eps:
                 return _COLLIDED
             if mz > 0.0:
-                time = -to_single(to_single(odz + r) / mz)
+                time = -fl(fl(odz + r, s) / mz, s)
             else:
-                time = to_single(to_single(to_single(r + self.height) - odz) / mz)
+                time = fl(fl(fl(r + self.height, s) - odz, s) / mz, s)
             if time < 0.0 or time > 1.0:
                 return _COLLIDED
-            sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+            sx, sy, sz = fl(mx * time, s), fl(my * time, s), fl(mz * time, s)
             path.add_offset_to_check_pos(
-                Vec3(to_single(to_single(gc.x + sx) - c.x), to_single(to_single(gc.y + sy) - c.y), to_single(to_single(gc.z + sz) - c.z))
+                Vec3(fl(fl(gc.x + sx, s) - c.x, s), fl(fl(gc.y + sy, s) - c.y, s), fl(fl(gc.z + sz, s) - c.z, s))
             )
             ci.set_collision_normal(unit)
             return _ADJUSTED
 
         if diff_sq < 0.0 or xy_move_len_sq < eps:
             return _COLLIDED
-        time = self._root_time_f32(xy_diff, diff, dot2d, xy_move_len_sq)
+        time = self._root_time(xy_diff, diff, dot2d, xy_move_len_sq, s)
         if time < 0.0 or time > 1.0:
             return _COLLIDED
-        sx, sy, sz = to_single(mx * time), to_single(my * time), to_single(mz * time)
+        sx, sy, sz = fl(mx * time, s), fl(my * time, s), fl(mz * time, s)
         normal = Vec3(
-            to_single(to_single(to_single(sx + gc.x) - low.x) / radsum),
-            to_single(to_single(to_single(sy + gc.y) - low.y) / radsum),
+            fl(fl(fl(sx + gc.x, s) - low.x, s) / radsum, s),
+            fl(fl(fl(sy + gc.y, s) - low.y, s) / radsum, s),
             0.0,
         )
         path.add_offset_to_check_pos(
-            Vec3(to_single(to_single(gc.x + sx) - c.x), to_single(to_single(gc.y + sy) - c.y), to_single(to_single(gc.z + sz) - c.z))
+            Vec3(fl(fl(gc.x + sx, s) - c.x, s), fl(fl(gc.y + sy, s) - c.y, s), fl(fl(gc.z + sz, s) - c.z, s))
         )
         ci.set_collision_normal(normal)
         return _ADJUSTED
 
     @staticmethod
-    def _root_time_f32(xy_diff: float, diff: float, dot2d: float, xy_move_len_sq: float) -> float:
+    def _root_time(xy_diff: float, diff: float, dot2d: float, xy_move_len_sq: float, s: bool) -> float:
         """The step fraction at the wall: the quadratic's root as the client
         picks and rounds it (a float difference over a double, then float)."""
-        if to_single(xy_diff - diff) < 0.0:
-            return to_single(to_single(diff - dot2d) / xy_move_len_sq)
-        return to_single(to_single(xy_diff - diff) / xy_move_len_sq)
+        if fl(xy_diff - diff, s) < 0.0:
+            return fl(fl(diff - dot2d, s) / xy_move_len_sq, s)
+        return fl(fl(xy_diff - diff, s) / xy_move_len_sq, s)

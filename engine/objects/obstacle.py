@@ -19,9 +19,8 @@ from collections.abc import Sequence
 
 from ..constants import EPSILON
 from ..geometry import ZERO, Frame, Position, Sphere, Vec3
-from ..geometry.f32 import place_f32
+from ..geometry.precision import fl, fl_add, fl_place
 from ..geometry.landdefs import get_block_offset
-from ..geometry.single import to_single
 from ..transition.state import OI, InsertType, TransitionState
 from .cylsphere_collision import CylSphere
 from .gfx_obj import PhysicsPart
@@ -250,11 +249,11 @@ class Obstacle:
             self._part_cache_scale = self.scale
         return self._part_positions
 
-    def placed_spheres(self, single: bool = False) -> list[Sphere]:
+    def placed_spheres(self, single: bool) -> list[Sphere]:
         """The spheres scaled and placed by `position`, in its landblock's
         frame (the part of Sphere.IntersectsSphere(Position, scale) that does
-        not depend on the mover; kept until the obstacle moves). With
-        `single`, in the client's single precision."""
+        not depend on the mover; kept until the obstacle moves), at the
+        working precision (`single`: the client's single precision)."""
         if (
             self._sphere_cache_pos is not self.position
             or self._sphere_cache_scale != self.scale
@@ -262,14 +261,10 @@ class Obstacle:
         ):
             pos = self.position
             scale = self.scale
-            if single:
-                f = to_single(scale)
-                self._placed_spheres = [
-                    Sphere(place_f32(pos.cell_id, pos, s.center, f), to_single(to_single(s.radius) * f)) for s in self.spheres
-                ]
-            else:
-                frame = pos.frame
-                self._placed_spheres = [Sphere(frame.local_to_global(s.center * scale), s.radius * scale) for s in self.spheres]
+            f = fl(scale, single)
+            self._placed_spheres = [
+                Sphere(fl_place(pos.cell_id, pos, s.center, f, single), fl(fl(s.radius, single) * f, single)) for s in self.spheres
+            ]
             self._sphere_cache_pos = self.position
             self._sphere_cache_scale = self.scale
             self._sphere_cache_single = single
@@ -423,15 +418,10 @@ def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
         elif obstacle.spheres:
             # the obstacle's spheres placed in the check position's landblock
             offset = get_block_offset(path.check_pos.cell_id, obstacle.position.cell_id)
-            single = path.single_precision
+            single = transition.settings.single_precision
             for placed in obstacle.placed_spheres(single):
                 if offset is not ZERO:
-                    c = placed.center
-                    if single:
-                        c = Vec3(to_single(offset.x + c.x), to_single(offset.y + c.y), to_single(offset.z + c.z))
-                    else:
-                        c = c + offset
-                    placed = Sphere(c, placed.radius)
+                    placed = Sphere(fl_add(offset, placed.center, single), placed.radius)
                 result = intersects_sphere(placed, transition, is_creature)
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)

@@ -29,9 +29,8 @@ from typing import Final, TYPE_CHECKING
 
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import Plane, Position, Sphere, Vec3
-from ..geometry.f32 import place_f32
+from ..geometry.precision import fl, fl_place
 from ..geometry.landdefs import get_block_offset
-from ..geometry.single import to_single
 from ..transition.slide import slide_sphere, slide_sphere_object
 from ..transition.state import OI, InsertType, TransitionState
 
@@ -74,13 +73,10 @@ def intersects_sphere_at(
     The sphere's centre is scaled, placed by `position` and expressed in the
     check position's landblock; its radius is scaled.
     """
-    path = transition.sphere_path
-    if path.single_precision:
-        center = place_f32(path.check_pos.cell_id, position, local_sphere.center, scale)
-        radius = to_single(to_single(local_sphere.radius) * to_single(scale))
-        return intersects_sphere(Sphere(center, radius), transition, is_creature)
-    center = path.check_pos.local_to_global_from(position, local_sphere.center * scale)
-    return intersects_sphere(Sphere(center, local_sphere.radius * scale), transition, is_creature)
+    s = transition.settings.single_precision
+    center = fl_place(transition.sphere_path.check_pos.cell_id, position, local_sphere.center, scale, s)
+    radius = fl(fl(local_sphere.radius, s) * fl(scale, s), s)
+    return intersects_sphere(Sphere(center, radius), transition, is_creature)
 
 
 def intersects_sphere(obstacle_sphere: Sphere, transition: Transition, is_creature: bool) -> int:

@@ -10,15 +10,17 @@ __all__ = ["TerrainTriangle"]
 class TerrainTriangle:
     """Three landblock-local vertices, counter-clockwise seen from above.
 
-    The plane is computed in single precision as the client's
-    LandblockStruct builds it (`Plane.from_points_f32`).
+    `plane` is computed in single precision as the client's LandblockStruct
+    builds it (`Plane.from_points`); `plane_at(False)` is the same plane in
+    double precision, computed when first asked for.
     """
 
-    __slots__ = ("vertices", "plane", "c0", "dx0", "dy0", "c1", "dx1", "dy1", "c2", "dx2", "dy2")
+    __slots__ = ("vertices", "plane", "_plane_double", "c0", "dx0", "dy0", "c1", "dx1", "dy1", "c2", "dx2", "dy2")
 
     def __init__(self, v0: Vec3, v1: Vec3, v2: Vec3) -> None:
         self.vertices = (v0, v1, v2)
-        self.plane = Plane.from_points_f32([v0, v1, v2])
+        self.plane = Plane.from_points([v0, v1, v2], True)
+        self._plane_double: Plane | None = None
         # The edges in the order point_in_poly_2d walks them (from the last
         # vertex back to the first), each as (c, dx, dy) with p on its left
         # when c + dx * p.y - dy * p.x <= 0. c is the part of that sum the
@@ -46,6 +48,17 @@ class TerrainTriangle:
         if self.c1 + self.dx1 * py - self.dy1 * px > 0.0:
             return False
         return not self.c2 + self.dx2 * py - self.dy2 * px > 0.0
+
+    def plane_at(self, single: bool) -> Plane:
+        """The triangle's plane at the working precision (`single`: the
+        client's float32 plane, else the double-precision plane of the same
+        float32 vertices)."""
+        if single:
+            return self.plane
+        p = self._plane_double
+        if p is None:
+            p = self._plane_double = Plane.from_points(list(self.vertices), False)
+        return p
 
     def height_at(self, x: float, y: float) -> float:
         h = self.plane.height_at(x, y)

@@ -45,8 +45,20 @@ class EngineSettings:
 
     - `single_precision`: compute in single precision what the client
       computes there and decides on (docs/divergences.md), and keep what a
-      move leaves behind in single precision. False: everything in double
-      precision, a little faster and further from the client.
+      move leaves behind in single precision. False: the same routines in
+      double precision (each rounds through engine.geometry.single.fl, the
+      one place this setting takes effect): positions, velocities, the
+      physics step, sub-step offsets, slides, the spheres of the path and
+      of obstacles, terrain triangle planes, the planes of cells and
+      objects carried into the landblock, contact planes. Single precision
+      either way: what the dat files hold as float32 (vertices, terrain
+      heights, BSP splitting planes, sphere and cylinder sizes, object
+      frames), and the planes of cell and object polygons, which the
+      client's make_plane computes from those vertices in float32 once,
+      when the data loads (loaded data serves Worlds of either setting,
+      and a World's settings can change after it loads). Further from the
+      client and about as fast: the same routines run, only the rounding
+      is skipped.
     - `step_length`: the longest sub-step, in radii of the mover's foot
       sphere (client: 1.0). Longer sub-steps are fewer and cheaper and can
       pass through geometry thinner than the step.

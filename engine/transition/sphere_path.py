@@ -6,9 +6,9 @@ from typing import TYPE_CHECKING
 
 from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
 
-from ..geometry.f32 import local_z_f32, rotate_f32, scale_f32, unrotate_f32, vec_f32
-from ..geometry.single import to_single
+from ..geometry.precision import fl, fl_add, fl_local_z, fl_rotate, fl_scale, fl_unrotate, fl_vec
 from ..geometry.landdefs import get_block_offset
+from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
 
@@ -71,7 +71,7 @@ class SpherePath:
         "neg_collision_normal",
         "neg_poly_hit",
         "placement_allows_sliding",
-        "single_precision",
+        "settings",
         "_lss_curr",
         "_lss_check",
         "_lss_sums",
@@ -119,8 +119,9 @@ class SpherePath:
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
         self.placement_allows_sliding = True
-        #: keep the check position and sphere caches in single precision (settings)
-        self.single_precision = True
+        #: the transition's settings (their single_precision: the precision
+        #: of the check position and the sphere caches)
+        self.settings: EngineSettings = RETAIL
         #: the sphere centres of curr_pos and check_pos in their landblock
         #: frame (float32), kept while those two positions stay the same
         self._lss_curr: Position | None = None
@@ -144,18 +145,14 @@ class SpherePath:
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         """Take at most two spheres (foot, head), scaled into the mover's frame."""
         self.num_sphere = min(len(spheres), 2)
-        if self.single_precision:
-            # the client's spheres and scale are floats, and so is their product
-            f = to_single(scale)
-            self.local_sphere = [
-                Sphere(scale_f32(vec_f32(s.center), f), to_single(to_single(s.radius) * f)) for s in spheres[: self.num_sphere]
-            ]
-            s0 = self.local_sphere[0]
-            self.local_low_point = Vec3(s0.center.x, s0.center.y, to_single(s0.center.z - s0.radius))
-        else:
-            self.local_sphere = [Sphere(s.center * scale, s.radius * scale) for s in spheres[: self.num_sphere]]
-            s0 = self.local_sphere[0]
-            self.local_low_point = Vec3(s0.center.x, s0.center.y, s0.center.z - s0.radius)
+        # the client's spheres and scale are floats, and so is their product
+        single = self.settings.single_precision
+        f = fl(scale, single)
+        self.local_sphere = [
+            Sphere(fl_scale(fl_vec(s.center, single), f, single), fl(fl(s.radius, single) * f, single)) for s in spheres[: self.num_sphere]
+        ]
+        s0 = self.local_sphere[0]
+        self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
         self._lss_curr = None
         self.global_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
         self.global_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
@@ -168,23 +165,12 @@ class SpherePath:
 
     def shift_check_pos(self, offset: Vec3) -> None:
         """Move the check position and its cached global spheres by `offset`,
-        keeping them at single precision as the client does."""
-        o = self.check_pos.frame.origin
-        ox = offset.x
-        oy = offset.y
-        oz = offset.z
-        if not self.single_precision:
-            for sphere in self.global_sphere:
-                sphere.center = sphere.center + offset
-            self.global_low_point = self.global_low_point + offset
-            self.check_pos = self.check_pos.with_origin(o + offset)
-            return
+        keeping them at the working precision (single, as the client does)."""
+        single = self.settings.single_precision
         for sphere in self.global_sphere:
-            c = sphere.center
-            sphere.center = Vec3(to_single(c.x + ox), to_single(c.y + oy), to_single(c.z + oz))
-        lp = self.global_low_point
-        self.global_low_point = Vec3(to_single(lp.x + ox), to_single(lp.y + oy), to_single(lp.z + oz))
-        self.check_pos = self.check_pos.with_origin(Vec3(to_single(o.x + ox), to_single(o.y + oy), to_single(o.z + oz)))
+            sphere.center = fl_add(sphere.center, offset, single)
+        self.global_low_point = fl_add(self.global_low_point, offset, single)
+        self.check_pos = self.check_pos.with_origin(fl_add(self.check_pos.frame.origin, offset, single))
 
     def adjust_check_pos(self, cell_id: int) -> None:
         """Re-home the check position into `cell_id` (an outdoor cell may be in
@@ -219,89 +205,69 @@ class SpherePath:
         frame = pos.frame
         for i in range(self.num_sphere):
             center = frame.local_to_global(self.local_sphere[i].center)
-            self.global_curr_center[i].center = vec_f32(center) if self.single_precision else center
+            self.global_curr_center[i].center = fl_vec(center, self.settings.single_precision)
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
-        single = self.single_precision
+        single = self.settings.single_precision
         if offset is not None:
             for s in self.global_sphere:
-                s.center = vec_f32(s.center + offset) if single else s.center + offset
-            low = self.global_low_point + offset
-            self.global_low_point = vec_f32(low) if single else low
+                s.center = fl_vec(s.center + offset, single)
+            self.global_low_point = fl_vec(self.global_low_point + offset, single)
             return
         frame = self.check_pos.frame
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             g.radius = self.local_sphere[i].radius
             center = frame.local_to_global(self.local_sphere[i].center)
-            g.center = vec_f32(center) if single else center
-        low = frame.local_to_global(self.local_low_point)
-        self.global_low_point = vec_f32(low) if single else low
+            g.center = fl_vec(center, single)
+        self.global_low_point = fl_vec(frame.local_to_global(self.local_low_point), single)
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),
-        divided by `scale` (SpherePath.CacheLocalSpaceSphere)."""
-        curr = self.curr_pos
-        check = self.check_pos
-        assert curr is not None
-        if self.single_precision:
-            self._cache_local_space_sphere_f32(pos, curr, check, scale)
-            return
-        inv = 1.0 / scale
-        for i in range(self.num_sphere):
-            local = self.local_sphere[i]
-            curr_center = pos.local_to_local(curr, local.center)
-            check_center = pos.local_to_local(check, local.center)
-            if inv != 1.0:  # (x * 1.0 is x exactly: unscaled cells and parts skip the copies)
-                curr_center = curr_center * inv
-                check_center = check_center * inv
-            self.local_space_curr_center[i].center = curr_center
-            ls = self.local_space_sphere[i]
-            ls.radius = local.radius * inv
-            ls.center = check_center
-        self.local_space_pos = pos
-        z = pos.global_to_local_vec(UNIT_Z)
-        self.local_space_z = z
+        divided by `scale` (SpherePath.CacheLocalSpaceSphere).
 
-    def _cache_local_space_sphere_f32(self, pos: Position, curr: Position, check: Position, scale: float) -> None:
-        """cache_local_space_sphere in the client's single precision: each
-        sphere centre carried into `pos`'s frame (Position.LocalToLocal: into
-        its landblock frame, across landblocks, then out of `pos`'s frame),
-        every sum and product rounded to float32. A floor found in that frame
-        is then landed on at the client's coordinates (a sphere resting on a
-        ramp sits a float32 step higher or lower otherwise).
+        At the working precision; in single precision as the client computes
+        it: each sphere centre carried into `pos`'s frame (Position.LocalToLocal:
+        into its landblock frame, across landblocks, then out of `pos`'s
+        frame), every sum and product rounded to float32. A floor found in
+        that frame is then landed on at the client's coordinates (a sphere
+        resting on a ramp sits a float32 step higher or lower otherwise).
 
         The centres in the landblock frame depend only on curr_pos and
         check_pos (positions are never changed in place, so they are known
         by identity); they are kept for the next cell of the same step."""
+        curr = self.curr_pos
+        check = self.check_pos
+        assert curr is not None
+        single = self.settings.single_precision
         if curr is not self._lss_curr or check is not self._lss_check or len(self._lss_sums) != self.num_sphere:
             sums = []
             for i in range(self.num_sphere):
-                c = _frame_point_f32(curr, self.local_sphere[i].center) if i == 0 else ZERO
-                k = _frame_point_f32(check, self.local_sphere[i].center)
+                c = _frame_point(curr, self.local_sphere[i].center, single) if i == 0 else ZERO
+                k = _frame_point(check, self.local_sphere[i].center, single)
                 sums.append((c.x, c.y, c.z, k.x, k.y, k.z))
             self._lss_sums = sums
             self._lss_curr = curr
             self._lss_check = check
-        inv = to_single(1.0 / scale)
+        inv = fl(1.0 / scale, single)
         q = pos.frame.orientation
         ident = q.x == 0.0 and q.y == 0.0 and q.z == 0.0
         for i in range(self.num_sphere):
             cx, cy, cz, kx, ky, kz = self._lss_sums[i]
-            k = _into_frame_f32(pos, check.cell_id, kx, ky, kz, inv)
+            k = _into_frame(pos, check.cell_id, kx, ky, kz, inv, single)
             ls = self.local_space_sphere[i]
             radius = self.local_sphere[i].radius
             if inv != 1.0:
-                radius = to_single(radius * inv)
+                radius = fl(radius * inv, single)
             ls.center = k
             ls.radius = radius
             if i == 0:
                 # only the foot sphere's current centre is ever read (the
                 # step's movement in BSPTREE::find_collisions)
-                self.local_space_curr_center[0].center = _into_frame_f32(pos, curr.cell_id, cx, cy, cz, inv)
+                self.local_space_curr_center[0].center = _into_frame(pos, curr.cell_id, cx, cy, cz, inv, single)
         self.local_space_pos = pos
-        self.local_space_z = UNIT_Z if ident else local_z_f32(q)
+        self.local_space_z = UNIT_Z if ident else fl_local_z(q, single)
 
     # -- walkable bookkeeping -----------------------------------------------
     def check_walkables(self) -> bool:
@@ -375,32 +341,30 @@ class SpherePath:
         return slide_sphere(transition, normal, self.global_curr_center[0].center)
 
 
-def _into_frame_f32(pos: Position, cell_id: int, x: float, y: float, z: float, inv: float) -> Vec3:
+def _into_frame(pos: Position, cell_id: int, x: float, y: float, z: float, inv: float, single: bool) -> Vec3:
     """A point of `cell_id`'s landblock frame carried into `pos`'s frame and
-    divided by the scale (`inv` = 1/scale), in float32 as LocalToLocal does:
+    divided by the scale (`inv` = 1/scale), rounded as LocalToLocal rounds:
     the block offset added (zero, and exact, within one landblock), the
     origin taken off, the rotation undone, then the scale."""
     if pos.cell_id >> 16 != cell_id >> 16:
         b = get_block_offset(pos.cell_id, cell_id)
-        x = to_single(b.x + x)
-        y = to_single(b.y + y)
-        z = to_single(b.z + z)
+        x = fl(b.x + x, single)
+        y = fl(b.y + y, single)
+        z = fl(b.z + z, single)
     o = pos.frame.origin
-    p = Vec3(to_single(x - o.x), to_single(y - o.y), to_single(z - o.z))
+    p = Vec3(fl(x - o.x, single), fl(y - o.y, single), fl(z - o.z, single))
     q = pos.frame.orientation
     if not (q.x == 0.0 and q.y == 0.0 and q.z == 0.0):
-        p = unrotate_f32(q, p)
+        p = fl_unrotate(q, p, single)
     if inv != 1.0:
-        p = scale_f32(p, inv)
+        p = fl_scale(p, inv, single)
     return p
 
 
-def _frame_point_f32(source: Position, point: Vec3) -> Vec3:
-    """`point` of `source`'s frame in its landblock frame, in single
-    precision (AFrame.LocalToGlobal)."""
+def _frame_point(source: Position, point: Vec3, single: bool) -> Vec3:
+    """`point` of `source`'s frame in its landblock frame (AFrame.LocalToGlobal)."""
     sq = source.frame.orientation
     o = source.frame.origin
     if sq.x == 0.0 and sq.y == 0.0 and sq.z == 0.0:
-        return Vec3(to_single(o.x + point.x), to_single(o.y + point.y), to_single(o.z + point.z))
-    r = rotate_f32(sq, point)
-    return Vec3(to_single(o.x + r.x), to_single(o.y + r.y), to_single(o.z + r.z))
+        return Vec3(fl(o.x + point.x, single), fl(o.y + point.y, single), fl(o.z + point.z, single))
+    return fl_add(o, fl_rotate(sq, point, single), single)

@@ -12,8 +12,7 @@ from typing import Final, TYPE_CHECKING
 
 from ..constants import LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import ZERO, Plane, Vec3
-from ..geometry.f32 import cross_f32, dot_f32, normalize_check_small_f32, scale_f32, sub_f32
-from ..geometry.single import to_single
+from ..geometry.precision import fl_add, fl_cross, fl_dot, fl_normalize_check_small, fl_scale, fl_sub
 from ..geometry.landdefs import get_block_offset
 from .state import OI, InsertType, TransitionState
 
@@ -125,39 +124,24 @@ def cliff_slide(t: Transition, contact_plane: Plane) -> int:
     last ground we stood on (Transition.CliffSlide)."""
     path = t.sphere_path
     ci = t.collision_info
-    single = path.single_precision
-    if single:
-        crease = cross_f32(contact_plane.normal, ci.last_known_contact_plane.normal)
-    else:
-        crease = contact_plane.normal.cross(ci.last_known_contact_plane.normal)
+    single = t.settings.single_precision
+    crease = fl_cross(contact_plane.normal, ci.last_known_contact_plane.normal, single)
     # the horizontal direction across the crease: (-cy, cx, 0) of the z-less crease
-    flat = Vec3(-crease.y, crease.x, 0.0)
-    collide_normal = normalize_check_small_f32(flat) if single else flat.normalized_or_none()
-    if collide_normal is None:
+    n = fl_normalize_check_small(Vec3(-crease.y, crease.x, 0.0), single)
+    if n is None:
         return _OK
     assert path.curr_pos is not None
     block_offset = get_block_offset(path.curr_pos.cell_id, path.check_pos.cell_id)
-    if single:
-        moved = sub_f32(path.global_sphere[0].center, path.global_curr_center[0].center)
-        if block_offset is not ZERO:
-            moved = Vec3(to_single(moved.x + block_offset.x), to_single(moved.y + block_offset.y), to_single(moved.z + block_offset.z))
-        n = collide_normal
-        angle = dot_f32(n.x, n.y, n.z, moved.x, moved.y, moved.z)
-        if angle <= 0.0:
-            path.add_offset_to_check_pos(scale_f32(n, angle))
-            ci.set_collision_normal(n)
-        else:
-            path.add_offset_to_check_pos(scale_f32(n, -angle))
-            ci.set_collision_normal(-n)
-        return TransitionState.ADJUSTED
-    moved = path.global_sphere[0].center - path.global_curr_center[0].center
-    angle = collide_normal.dot(moved + block_offset)
+    moved = fl_sub(path.global_sphere[0].center, path.global_curr_center[0].center, single)
+    if block_offset is not ZERO:
+        moved = fl_add(moved, block_offset, single)
+    angle = fl_dot(n.x, n.y, n.z, moved.x, moved.y, moved.z, single)
     if angle <= 0.0:
-        path.add_offset_to_check_pos(collide_normal * angle)
-        ci.set_collision_normal(collide_normal)
+        path.add_offset_to_check_pos(fl_scale(n, angle, single))
+        ci.set_collision_normal(n)
     else:
-        path.add_offset_to_check_pos(collide_normal * -angle)
-        ci.set_collision_normal(-collide_normal)
+        path.add_offset_to_check_pos(fl_scale(n, -angle, single))
+        ci.set_collision_normal(-n)
     return TransitionState.ADJUSTED
 
 

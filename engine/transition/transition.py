@@ -26,7 +26,7 @@ from ..cells.find_cell_list import find_cell_list
 from ..cells.obj_cell import ObjCell
 from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
-from ..geometry.f32 import cross_f32, dot_f32, f32, normalize_check_small_f32, plane_dist_f32, scale_f32, sub_f32
+from ..geometry.precision import fl, fl_cross, fl_dot, fl_normalize_check_small, fl_plane_dist, fl_scale, fl_sub
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
 from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
@@ -63,7 +63,7 @@ class Transition:
         self.settings = settings
         self.object_info = ObjectInfo()
         self.sphere_path = SpherePath()
-        self.sphere_path.single_precision = settings.single_precision
+        self.sphere_path.settings = settings
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)
         self.cell_array = CellArray(world)
 
@@ -119,10 +119,9 @@ class Transition:
         if not self.object_info.state & OI.IS_VIEWER:
             if step > 1.0:
                 num_steps = math.ceil(step)
-                if not self.settings.single_precision:
-                    return offset, offset * (1.0 / num_steps), num_steps
-                # offset * (1f / n) in single precision, as the client splits it
-                return offset, scale_f32(offset, f32(1.0 / num_steps)), num_steps
+                # offset * (1f / n), as the client splits it
+                single = self.settings.single_precision
+                return offset, fl_scale(offset, fl(1.0 / num_steps, single), single), num_steps
             if offset.x != 0.0 or offset.y != 0.0 or offset.z != 0.0:
                 return offset, offset, 1
             return offset, ZERO, 0
@@ -204,19 +203,18 @@ class Transition:
         """Bend a step along the contact plane and away from the sliding normal,
         and lift the sphere back above the contact plane (AdjustOffset).
 
-        Computed in single precision, as the client does: the lift puts a
-        resting sphere back on its plane every step, and its float64 value
-        rounds to a different float32 height often enough to decide the next
-        EPSILON test differently.
+        At the working precision; in single precision as the client computes
+        it: the lift puts a resting sphere back on its plane every step, and
+        its float64 value rounds to a different float32 height often enough
+        to decide the next EPSILON test differently.
         """
-        if not self.settings.single_precision:
-            return self._adjust_offset_double(offset)
+        single = self.settings.single_precision
         ci = self.collision_info
         check_slide = False
         sn = ci.sliding_normal
         sliding_angle = 0.0
         if ci.sliding_normal_valid:
-            sliding_angle = dot_f32(offset.x, offset.y, offset.z, sn.x, sn.y, sn.z)
+            sliding_angle = fl_dot(offset.x, offset.y, offset.z, sn.x, sn.y, sn.z, single)
             if sliding_angle < 0.0:
                 check_slide = True
             else:
@@ -224,20 +222,20 @@ class Transition:
 
         if not ci.contact_plane_valid:
             if check_slide:
-                offset = sub_f32(offset, scale_f32(sn, sliding_angle))
+                offset = fl_sub(offset, fl_scale(sn, sliding_angle, single), single)
             return offset
 
         plane = ci.contact_plane
         n = plane.normal
         if check_slide:
-            crease = normalize_check_small_f32(cross_f32(n, sn))
-            offset = ZERO if crease is None else scale_f32(crease, dot_f32(crease.x, crease.y, crease.z, offset.x, offset.y, offset.z))
+            crease = fl_normalize_check_small(fl_cross(n, sn, single), single)
+            offset = ZERO if crease is None else fl_scale(crease, fl_dot(crease.x, crease.y, crease.z, offset.x, offset.y, offset.z, single), single)
         else:
-            collision_angle = dot_f32(offset.x, offset.y, offset.z, n.x, n.y, n.z)
+            collision_angle = fl_dot(offset.x, offset.y, offset.z, n.x, n.y, n.z, single)
             if collision_angle <= 0.0:
-                offset = sub_f32(offset, scale_f32(n, collision_angle))
+                offset = fl_sub(offset, fl_scale(n, collision_angle, single), single)
             else:
-                offset = plane.snap_to_plane(offset)
+                offset = plane.snap_to_plane(offset, single)
 
         if ci.contact_plane_cell_id == 0 or ci.contact_plane_is_water:
             return offset
@@ -245,51 +243,11 @@ class Transition:
         path = self.sphere_path
         g = path.global_sphere[0]
         block_offset = get_block_offset(path.check_pos.cell_id, ci.contact_plane_cell_id)
-        c = g.center if block_offset is ZERO else sub_f32(g.center, block_offset)
-        dist = plane_dist_f32(c.x, c.y, c.z, plane)
-        if dist >= f32(g.radius - EPSILON):
+        c = g.center if block_offset is ZERO else fl_sub(g.center, block_offset, single)
+        dist = fl_plane_dist(c.x, c.y, c.z, plane, single)
+        if dist >= fl(g.radius - EPSILON, single):
             return offset
-        z_dist = f32(f32(g.radius - dist) / n.z)
-        if g.radius > abs(z_dist):
-            path.add_offset_to_check_pos(Vec3(0.0, 0.0, z_dist))
-        return offset
-
-    def _adjust_offset_double(self, offset: Vec3) -> Vec3:
-        """AdjustOffset in double precision (settings.single_precision off)."""
-        ci = self.collision_info
-        check_slide = False
-        sliding_angle = offset.dot(ci.sliding_normal)
-        if ci.sliding_normal_valid:
-            if sliding_angle < 0.0:
-                check_slide = True
-            else:
-                ci.sliding_normal_valid = False
-
-        if not ci.contact_plane_valid:
-            if check_slide:
-                offset = offset - ci.sliding_normal * sliding_angle
-            return offset
-
-        plane = ci.contact_plane
-        collision_angle = offset.dot(plane.normal)
-        if check_slide:
-            crease = plane.normal.cross(ci.sliding_normal).normalized_or_none()
-            offset = ZERO if crease is None else crease * crease.dot(offset)
-        elif collision_angle <= 0.0:
-            offset = offset - plane.normal * collision_angle
-        else:
-            offset = plane.snap_to_plane_double(offset)
-
-        if ci.contact_plane_cell_id == 0 or ci.contact_plane_is_water:
-            return offset
-
-        path = self.sphere_path
-        g = path.global_sphere[0]
-        block_offset = get_block_offset(path.check_pos.cell_id, ci.contact_plane_cell_id)
-        dist = (g.center - block_offset).dot(plane.normal) + plane.d
-        if dist >= g.radius - EPSILON:
-            return offset
-        z_dist = (g.radius - dist) / plane.normal.z
+        z_dist = fl(fl(g.radius - dist, single) / n.z, single)
         if g.radius > abs(z_dist):
             path.add_offset_to_check_pos(Vec3(0.0, 0.0, z_dist))
         return offset

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Final
 
 from ..constants import EPSILON
 from ..geometry import Plane, Sphere, Vec3
-from ..geometry.f32 import f32, plane_dist_f32
+from ..geometry.precision import fl, fl_plane_dist
 from .object_info import is_valid_walkable
 from .state import OI, TransitionState
 
@@ -72,18 +72,18 @@ def validate_walkable(
         ci.collided_with_environment = True
         return TransitionState.ADJUSTED
 
-    # In single precision, as the client computes it: a resting sphere's low
-    # point sits within rounding (~1e-5 m at these coordinates) of the
-    # EPSILON band, so the float64 value can fall on the other side of it.
+    # At the working precision; in single precision as the client computes
+    # it: a resting sphere's low point sits within rounding (~1e-5 m at these
+    # coordinates) of the EPSILON band, so the float64 value can fall on the
+    # other side of it.
     c = check_sphere.center
     low_z = c.z - check_sphere.radius
-    dist = c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth
-    if t.settings.single_precision:
-        if dist > _CLEAR:
-            return TransitionState.OK  # far above the band: float32 rounding cannot matter
-        dist = plane_dist_f32(c.x, c.y, f32(low_z), plane)
-        if water_depth != 0.0:
-            dist = f32(dist + f32(water_depth))
+    if c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth > _CLEAR:
+        return TransitionState.OK  # far above the band: rounding cannot matter
+    single = t.settings.single_precision
+    dist = fl_plane_dist(c.x, c.y, fl(low_z, single), plane, single)
+    if water_depth != 0.0:
+        dist = fl(dist + fl(water_depth, single), single)
     if dist >= -EPSILON:
         if dist > EPSILON:
             return TransitionState.OK
@@ -97,7 +97,7 @@ def validate_walkable(
 
     if path.check_walkable:
         return TransitionState.COLLIDED
-    z_dist = f32(dist / normal.z) if t.settings.single_precision else dist / normal.z
+    z_dist = fl(dist / normal.z, single)
     if path.step_down or not state & OI.ON_WALKABLE or is_valid_walkable(normal):
         ci.set_contact_plane(plane, is_water)
         ci.contact_plane_cell_id = cell_id

@@ -26,11 +26,10 @@ from ..constants import (
     SMALL_VELOCITY_SQ,
 )
 from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
-from ..geometry.f32 import dot_f32, plane_f32, rotate_f32, scale_f32, sub_f32, vec_f32
+from ..geometry.precision import fl, fl_dot, fl_plane, fl_rotate, fl_scale, fl_sub, fl_vec
 from ..geometry.quaternion import Quat
-from ..geometry.single import to_single
 from ..transition.object_info import ObjectInfo
-from ..transition.settings import EngineSettings
+from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from ..transition.transition import Transition
 from .transient import TS
@@ -44,9 +43,6 @@ if TYPE_CHECKING:
 
 
 __all__ = ["Mover"]
-
-#: the client's EPSILON as the float32 it compares with
-_EPSILON_F32: Final = to_single(EPSILON)
 
 DEFAULT_ELASTICITY: Final = 0.05
 
@@ -244,14 +240,14 @@ class Mover:
         prev_on_walkable = bool(self.transient & TS.ON_WALKABLE)
         prev_contact = bool(self.transient & TS.CONTACT)
         assert path.curr_pos is not None
-        # what the object keeps, it keeps in the client's single precision
+        # what the object keeps, it keeps at the working precision (the client's: single)
         cur = path.curr_pos
         single = t.settings.single_precision
-        self.position = Position(cur.cell_id, cur.frame.with_origin(vec_f32(cur.frame.origin)) if single else cur.frame)
+        self.position = Position(cur.cell_id, cur.frame.with_origin(fl_vec(cur.frame.origin, single)))
         self.cell = path.curr_cell
 
         self.contact_plane_cell_id = ci.contact_plane_cell_id
-        self.contact_plane = plane_f32(ci.contact_plane) if single else ci.contact_plane
+        self.contact_plane = fl_plane(ci.contact_plane, single)
         if ci.contact_plane_valid:
             self.transient |= TS.CONTACT
         else:
@@ -271,7 +267,7 @@ class Mover:
             self.transient &= ~TS.ON_WALKABLE
         self.calc_acceleration(sled_gravity)
 
-        self.sliding_normal = vec_f32(ci.sliding_normal) if single else ci.sliding_normal
+        self.sliding_normal = fl_vec(ci.sliding_normal, single)
         if ci.sliding_normal_valid:
             self.transient |= TS.SLIDING
         else:
@@ -314,19 +310,15 @@ class Mover:
 
     def _bounce(self, normal: Vec3, single: bool) -> Vec3:
         """The velocity after an elastic bounce off `normal` (the collision
-        response of PhysicsObj.handle_all_collisions); with `single` in the
-        client's single precision, the normal being the float32 it keeps."""
+        response of PhysicsObj.handle_all_collisions), at the working
+        precision (`single`: the client's, the normal being the float32 it
+        keeps)."""
         v = self.velocity
-        if not single:
-            angle = v.dot(normal)
-            if angle < 0.0:
-                return v + normal * -(angle * (self.elasticity + 1.0))
-            return v
-        n = vec_f32(normal)
-        angle = dot_f32(v.x, v.y, v.z, n.x, n.y, n.z)
+        n = fl_vec(normal, single)
+        angle = fl_dot(v.x, v.y, v.z, n.x, n.y, n.z, single)
         if angle < 0.0:
-            push = -to_single(angle * to_single(to_single(self.elasticity) + 1.0))
-            return Vec3(to_single(v.x + to_single(n.x * push)), to_single(v.y + to_single(n.y * push)), to_single(v.z + to_single(n.z * push)))
+            push = -fl(angle * fl(fl(self.elasticity, single) + 1.0, single), single)
+            return Vec3(fl(v.x + fl(n.x * push, single), single), fl(v.y + fl(n.y * push, single), single), fl(v.z + fl(n.z * push, single), single))
         return v
 
     def report_environment_collision(self) -> None:
@@ -337,67 +329,67 @@ class Mover:
         self.missile = False
 
     # -- the physics step (UpdatePositionInternal / UpdatePhysicsInternal) -------
-    def integrate(self, motion: Vec3, dt: float, single: bool = True, settings: EngineSettings | None = None) -> Frame:
+    def integrate(self, motion: Vec3, dt: float, settings: EngineSettings = RETAIL) -> Frame:
         """Where this object wants to be after `dt`: its own motion `motion`
         (metres in the object frame, already scaled to the object's size, as
         the client's animation offset is; applied only on walkable ground),
         plus velocity and gravity, with friction on the ground and the speed
         clamp (PhysicsObj.UpdatePositionInternal / UpdatePhysicsInternal).
 
-        With `single` (the reference's setting) every step is done in the
-        client's single precision, in the order its expressions evaluate:
-        the motion rotated and added to the origin (AFrame.Combine), the
-        movement `a * 0.5 * q * q + v * q` added to that, the velocity
-        updated by `a * q`, with `q` the time step as a float32.
+        At the working precision (`settings.single_precision`); in single
+        precision every step is done as the client does it, in the order its
+        expressions evaluate: the motion rotated and added to the origin
+        (AFrame.Combine), the movement `a * 0.5 * q * q + v * q` added to
+        that, the velocity updated by `a * q`, with `q` the time step as a
+        float32.
 
-        `settings` choose the sledding friction rule (the client's unless
-        given with `sled_slope_friction` off)."""
-        sled_slope = settings.sled_slope_friction if settings is not None else True
-        if not single:
-            return self._integrate_f64(motion, dt, sled_slope)
+        `settings` also choose the sledding friction rule (the client's
+        unless `sled_slope_friction` is off)."""
+        s = settings.single_precision
+        sled_slope = settings.sled_slope_friction
         frame = self.position.frame
         o = frame.origin
         if self.transient & TS.ON_WALKABLE:
-            local = rotate_f32(frame.orientation, motion)
-            x = to_single(o.x + local.x)
-            y = to_single(o.y + local.y)
-            z = to_single(o.z + local.z)
+            local = fl_rotate(frame.orientation, motion, s)
+            x = fl(o.x + local.x, s)
+            y = fl(o.y + local.y, s)
+            z = fl(o.z + local.z, s)
         else:
             # the offset is scaled by zero: the origin plus a zero vector
             x = o.x
             y = o.y
             z = o.z
-        q = to_single(dt)
+        q = fl(dt, s)
         a = self.acceleration
         v = self.velocity
-        v2 = dot_f32(v.x, v.y, v.z, v.x, v.y, v.z)
+        v2 = fl_dot(v.x, v.y, v.z, v.x, v.y, v.z, s)
         if v2 > 0.0:
             if v2 > MAX_VELOCITY_SQ:
-                length = to_single(math.sqrt(v2))
-                v = scale_f32(Vec3(to_single(v.x / length), to_single(v.y / length), to_single(v.z / length)), MAX_VELOCITY)
+                length = fl(math.sqrt(v2), s)
+                v = fl_scale(Vec3(fl(v.x / length, s), fl(v.y / length, s), fl(v.z / length, s)), MAX_VELOCITY, s)
                 v2 = MAX_VELOCITY_SQ
-            v = self._friction_f32(v, q, v2, sled_slope)
-            if to_single(v2 - SMALL_VELOCITY_SQ) < _EPSILON_F32:
+            v = self._friction(v, q, v2, sled_slope, s)
+            if fl(v2 - SMALL_VELOCITY_SQ, s) < fl(EPSILON, s):
                 v = ZERO
             # Acceleration * 0.5f * quantum * quantum + Velocity * quantum
-            x = to_single(x + to_single(to_single(to_single(to_single(a.x * 0.5) * q) * q) + to_single(v.x * q)))
-            y = to_single(y + to_single(to_single(to_single(to_single(a.y * 0.5) * q) * q) + to_single(v.y * q)))
-            z = to_single(z + to_single(to_single(to_single(to_single(a.z * 0.5) * q) * q) + to_single(v.z * q)))
-        self.velocity = Vec3(to_single(v.x + to_single(a.x * q)), to_single(v.y + to_single(a.y * q)), to_single(v.z + to_single(a.z * q)))
+            x = fl(x + fl(fl(fl(fl(a.x * 0.5, s) * q, s) * q, s) + fl(v.x * q, s), s), s)
+            y = fl(y + fl(fl(fl(fl(a.y * 0.5, s) * q, s) * q, s) + fl(v.y * q, s), s), s)
+            z = fl(z + fl(fl(fl(fl(a.z * 0.5, s) * q, s) * q, s) + fl(v.z * q, s), s), s)
+        self.velocity = Vec3(fl(v.x + fl(a.x * q, s), s), fl(v.y + fl(a.y * q, s), s), fl(v.z + fl(a.z * q, s), s))
         return frame.with_origin(Vec3(x, y, z))
 
-    def _friction_f32(self, v: Vec3, q: float, speed_sq: float, sled_slope: bool) -> Vec3:
-        """Ground friction in single precision (PhysicsObj.calc_friction)."""
+    def _friction(self, v: Vec3, q: float, speed_sq: float, sled_slope: bool, s: bool) -> Vec3:
+        """Ground friction at the working precision (PhysicsObj.calc_friction)."""
         if not self.transient & TS.ON_WALKABLE:
             return v
         n = self.contact_plane.normal
-        angle = dot_f32(v.x, v.y, v.z, n.x, n.y, n.z)
+        angle = fl_dot(v.x, v.y, v.z, n.x, n.y, n.z, s)
         if angle >= 0.25:
             return v
-        v = sub_f32(v, scale_f32(n, angle))
+        v = fl_sub(v, fl_scale(n, angle, s), s)
         friction = self.ground_friction(speed_sq, sled_slope)
-        scalar = to_single(math.pow(to_single(1.0 - to_single(friction)), q))
-        return scale_f32(v, scalar)
+        scalar = fl(math.pow(fl(1.0 - fl(friction, s), s), q), s)
+        return fl_scale(v, scalar, s)
 
     def ground_friction(self, speed_sq: float, sled_slope: bool) -> float:
         """The friction coefficient calc_friction applies on the ground, for a
@@ -414,40 +406,6 @@ class Mover:
             if (nz < SLED_SLOPE_NORMAL_Z) if sled_slope else (nz > ACE_SLED_FLAT_NORMAL_Z):
                 return SLED_SLOPE_FRICTION
         return self.friction
-
-    def _integrate_f64(self, motion: Vec3, dt: float, sled_slope: bool) -> Frame:
-        """The physics step in double precision (settings without single precision)."""
-        if self.transient & TS.ON_WALKABLE:
-            local = motion
-        else:
-            local = ZERO
-        frame = self.position.frame
-        origin = frame.local_to_global(local)
-
-        v = self.velocity
-        v2 = v.length_sq()
-        if v2 > 0.0:
-            if v2 > MAX_VELOCITY_SQ:
-                v = v * (MAX_VELOCITY / math.sqrt(v2))
-                v2 = MAX_VELOCITY_SQ
-            v = self._friction(v, dt, v2, sled_slope)
-            if v2 - SMALL_VELOCITY_SQ < EPSILON:
-                v = ZERO
-            a = self.acceleration
-            origin = origin + a * (0.5 * dt * dt) + v * dt
-        self.velocity = v + self.acceleration * dt
-        return frame.with_origin(origin)
-
-    def _friction(self, v: Vec3, dt: float, speed_sq: float, sled_slope: bool) -> Vec3:
-        """Ground friction (PhysicsObj.calc_friction)."""
-        if not self.transient & TS.ON_WALKABLE:
-            return v
-        n = self.contact_plane.normal
-        angle = v.dot(n)
-        if angle >= 0.25:
-            return v
-        v = v - n * angle
-        return v * math.pow(1.0 - self.ground_friction(speed_sq, sled_slope), dt)
 
     def orientation(self) -> Quat:
         return self.position.frame.orientation

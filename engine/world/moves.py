@@ -90,5 +90,5 @@ def _spend(landscape: Landscape, mover: Mover, motion: Vec3, dt: float) -> MoveR
 def _physics_step(landscape: Landscape, settings: EngineSettings, mover: Mover, motion: Vec3,
                   quantum: float) -> MoveResult:
     """One physics step of `quantum` seconds (UpdateObjectInternal)."""
-    frame = mover.integrate(motion, quantum, settings.single_precision, settings)
+    frame = mover.integrate(motion, quantum, settings)
     return move_mover(landscape, mover, Position(mover.position.cell_id, frame))

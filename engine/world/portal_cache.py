@@ -14,7 +14,8 @@ from collections.abc import Mapping
 from ..cells.cell_struct import CellStruct
 from ..errors import SceneFormatError
 from ..geometry import Frame, Position, Quat, Vec3
-from ..geometry.f32 import f32, vec_f32
+from ..geometry.precision import fl_vec
+from ..geometry.single import to_single
 from ..objects.gfx_obj import GfxObj, PhysicsPart
 
 __all__ = ["PortalCache", "frame_from_dict", "hex_id"]
@@ -25,8 +26,8 @@ def frame_from_dict(d: Mapping[str, Any]) -> Frame:
     o = d.get("origin", [0.0, 0.0, 0.0])
     q = d.get("orientation", [1.0, 0.0, 0.0, 0.0])
     return Frame(
-        vec_f32(Vec3(float(o[0]), float(o[1]), float(o[2]))),
-        Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3]))),
+        fl_vec(Vec3(float(o[0]), float(o[1]), float(o[2])), True),
+        Quat(to_single(float(q[0])), to_single(float(q[1])), to_single(float(q[2])), to_single(float(q[3]))),
     )
 
 
