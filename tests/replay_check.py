@@ -14,6 +14,7 @@ compared exactly, type included (True is not 1).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 #: a position's origin, metres (a float32 step at 200 m is 1.5e-5 m)
@@ -22,6 +23,22 @@ POS_TOL = 1e-4
 NORMAL_TOL = 1e-5
 #: a contact plane's d, metres
 PLANE_D_TOL = 1e-5
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """How close a replayed origin, normal and plane d must be to the reference's."""
+
+    position: float = POS_TOL
+    normal: float = NORMAL_TOL
+    plane_d: float = PLANE_D_TOL
+
+
+#: the engine's own setting (single precision, as the reference computes)
+REFERENCE = Tolerances()
+#: `single_precision=False`: double arithmetic against a float32 reference differs by up to a few
+#: float32 steps compounded over a case (p99 1.7e-4 m, tests/test_double_precision_replay.py)
+DOUBLE_PRECISION = Tolerances(position=1e-3, normal=1e-3, plane_d=1e-3)
 
 #: the keys compared within tolerances; every other key (and every other
 #: field of a position or plane) must be equal exactly
@@ -63,22 +80,22 @@ def _dict_close(e: dict[str, Any], g: Any, tolerances: dict[str, float]) -> bool
     return True
 
 
-def field_agrees(key: str, e: Any, g: Any) -> bool:
+def field_agrees(key: str, e: Any, g: Any, tol: Tolerances = REFERENCE) -> bool:
     """Does the replayed value `g` of the `expect` field `key` agree with the reference's `e`?"""
     if e is None or g is None:
         return e is None and g is None  # `null` means "not valid": both or neither
     if key == _POSITION:
-        return _dict_close(e, g, {"origin": POS_TOL})
+        return _dict_close(e, g, {"origin": tol.position})
     if key == _PLANE:
-        return _dict_close(e, g, {"normal": NORMAL_TOL, "d": PLANE_D_TOL})
+        return _dict_close(e, g, {"normal": tol.normal, "d": tol.plane_d})
     if key in _NORMALS:
-        return _close(e, g, NORMAL_TOL)
+        return _close(e, g, tol.normal)
     return exactly(e, g)
 
 
-def move_mismatches(expect: dict[str, Any], got: dict[str, Any]) -> list[str]:
+def move_mismatches(expect: dict[str, Any], got: dict[str, Any], tol: Tolerances = REFERENCE) -> list[str]:
     """Keys of `expect` on which `got` disagrees (or that `got` lacks)."""
-    return [key for key, e in expect.items() if key not in got or not field_agrees(key, e, got[key])]
+    return [key for key, e in expect.items() if key not in got or not field_agrees(key, e, got[key], tol)]
 
 
 def _ended_by_failed_placement(moves: list[dict[str, Any]], n_results: int) -> bool:
@@ -89,27 +106,27 @@ def _ended_by_failed_placement(moves: list[dict[str, Any]], n_results: int) -> b
     return bool(last.get("placement")) and last["expect"].get("placement_result", "OK") != "OK"
 
 
-def first_mismatch(case: dict[str, Any], results: list[dict[str, Any]]) -> str | None:
+def first_mismatch(case: dict[str, Any], results: list[dict[str, Any]], tol: Tolerances = REFERENCE) -> str | None:
     """A readable description of the first disagreeing move, or None."""
     moves = case["moves"]
     if len(results) != len(moves) and not _ended_by_failed_placement(moves, len(results)):
         return f"{len(results)} results for {len(moves)} moves"
     for i, (move, got) in enumerate(zip(moves, results)):
-        bad = move_mismatches(move["expect"], got)
+        bad = move_mismatches(move["expect"], got, tol)
         if bad:
             detail = "; ".join(f"{k}: expected {move['expect'][k]!r}, got {got.get(k)!r}" for k in bad)
             return f"move {i}: {detail}"
     return None
 
 
-def case_mismatch(case: dict[str, Any], results: Any) -> str | None:
+def case_mismatch(case: dict[str, Any], results: Any, tol: Tolerances = REFERENCE) -> str | None:
     """`first_mismatch` for a single-mover case, or for every mover of a
     `movers` case (results by mover id): None when all agree."""
     if "movers" not in case:
-        return first_mismatch(case, results)
+        return first_mismatch(case, results, tol)
     if not isinstance(results, dict) or set(results) != {m["id"] for m in case["movers"]}:
         return f"results for movers {sorted(results) if isinstance(results, dict) else results!r}"
     problems = [
-        f"mover {m['id']}: {p}" for m in case["movers"] if (p := first_mismatch(m, results[m["id"]])) is not None
+        f"mover {m['id']}: {p}" for m in case["movers"] if (p := first_mismatch(m, results[m["id"]], tol)) is not None
     ]
     return "; ".join(problems) or None
