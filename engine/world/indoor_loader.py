@@ -14,22 +14,11 @@ from ..cells.building import BldPortal, BuildingObj
 from ..cells.cell_struct import CellStruct
 from ..cells.env_cell import CellPortal, EnvCell
 from ..errors import SceneFormatError
-from ..geometry import Frame, Position, Quat, Vec3
-from ..geometry.f32 import f32, vec_f32
+from ..geometry import Position
 from ..geometry.landdefs import outdoor_cell_id
-from ..objects.gfx_obj import GfxObj, PhysicsPart
+from ..objects.setup import ModelLibrary, frame_from_dict
 
-__all__ = ["PortalCache", "attach_indoor", "frame_from_dict"]
-
-
-def frame_from_dict(d: Mapping[str, Any]) -> Frame:
-    """A scene frame, at the single precision the dats (and the client) hold it."""
-    o = d.get("origin", [0.0, 0.0, 0.0])
-    q = d.get("orientation", [1.0, 0.0, 0.0, 0.0])
-    return Frame(
-        vec_f32(Vec3(float(o[0]), float(o[1]), float(o[2]))),
-        Quat(f32(float(q[0])), f32(float(q[1])), f32(float(q[2])), f32(float(q[3]))),
-    )
+__all__ = ["PortalCache", "attach_indoor"]
 
 
 def _hex(text: Any, what: str) -> int:
@@ -39,13 +28,13 @@ def _hex(text: Any, what: str) -> int:
         raise SceneFormatError(f"{what}: expected a hex string, got {text!r}") from None
 
 
-class PortalCache:
-    """Portal-dat objects of one world, built on first use."""
+class PortalCache(ModelLibrary):
+    """Portal-dat objects of one world, built on first use: the models
+    (Setups, GfxObjs) and the Environments' CellStructs."""
 
     def __init__(self, scene: Mapping[str, Any]) -> None:
-        self.scene = scene
+        super().__init__(scene)
         self._cell_structs: dict[tuple[int, int], CellStruct] = {}
-        self._gfx: dict[int, GfxObj] = {}
 
     def cell_struct(self, env_id: int, index: int) -> CellStruct:
         key = (env_id, index)
@@ -59,45 +48,6 @@ class PortalCache:
                 raise SceneFormatError(f"environment {env_id:08X} has no cell struct {index}")
             cs = self._cell_structs[key] = CellStruct.from_dict(d)
         return cs
-
-    def gfx_obj(self, gfx_id: int) -> GfxObj:
-        g = self._gfx.get(gfx_id)
-        if g is None:
-            d = self.scene.get("gfx_objs", {}).get(f"{gfx_id:08X}")
-            if d is None:
-                raise SceneFormatError(f"GfxObj {gfx_id:08X} is not in the scene")
-            g = self._gfx[gfx_id] = GfxObj.from_dict(gfx_id, d)
-        return g
-
-    def setup(self, setup_id: int) -> Mapping[str, Any]:
-        d = self.scene.get("setups", {}).get(f"{setup_id:08X}")
-        if d is None:
-            raise SceneFormatError(f"Setup {setup_id:08X} is not in the scene")
-        return d
-
-    def parts_of(self, model_id: int, frame: Frame, cell_id: int, scale: float = 1.0) -> list[PhysicsPart]:
-        """The placed parts of a GfxObj or Setup model (PartArray with placement
-        frames: Resting 0x65 if present, else Default 0; a lone part without a
-        placement frame takes the object's frame)."""
-        if model_id >> 24 == 0x01:
-            return [PhysicsPart(self.gfx_obj(model_id), Position(cell_id, frame), scale)]
-        setup = self.setup(model_id)
-        placements = setup.get("placement_frames", {})
-        placement = placements.get(str(0x65)) or placements.get("0")
-        frames = placement.get("frames", []) if placement else []
-        scales = setup.get("default_scale")
-        parts = []
-        for i, part_text in enumerate(setup.get("parts", [])):
-            gfx = self.gfx_obj(_hex(part_text, "setup part"))
-            sz = float(scales[i][2]) if scales and i < len(scales) else 1.0
-            if i < len(frames):
-                child = frame_from_dict(frames[i])
-                # AFrame.Combine with the object's scale on the placement offset
-                part_frame = Frame(frame.local_to_global(child.origin * scale), frame.orientation * child.orientation)
-            else:
-                part_frame = frame
-            parts.append(PhysicsPart(gfx, Position(cell_id, part_frame), sz * scale))
-        return parts
 
 
 def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str, Any], cache: PortalCache | None = None) -> None:
@@ -143,7 +93,7 @@ def attach_indoor(landblock: Any, lb_data: Mapping[str, Any], scene: Mapping[str
         model_id = _hex(b.get("model_id"), "building model_id")
         frame = frame_from_dict(b.get("frame", {}))
         cell_id = outdoor_cell_id(landblock.id, frame.origin.x, frame.origin.y)
-        parts = cache.parts_of(model_id, frame, cell_id)
+        parts = cache.parts(model_id, Position(cell_id, frame))
         doors = [
             BldPortal(
                 int(p.get("flags", 0)),
