@@ -20,6 +20,7 @@ reads them (`frame_from_dict`, used for every frame of a scene).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Final
 from collections.abc import Mapping
 
@@ -64,46 +65,22 @@ def _hex_id(text: Any, what: str = "model id") -> int:
         raise SceneFormatError(f"{what}: expected a hex string, got {text!r}") from None
 
 
+@dataclass(slots=True, eq=False)
 class Setup:
     """What a model gives the physics (the physics half of the client's
     CSetup): spheres, cylspheres, its parts' GfxObjs with their placement
     frames (None: the object's frame) and default scales, and its step
     heights, height and radius."""
 
-    __slots__ = (
-        "spheres",
-        "cyl_spheres",
-        "part_gfx",
-        "placement_frames",
-        "default_scales",
-        "step_up_height",
-        "step_down_height",
-        "height",
-        "radius",
-    )
-
-    def __init__(
-        self,
-        spheres: list[Sphere],
-        cyl_spheres: list[CylSphere],
-        part_gfx: list[GfxObj],
-        placement_frames: list[Frame | None],
-        default_scales: list[Vec3],
-        *,
-        step_up_height: float = 0.0,
-        step_down_height: float = 0.0,
-        height: float = 0.0,
-        radius: float = 0.0,
-    ) -> None:
-        self.spheres = spheres
-        self.cyl_spheres = cyl_spheres
-        self.part_gfx = part_gfx
-        self.placement_frames = placement_frames
-        self.default_scales = default_scales
-        self.step_up_height = step_up_height
-        self.step_down_height = step_down_height
-        self.height = height
-        self.radius = radius
+    spheres: list[Sphere]
+    cyl_spheres: list[CylSphere]
+    part_gfx: list[GfxObj]
+    placement_frames: list[Frame | None]
+    default_scales: list[Vec3]
+    step_up_height: float = 0.0
+    step_down_height: float = 0.0
+    height: float = 0.0
+    radius: float = 0.0
 
     @classmethod
     def simple(cls, gfx: GfxObj) -> Setup:
