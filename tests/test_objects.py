@@ -18,7 +18,8 @@ from engine.constants import EPSILON
 from engine.geometry import Frame, Quat, Sphere
 from engine.objects.cylsphere_collision import CylSphere
 from engine.objects.obstacle import MoverObstacle, Obstacle
-from engine.objects.setup import ModelLibrary, PhysicsGfx
+from engine.objects.gfx_obj import GfxObj
+from engine.objects.setup import ModelLibrary
 from engine.objects.sphere_collision import collides_with_sphere, find_time_of_collision
 from engine.transition.state import OI
 from scenes import PLAYER, world_from_heights
@@ -395,17 +396,17 @@ def library() -> ModelLibrary:
 
 
 def test_setup_shapes_follow_the_scene(library: ModelLibrary) -> None:
-    pillar = library.shape("02000001")
+    pillar = library.setup("02000001")
     assert pillar is not None and not pillar.has_physics_bsp and not pillar.spheres
     (cyl,) = pillar.cyl_spheres
     assert (cyl.low_point, cyl.radius, cyl.height) == (Vec3(0.0, 0.0, 0.0), 0.59375, 4.0)
-    cluster = library.shape("02000005")
+    cluster = library.setup("02000005")
     assert cluster is not None and len(cluster.spheres) == 3 and cluster.spheres[2].radius == 0.5
-    box = library.shape("01000003")  # a bare GfxObj: one part at the object's frame
-    assert box is not None and box.has_physics_bsp and box.parts[0][1] is None
-    gfx = box.parts[0][0]
-    assert isinstance(gfx, PhysicsGfx) and gfx.physics_sphere.radius == pytest.approx(3.6243)
-    assert library.shape("01000003") is box  # built once
+    box = library.setup("01000003")  # a bare GfxObj: one part at the object's frame
+    assert box is not None and box.has_physics_bsp and box.placement_frames == [None]
+    (gfx,) = box.part_gfx
+    assert isinstance(gfx, GfxObj) and gfx.physics_sphere is not None and gfx.physics_sphere.radius == pytest.approx(3.6243)
+    assert library.setup("01000003") is box  # built once
 
 
 def test_setup_placement_frame_resting_then_default_and_default_scale() -> None:
@@ -420,15 +421,20 @@ def test_setup_placement_frame_resting_then_default_and_default_scale() -> None:
         },
     }
     lib = ModelLibrary(scene)
-    s9 = lib.shape("02000009")
-    assert s9 is not None and s9.parts[0][1].origin == Vec3(0.0, 2.0, 0.0) and s9.parts[0][2] == Vec3(2.0, 2.0, 3.0)
-    sa = lib.shape("0200000A")
-    assert sa is not None and sa.parts[0][1].origin == Vec3(1.0, 0.0, 0.0) and sa.parts[0][2] == Vec3(1.0, 1.0, 1.0)
-    assert lib.shape("0200000B") is None
+    s9 = lib.setup("02000009")
+    assert s9 is not None and s9.placement_frames[0].origin == Vec3(0.0, 2.0, 0.0) and s9.default_scales[0] == Vec3(2.0, 2.0, 3.0)
+    sa = lib.setup("0200000A")
+    assert sa is not None and sa.placement_frames[0].origin == Vec3(1.0, 0.0, 0.0) and sa.default_scales[0] == Vec3(1.0, 1.0, 1.0)
+    assert lib.setup("0200000B") is None
     assert lib.obstacle("0200000B", Position.at(cell_at(1.0, 1.0), Vec3(1.0, 1.0, 0.0))) is None
     # a part's place follows the object: frame combined, offset scaled by the object's scale
-    ob = sa.make_obstacle(0, Position.at(cell_at(10.0, 10.0), Vec3(10.0, 10.0, 5.0), Quat.from_heading(90.0)), scale=2.0)
-    (pp,) = ob.part_positions()
+    ob = sa.make_obstacle(0, Position.at(cell_at(20.0, 20.0), Vec3(20.0, 20.0, 5.0)), scale=2.0)
+    (part,) = ob.parts
+    assert part.pos.frame.origin == Vec3(22.0, 20.0, 5.0)
+    assert part.gfx_scale == Vec3(2.0, 2.0, 2.0)
+    ob.position = Position.at(cell_at(10.0, 10.0), Vec3(10.0, 10.0, 5.0), Quat.from_heading(90.0))  # the part follows a move
+    ob.place_parts()
+    pp = part.pos
     expected = Frame(Vec3(10.0, 10.0, 5.0), Quat.from_heading(90.0)).local_to_global(Vec3(2.0, 0.0, 0.0))
     assert (pp.frame.origin - expected).length() < 1e-9
 

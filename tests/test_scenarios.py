@@ -155,7 +155,7 @@ def test_frames_stationary_fall_builds_a_synthetic_floor_after_three_stuck_frame
 
     w = world_from_heights(lambda bx, by, x, y: 100)
     t = Transition(w)
-    t.init_object(ObjectInfo(0, gravity=True))
+    t.init_object(ObjectInfo(0))  # gravity on
     t.init_sphere([Sphere(Vec3(0, 0, R), R)], 1.0)
     here = Position.at(cell_at(50, 50), Vec3(50.0, 50.0, 60.0))
     t.init_path(w.get_landcell(here.cell_id), here, here)

@@ -86,6 +86,29 @@ def _global_offset(path: SpherePath, moved: Vec3, start: Vec3, scale: float) -> 
     return v if scale == 1.0 else fl_scale(v, fl(scale, single), single)
 
 
+def _land_on_walkable(transition: Transition, valid_pos: Sphere, poly: Polygon, local_center: Vec3, scale: float, invalidate_cells: bool) -> int:
+    """Move the check position by what find_walkable moved the (part-space)
+    sphere `local_center` -> `valid_pos`, make the polygon's plane the
+    contact plane (global, d times scale, not water, in the check position's
+    cell) and the walkable: the landing shared by BSPTREE::find_collisions'
+    collide branch (which also invalidates the cell array) and
+    BSPTREE::step_sphere_down. Returns ADJUSTED."""
+    path = transition.sphere_path
+    local_space_pos = path.local_space_pos
+    assert local_space_pos is not None
+    offset = _global_offset(path, valid_pos.center, local_center, scale)
+    if invalidate_cells:
+        path.add_offset_to_check_pos(offset)
+    else:
+        path.shift_check_pos(offset)
+    plane = plane_local_to_global(path.check_pos, local_space_pos, poly.plane, scale, path.settings.single_precision)
+    ci = transition.collision_info
+    ci.set_contact_plane(plane, False)
+    ci.contact_plane_cell_id = path.check_pos.cell_id
+    path.set_walkable(valid_pos, poly, path.local_space_z, local_space_pos, scale)
+    return _ADJUSTED
+
+
 class BSPTree:
     """A BSP tree and the queries the transition makes of it (the client's BSPTREE)."""
 
@@ -191,16 +214,7 @@ class BSPTree:
             hit_poly = root.find_walkable(path, valid_pos, movement, path.local_space_z)
             if hit_poly is None:
                 return _OK
-            local_space_pos = path.local_space_pos
-            assert local_space_pos is not None
-            offset = _global_offset(path, valid_pos.center, local_sphere.center, scale)
-            path.add_offset_to_check_pos(offset)
-            plane = plane_local_to_global(path.check_pos, local_space_pos, hit_poly.plane, scale, path.settings.single_precision)
-            ci = transition.collision_info
-            ci.set_contact_plane(plane, False)
-            ci.contact_plane_cell_id = path.check_pos.cell_id
-            path.set_walkable(valid_pos, hit_poly, path.local_space_z, local_space_pos, scale)
-            return _ADJUSTED
+            return _land_on_walkable(transition, valid_pos, hit_poly, local_sphere.center, scale, True)
 
         state = transition.object_info.state
         hit = PolyHit()
@@ -264,16 +278,8 @@ class BSPTree:
         poly_hit = self.root_node.find_walkable(path, valid_pos, movement, path.local_space_z)
         if poly_hit is None:
             return _OK
-        local_space_pos = path.local_space_pos
-        assert local_space_pos is not None
-        offset = _global_offset(path, valid_pos.center, check_pos.center, scale)
-        path.shift_check_pos(offset)
-        plane = plane_local_to_global(path.check_pos, local_space_pos, poly_hit.plane, scale, path.settings.single_precision)
-        ci = transition.collision_info
-        ci.set_contact_plane(plane, False)
-        ci.contact_plane_cell_id = path.check_pos.cell_id
-        path.set_walkable(valid_pos, poly_hit, path.local_space_z, local_space_pos, scale)
-        return _ADJUSTED
+        # the cell array stays valid here, unlike add_offset_to_check_pos
+        return _land_on_walkable(transition, valid_pos, poly_hit, check_pos.center, scale, False)
 
     def step_sphere_up(self, transition: Transition, collision_normal: Vec3) -> int:
         """Try to step up onto what the sphere ran into; slide along it when

@@ -87,10 +87,8 @@ class EnvCell(ObjCell):
 
     def find_env_collisions(self, transition: Transition) -> int:
         """Collide with the cell's physics BSP in cell space (EnvCell.FindEnvCollisions)."""
-        if self.restriction is not None:
-            state = self.check_entry_restrictions(transition)
-            if state != TransitionState.OK:
-                return state
+        if self.restriction is not None and (refused := self.check_entry_restrictions(transition)) != TransitionState.OK:
+            return refused
         path = transition.sphere_path
         path.obstruction_ethereal = False
         bsp = self.cell_struct.physics_bsp

@@ -74,10 +74,8 @@ class LandCell(ObjCell):
 
     def find_env_collisions(self, transition: Transition) -> int:
         """Collide the path's foot sphere with the terrain (LandCell.FindEnvCollisions)."""
-        if self.restriction is not None:
-            state = self.check_entry_restrictions(transition)
-            if state != TransitionState.OK:
-                return state
+        if self.restriction is not None and (refused := self.check_entry_restrictions(transition)) != TransitionState.OK:
+            return refused
         path = transition.sphere_path
         block_offset = get_block_offset(path.check_pos.cell_id, self.id)
         local_point = path.global_low_point - block_offset

@@ -13,7 +13,7 @@ from ..constants import EPSILON
 from .quaternion import IDENTITY, Mat3, Quat
 from .vec3 import Vec3
 
-__all__ = ["Frame"]
+__all__ = ["Frame", "to_local_xyz"]
 
 
 class Frame:
@@ -40,26 +40,12 @@ class Frame:
     # -- transforms (AFrame.LocalToGlobal / GlobalToLocal) ----------------
     def local_to_global_vec(self, v: Vec3) -> Vec3:
         m = self._m
-        if m is None:
-            return v
-        x, y, z = v.x, v.y, v.z
-        return Vec3(
-            m.m0 * x + m.m1 * y + m.m2 * z,
-            m.m3 * x + m.m4 * y + m.m5 * z,
-            m.m6 * x + m.m7 * y + m.m8 * z,
-        )
+        return v if m is None else Vec3(m.m0 * v.x + m.m1 * v.y + m.m2 * v.z, m.m3 * v.x + m.m4 * v.y + m.m5 * v.z, m.m6 * v.x + m.m7 * v.y + m.m8 * v.z)
 
     def global_to_local_vec(self, v: Vec3) -> Vec3:
+        """The inverse rotation: the transpose of the matrix."""
         m = self._m
-        if m is None:
-            return v
-        # the transpose of a rotation is its inverse
-        x, y, z = v.x, v.y, v.z
-        return Vec3(
-            m.m0 * x + m.m3 * y + m.m6 * z,
-            m.m1 * x + m.m4 * y + m.m7 * z,
-            m.m2 * x + m.m5 * y + m.m8 * z,
-        )
+        return v if m is None else Vec3(m.m0 * v.x + m.m3 * v.y + m.m6 * v.z, m.m1 * v.x + m.m4 * v.y + m.m7 * v.z, m.m2 * v.x + m.m5 * v.y + m.m8 * v.z)
 
     def local_to_global(self, p: Vec3) -> Vec3:
         """origin + local_to_global_vec(p), without the intermediate vector."""
@@ -76,18 +62,7 @@ class Frame:
 
     def global_to_local(self, p: Vec3) -> Vec3:
         """global_to_local_vec(p - origin), without the intermediate vector."""
-        o = self.origin
-        x = p.x - o.x
-        y = p.y - o.y
-        z = p.z - o.z
-        m = self._m
-        if m is None:
-            return Vec3(x, y, z)
-        return Vec3(
-            m.m0 * x + m.m3 * y + m.m6 * z,
-            m.m1 * x + m.m4 * y + m.m7 * z,
-            m.m2 * x + m.m5 * y + m.m8 * z,
-        )
+        return to_local_xyz(self, p.x, p.y, p.z)
 
     def combine(self, child: Frame, scale: Vec3 | None = None) -> Frame:
         """The frame of `child` (given in self's space) in self's parent space."""
@@ -107,3 +82,15 @@ class Frame:
 
     def is_finite(self) -> bool:
         return self.origin.is_finite() and self.orientation.is_finite()
+
+
+def to_local_xyz(frame: Frame, gx: float, gy: float, gz: float) -> Vec3:
+    """`frame.global_to_local` of the point (gx, gy, gz)."""
+    o = frame.origin
+    x = gx - o.x
+    y = gy - o.y
+    z = gz - o.z
+    m = frame._m
+    if m is None:
+        return Vec3(x, y, z)
+    return Vec3(m.m0 * x + m.m3 * y + m.m6 * z, m.m1 * x + m.m4 * y + m.m7 * z, m.m2 * x + m.m5 * y + m.m8 * z)

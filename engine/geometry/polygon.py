@@ -164,6 +164,43 @@ class PolyEdge:
         self.ee = ee
 
 
+#: How a circle in a polygon's plane stands to its edges (`circle_on_edges`).
+CIRCLE_MISSES: Final = 0
+CIRCLE_TOUCHES: Final = 1
+CIRCLE_INSIDE: Final = 2
+
+
+def circle_on_edges(edges: tuple[PolyEdge, ...], px: float, py: float, pz: float, r2: float, stop_outside: bool) -> int:
+    """Where a circle of squared radius `r2` about the in-plane point p stands
+    to a polygon, edge by edge in order: the edge walk the client's
+    sphere-in-polygon tests share (hits_sphere, polygon_hits_sphere,
+    check_walkable).
+
+    CIRCLE_MISSES at once when p is outside an edge by more than r;
+    CIRCLE_TOUCHES at once when the circle reaches an edge segment p is
+    outside of, or an edge's start vertex. Outside an edge otherwise: MISSES
+    at once with `stop_outside`, else MISSES at the end if nothing touched.
+    CIRCLE_INSIDE when p is inside every edge and touches nothing.
+    """
+    outside = False
+    for edge in edges:
+        dx = px - edge.lx
+        dy = py - edge.ly
+        dz = pz - edge.lz
+        dp = dx * edge.kx + dy * edge.ky + dz * edge.kz
+        if dp < 0.0:
+            if edge.kk * r2 < dp * dp:
+                return CIRCLE_MISSES
+            disp_edge = dx * edge.ex + dy * edge.ey + dz * edge.ez
+            if disp_edge >= 0.0 and disp_edge <= edge.ee:
+                return CIRCLE_TOUCHES
+            if stop_outside:
+                return CIRCLE_MISSES
+            outside = True
+        if dx * dx + dy * dy + dz * dz <= r2:
+            return CIRCLE_TOUCHES
+    return CIRCLE_MISSES if outside else CIRCLE_INSIDE
+
 class Polygon:
     """A physics polygon (the client's CPolygon).
 
@@ -288,41 +325,10 @@ class Polygon:
             hit.contact_point = Vec3(px, py, pz)
         edges = self._edges
         for edge in edges:
-            lx = edge.lx
-            ly = edge.ly
-            lz = edge.lz
-            kx = edge.kx
-            ky = edge.ky
-            kz = edge.kz
-            if (px - lx) * kx + (py - ly) * ky + (pz - lz) * kz >= 0.0:
-                continue
-            # The projected center is outside this edge: the sphere still
-            # touches the polygon if it reaches an edge segment or a vertex.
-            for edge in edges:
-                lx = edge.lx
-                ly = edge.ly
-                lz = edge.lz
-                ex = edge.ex
-                ey = edge.ey
-                ez = edge.ez
-                kx = edge.kx
-                ky = edge.ky
-                kz = edge.kz
-                kk = edge.kk
-                ee = edge.ee
-                dx = px - lx
-                dy = py - ly
-                dz = pz - lz
-                disp_dot = dx * kx + dy * ky + dz * kz
-                if disp_dot < 0.0:
-                    if kk * diff < disp_dot * disp_dot:
-                        return False
-                    disp_edge = dx * ex + dy * ey + dz * ez
-                    if disp_edge >= 0.0 and disp_edge <= ee:
-                        return True
-                if dx * dx + dy * dy + dz * dz <= diff:
-                    return True
-            return False
+            if (px - edge.lx) * edge.kx + (py - edge.ly) * edge.ky + (pz - edge.lz) * edge.kz < 0.0:
+                # The projected center is outside this edge: the sphere still
+                # touches the polygon if it reaches an edge segment or a vertex.
+                return circle_on_edges(edges, px, py, pz, diff, False) == CIRCLE_TOUCHES
         return True
 
     def polygon_hits_sphere_precise(self, sphere: Sphere) -> tuple[bool, Vec3 | None]:
@@ -355,37 +361,11 @@ class Polygon:
         if abs(dp_pos) > rad:
             return False, None
         diff = rad * rad - dp_pos * dp_pos
-        result = True
         px = c.x - nx * dp_pos
         py = c.y - ny * dp_pos
         pz = c.z - nz * dp_pos
         contact = Vec3(px, py, pz)
-        for edge in self._edges:
-            lx = edge.lx
-            ly = edge.ly
-            lz = edge.lz
-            ex = edge.ex
-            ey = edge.ey
-            ez = edge.ez
-            kx = edge.kx
-            ky = edge.ky
-            kz = edge.kz
-            kk = edge.kk
-            ee = edge.ee
-            dx = px - lx
-            dy = py - ly
-            dz = pz - lz
-            dp = dx * kx + dy * ky + dz * kz
-            if dp < 0.0:
-                if kk * diff < dp * dp:
-                    return False, contact
-                disp_edge = dx * ex + dy * ey + dz * ez
-                if disp_edge >= 0.0 and disp_edge <= ee:
-                    return True, contact
-                result = False
-            if dx * dx + dy * dy + dz * dz <= diff:
-                return True, contact
-        return result, contact
+        return circle_on_edges(self._edges, px, py, pz, diff, False) != CIRCLE_MISSES, contact
 
     def pos_hits_sphere(self, sphere: Sphere, movement: Vec3, hit: PolyHit | None = None) -> bool:
         """A sphere moving by `movement` runs into the polygon's front
@@ -451,42 +431,15 @@ class Polygon:
         (half of it when `small`) of the first edge it lies outside of or of
         a vertex reached before. False for a plane facing away from `up`.
         """
-        nx, ny, nz = self._nx, self._ny, self._nz
-        angle_up = nx * up.x + ny * up.y + nz * up.z
+        angle_up = self._nx * up.x + self._ny * up.y + self._nz * up.z
         if angle_up < EPSILON:
             return False
         c = sphere.center
-        t = (nx * c.x + ny * c.y + nz * c.z + self._d) / angle_up
-        px = c.x - up.x * t
-        py = c.y - up.y * t
-        pz = c.z - up.z * t
+        t = (self._nx * c.x + self._ny * c.y + self._nz * c.z + self._d) / angle_up
         radsum = sphere.radius * sphere.radius
         if small:
             radsum *= 0.25
-        for edge in self._edges:
-            lx = edge.lx
-            ly = edge.ly
-            lz = edge.lz
-            ex = edge.ex
-            ey = edge.ey
-            ez = edge.ez
-            kx = edge.kx
-            ky = edge.ky
-            kz = edge.kz
-            kk = edge.kk
-            ee = edge.ee
-            dx = px - lx
-            dy = py - ly
-            dz = pz - lz
-            diff = dx * kx + dy * ky + dz * kz
-            if diff < 0.0:
-                if kk * radsum < diff * diff:
-                    return False
-                disp_edge = dx * ex + dy * ey + dz * ez
-                return disp_edge >= 0.0 and disp_edge <= ee
-            if dx * dx + dy * dy + dz * dz <= radsum:
-                return True
-        return True
+        return circle_on_edges(self._edges, c.x - up.x * t, c.y - up.y * t, c.z - up.z * t, radsum, True) != CIRCLE_MISSES
 
     def check_small_walkable(self, sphere: Sphere, up: Vec3) -> bool:
         """check_walkable with a quarter of the squared radius
@@ -505,26 +458,16 @@ class Polygon:
         the motion. None when the center is inside every edge, or when the
         plane is (nearly) parallel to `up`.
         """
-        nx, ny, nz = self._nx, self._ny, self._nz
-        angle_up = nx * up.x + ny * up.y + nz * up.z
+        angle_up = self._nx * up.x + self._ny * up.y + self._nz * up.z
         if abs(angle_up) < EPSILON:
             return None
         c = sphere.center
-        angle = (nx * c.x + ny * c.y + nz * c.z + self._d) / angle_up
-        px = c.x - up.x * angle
-        py = c.y - up.y * angle
-        pz = c.z - up.z * angle
+        angle = (self._nx * c.x + self._ny * c.y + self._nz * c.z + self._d) / angle_up
+        px, py, pz = c.x - up.x * angle, c.y - up.y * angle, c.z - up.z * angle
         for edge in self._edges:
-            lx = edge.lx
-            ly = edge.ly
-            lz = edge.lz
-            kx = edge.kx
-            ky = edge.ky
-            kz = edge.kz
-            kk = edge.kk
-            if (px - lx) * kx + (py - ly) * ky + (pz - lz) * kz < 0.0:
-                inv = 1.0 / math.sqrt(kk)
-                return Vec3(kx * inv, ky * inv, kz * inv)
+            if (px - edge.lx) * edge.kx + (py - edge.ly) * edge.ky + (pz - edge.lz) * edge.kz < 0.0:
+                inv = 1.0 / math.sqrt(edge.kk)
+                return Vec3(edge.kx * inv, edge.ky * inv, edge.kz * inv)
         return None
 
     # -- placement --------------------------------------------------------
@@ -577,13 +520,7 @@ class Polygon:
         (CPolygon::point_in_polygon)."""
         px, py, pz = point.x, point.y, point.z
         for edge in self._edges:
-            lx = edge.lx
-            ly = edge.ly
-            lz = edge.lz
-            kx = edge.kx
-            ky = edge.ky
-            kz = edge.kz
-            if kx * (px - lx) + ky * (py - ly) + kz * (pz - lz) < 0.0:
+            if edge.kx * (px - edge.lx) + edge.ky * (py - edge.ly) + edge.kz * (pz - edge.lz) < 0.0:
                 return False
         return True
 
@@ -629,3 +566,4 @@ class Polygon:
         if not self.point_in_polygon(Vec3(p.x + d.x * time, p.y + d.y * time, p.z + d.z * time)):
             return None
         return time
+

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .frame import Frame
+from .frame import Frame, to_local_xyz
 from .landdefs import get_block_offset
 from .quaternion import IDENTITY, Quat
 from .vec3 import Vec3
@@ -79,19 +79,7 @@ class Position:
             gx = off.x + (oo.x + (om.m0 * px + om.m1 * py + om.m2 * pz))
             gy = off.y + (oo.y + (om.m3 * px + om.m4 * py + om.m5 * pz))
             gz = off.z + (oo.z + (om.m6 * px + om.m7 * py + om.m8 * pz))
-        sf = self.frame
-        so = sf.origin
-        x = gx - so.x
-        y = gy - so.y
-        z = gz - so.z
-        m = sf._m
-        if m is None:
-            return Vec3(x, y, z)
-        return Vec3(
-            m.m0 * x + m.m3 * y + m.m6 * z,
-            m.m1 * x + m.m4 * y + m.m7 * z,
-            m.m2 * x + m.m5 * y + m.m8 * z,
-        )
+        return to_local_xyz(self.frame, gx, gy, gz)
 
     def local_to_global_vec(self, v: Vec3) -> Vec3:
         return self.frame.local_to_global_vec(v)

@@ -17,11 +17,10 @@ from __future__ import annotations
 from typing import Any, Final, TYPE_CHECKING
 from collections.abc import Sequence
 
-from ..constants import EPSILON
-from ..geometry import ZERO, Frame, Position, Sphere, Vec3
+from ..geometry import ZERO, Position, Sphere
 from ..geometry.precision import fl, fl_add, fl_place
 from ..geometry.landdefs import get_block_offset
-from ..transition.state import OI, InsertType, TransitionState
+from ..transition.state import OI, TransitionState
 from .cylsphere_collision import CylSphere
 from .gfx_obj import PhysicsPart
 from .sphere_collision import intersects_sphere
@@ -30,101 +29,18 @@ if TYPE_CHECKING:
     from ..transition.object_info import ObjectInfo
     from ..transition.transition import Transition
 
-__all__ = ["Obstacle", "MoverObstacle", "ObstaclePart", "find_obj_collisions", "missile_ignore"]
+__all__ = ["Obstacle", "MoverObstacle", "find_obj_collisions", "missile_ignore"]
 
 _OK: Final = TransitionState.OK
-_ONE: Final = Vec3(1.0, 1.0, 1.0)
-
-
-class ObstaclePart:
-    """One part of an obstacle with physics geometry (the client's CPhysicsPart).
-
-    `gfx_obj` is anything with `physics_bsp` (a tree with
-    `find_collisions(transition, scale)`, `placement_insert(transition)` and
-    `get_sphere()`, or None for a drawing-only part) and optionally
-    `physics_sphere` (the BSP root's bounding sphere). `frame` places the
-    part: a Frame is its placement frame in the object's frame (it follows
-    the object), a Position is a fixed place in the world, None means the
-    object's own position (a single part without placement frames).
-    `gfx_scale` is the part's scale (default scale times the object's
-    scale); its z is what the BSP is scaled by.
-    """
-
-    __slots__ = ("gfx_obj", "frame", "gfx_scale")
-
-    def __init__(self, gfx_obj: Any, frame: Frame | Position | None = None, gfx_scale: Vec3 | float = _ONE) -> None:
-        self.gfx_obj = gfx_obj
-        self.frame = frame
-        self.gfx_scale = gfx_scale if isinstance(gfx_scale, Vec3) else Vec3(gfx_scale, gfx_scale, gfx_scale)
-
-    def __repr__(self) -> str:
-        return f"ObstaclePart({self.gfx_obj!r}, {self.frame!r}, {self.gfx_scale!r})"
-
-    @classmethod
-    def coerce(cls, part: Any) -> Any:
-        """An ObstaclePart from `(gfx_obj, frame[, gfx_scale])`; an ObstaclePart,
-        or any other part object with `find_obj_collisions(transition)` (placed
-        on its own, like the client's PhysicsPart), is kept as it is."""
-        if isinstance(part, tuple):
-            return cls(*part)
-        return part
-
-    @property
-    def physics_bsp(self) -> Any:
-        return getattr(self.gfx_obj, "physics_bsp", None)
-
-    def position(self, owner: Position, scale: float) -> Position:
-        """The part's Position for an owner at `owner` (PartArray.UpdateParts:
-        owner frame combined with the placement frame, its origin scaled)."""
-        frame = self.frame
-        if frame is None:
-            return owner
-        if isinstance(frame, Position):
-            return frame
-        return Position(owner.cell_id, owner.frame.combine(frame, Vec3(scale, scale, scale)))
-
-    def find_obj_collisions_at(self, transition: Transition, part_pos: Position) -> int:
-        """Collide the path with this part's physics BSP (PhysicsPart.FindObjCollisions
-        then GfxObj.FindObjCollisions).
-
-        The path's spheres are cached in the part's local space (divided by
-        the part's z scale); the BSP is consulted only if one of them reaches
-        the BSP's bounding sphere, and the first such sphere decides.
-        """
-        gfx = self.gfx_obj
-        bsp = getattr(gfx, "physics_bsp", None)
-        if bsp is None:
-            return _OK
-        scale_z = self.gfx_scale.z
-        path = transition.sphere_path
-        path.cache_local_space_sphere(part_pos, scale_z)
-        bound = getattr(gfx, "physics_sphere", None)
-        if bound is None:
-            bound = bsp.get_sphere()
-        if bound is None:
-            return _OK
-        bc = bound.center
-        for i in range(path.num_sphere):
-            ls = path.local_space_sphere[i]
-            lc = ls.center
-            dx = bc.x - lc.x
-            dy = bc.y - lc.y
-            dz = bc.z - lc.z
-            radsum = bound.radius + ls.radius
-            if dx * dx + dy * dy + dz * dz - radsum * radsum < EPSILON:
-                if path.insert_type == InsertType.INITIAL_PLACEMENT:
-                    return bsp.placement_insert(transition)
-                return bsp.find_collisions(transition, scale_z)
-        return _OK
 
 
 class Obstacle:
     """A static or dynamic object others collide with.
 
     Shape: `spheres` and `cyl_spheres` in the object's frame (unscaled),
-    `parts` (ObstacleParts, `(gfx_obj, frame[, gfx_scale])` tuples, or part
-    objects with their own `find_obj_collisions(transition)`), `scale`. Placement: `position`
-    (rebind it to move the object; BSP part positions follow).
+    `parts` (PhysicsParts, see `engine.objects.setup.Setup.make_parts`),
+    `scale`. Placement: `position` (rebind it to move the object; the parts
+    follow, placed again before the next test).
 
     Flags, as an obstacle: `static` (PhysicsState.Static: a landblock object);
     `ethereal`, `ignore_collisions` (ethereal and ignore-collisions together:
@@ -158,9 +74,8 @@ class Obstacle:
         "is_impenetrable",
         "owner",
         "_has_physics_bsp",
-        "_part_cache_pos",
-        "_part_cache_scale",
-        "_part_positions",
+        "_parts_placed_at",
+        "_parts_placed_scale",
         "_sphere_cache_pos",
         "_sphere_cache_scale",
         "_sphere_cache_single",
@@ -174,7 +89,7 @@ class Obstacle:
         *,
         spheres: Sequence[Sphere] = (),
         cyl_spheres: Sequence[CylSphere] = (),
-        parts: Sequence[Any] = (),
+        parts: Sequence[PhysicsPart] = (),
         scale: float = 1.0,
         static: bool = True,
         ethereal: bool = False,
@@ -194,7 +109,7 @@ class Obstacle:
         self.scale = scale
         self.spheres = list(spheres)
         self.cyl_spheres = list(cyl_spheres)
-        self.parts = [ObstaclePart.coerce(p) for p in parts]
+        self.parts = list(parts)
         self.static = static
         self.ethereal = ethereal
         self.ignore_collisions = ignore_collisions
@@ -207,10 +122,9 @@ class Obstacle:
         self.is_pk_lite = is_pk_lite
         self.is_impenetrable = is_impenetrable
         self.owner = owner
-        self._has_physics_bsp = any(_part_has_bsp(p) for p in self.parts)
-        self._part_cache_pos: Position | None = None
-        self._part_cache_scale = 0.0
-        self._part_positions: list[Any] = []
+        self._has_physics_bsp = any(p.gfx_obj.physics_bsp is not None for p in self.parts)
+        self._parts_placed_at: Position | None = None
+        self._parts_placed_scale = 0.0
         self._sphere_cache_pos: Position | None = None
         self._sphere_cache_scale = 0.0
         self._sphere_cache_single = False
@@ -219,35 +133,20 @@ class Obstacle:
     def __repr__(self) -> str:
         return f"Obstacle({self.id:#x}, {self.position!r})"
 
-    @classmethod
-    def static_from_setup(cls, model_id: int, setup: Any, position: Position) -> Obstacle:
-        """A static landblock object (a dat object: id 0, no weenie, unscaled)
-        shaped by a scene Setup dict's spheres and cylspheres. Parts are not
-        read: an object whose parts carry physics BSPs is built from them
-        instead (see `engine.objects.setup.ModelLibrary`)."""
-        spheres = []
-        for d in setup.get("spheres") or ():
-            o = d["origin"] if "origin" in d else d["center"]
-            spheres.append(Sphere(Vec3(float(o[0]), float(o[1]), float(o[2])), float(d["radius"])))
-        cyl = [CylSphere.from_dict(d) for d in setup.get("cyl_spheres") or ()]
-        return cls(0, position, spheres=spheres, cyl_spheres=cyl, static=True)
-
     @property
     def has_physics_bsp(self) -> bool:
         """PhysicsState.HasPhysicsBSP: some part has a physics BSP."""
         return self._has_physics_bsp
 
-    def part_positions(self) -> list[Any]:
-        """Each part's Position at the obstacle's current position."""
-        # kept while the same Position object and scale stand (Positions are immutable)
-        if self._part_cache_pos is not self.position or self._part_cache_scale != self.scale:
-            self._part_positions = [
-                p.position(self.position, self.scale) if isinstance(p, ObstaclePart) else getattr(p, "pos", None)
-                for p in self.parts
-            ]
-            self._part_cache_pos = self.position
-            self._part_cache_scale = self.scale
-        return self._part_positions
+    def place_parts(self) -> None:
+        """Place the parts at the obstacle's current position and scale
+        (CPartArray::UpdateParts; kept while the same Position object and
+        scale stand: Positions are immutable)."""
+        if self._parts_placed_at is not self.position or self._parts_placed_scale != self.scale:
+            for part in self.parts:
+                part.place(self.position, self.scale)
+            self._parts_placed_at = self.position
+            self._parts_placed_scale = self.scale
 
     def placed_spheres(self, single: bool) -> list[Sphere]:
         """The spheres scaled and placed by `position`, in its landblock's
@@ -324,12 +223,6 @@ class MoverObstacle(Obstacle):
         return find_obj_collisions(self, transition)
 
 
-def _part_has_bsp(part: Any) -> bool:
-    if getattr(part, "physics_bsp", None) is not None:
-        return True
-    return getattr(getattr(part, "gfx_obj", None), "physics_bsp", None) is not None
-
-
 def missile_ignore(oi: ObjectInfo, obstacle: Obstacle) -> bool:
     """Does the mover pass through this obstacle because one of them is a
     missile? (ObjectInfo.MissileIgnore, the reference's two-way form)
@@ -398,14 +291,9 @@ def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
 
     if not (ignore or exemption):
         if obstacle.has_physics_bsp:
-            positions = obstacle.part_positions()
-            for i, part in enumerate(obstacle.parts):
-                if isinstance(part, PhysicsPart):  # a scene object's part: a native call
-                    result = part.find_obj_collisions(transition)
-                elif isinstance(part, ObstaclePart):
-                    result = part.find_obj_collisions_at(transition, positions[i])
-                else:
-                    result = part.find_obj_collisions(transition)
+            obstacle.place_parts()
+            for part in obstacle.parts:
+                result = part.find_obj_collisions(transition)
                 if result != _OK:
                     return _respond(obstacle, transition, result, ethereal, is_creature)
         elif obstacle.cyl_spheres:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..constants import FLOOR_Z
+from ..constants import FLOOR_Z, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import Vec3
 from .state import OI
 
@@ -39,35 +39,34 @@ class ObjectInfo:
         "gravity",
     )
 
-    def __init__(
-        self,
-        state: int = 0,
-        *,
-        obj: Any = None,
-        scale: float = 1.0,
-        step_up_height: float = 0.0,
-        step_down_height: float = 0.0,
-        ethereal: bool = False,
-        step_down: bool = True,
-        gravity: bool = True,
-        walkable_z: float = FLOOR_Z,
-    ) -> None:
+    def __init__(self, state: int = 0, obj: Any = None) -> None:
+        """A plain object: unscaled, no step heights, stepping down, falling.
+        The object's own values are set by its maker (Mover.object_info)."""
         self.obj = obj
         self.state = state
-        self.scale = scale
-        self.step_up_height = step_up_height
-        self.step_down_height = step_down_height
-        self.ethereal = ethereal
-        self.step_down = step_down
         self.target_id = 0
-        self.walkable_z = walkable_z
+        self.walkable_z = FLOOR_Z
+        self.scale = 1.0
+        self.step_up_height = 0.0
+        self.step_down_height = 0.0
+        self.ethereal = False
+        self.step_down = True
         # standing in for the live Missile state when there is no mover behind us
-        self.missile = not step_down
-        self.gravity = gravity
+        self.missile = False
+        self.gravity = True
 
     def get_walkable_z(self) -> float:
         """PhysicsObj.get_walkable_z: FloorZ for every object the client moves."""
         return self.walkable_z
+
+    def step_search(self, walkable_step_height: float) -> tuple[float, float]:
+        """The walkable z and the height of a step search (StepUp, and the
+        step down of TransitionalInsert): on a walkable, the object's walkable
+        z and `walkable_step_height` (its step-up or step-down height); else
+        LandingZ and a probe just under 4 cm."""
+        if self.state & OI.ON_WALKABLE:
+            return self.get_walkable_z(), walkable_step_height
+        return LANDING_Z, STEP_DOWN_PROBE
 
     def is_valid_walkable(self, normal: Vec3) -> bool:
         return normal.z >= FLOOR_Z

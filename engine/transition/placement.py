@@ -75,17 +75,22 @@ def validate_placement_transition(t: Transition, state: int) -> int:
     return state
 
 
-def find_placement_pos(t: Transition) -> bool:
-    """Test the spot, then rings around it out to 4 m (FindPlacementPos)."""
-    path = t.sphere_path
+def _placement_fits(t: Transition) -> bool:
+    """Does the check position take the object? Contact and sliding are
+    forgotten first (the test FindPlacementPos makes at the spot and at every
+    point of its rings)."""
     ci = t.collision_info
-    path.set_check_pos(path.curr_pos, path.curr_cell)  # type: ignore[arg-type]
     ci.sliding_normal_valid = False
     ci.contact_plane_valid = False
     ci.contact_plane_is_water = False
+    return validate_placement_transition(t, t.transitional_insert(3)) == _OK
 
-    state = validate_placement_transition(t, t.transitional_insert(3))
-    if state == _OK:
+
+def find_placement_pos(t: Transition) -> bool:
+    """Test the spot, then rings around it out to 4 m (FindPlacementPos)."""
+    path = t.sphere_path
+    path.set_check_pos(path.curr_pos, path.curr_cell)  # type: ignore[arg-type]
+    if _placement_fits(t):
         return True
     if not path.placement_allows_sliding:
         return False
@@ -123,11 +128,7 @@ def find_placement_pos(t: Transition) -> bool:
             path.global_offset = t.adjust_offset(offset)
             if path.global_offset.length() >= EPSILON:
                 path.add_offset_to_check_pos(path.global_offset)
-                ci.sliding_normal_valid = False
-                ci.contact_plane_valid = False
-                ci.contact_plane_is_water = False
-                state = validate_placement_transition(t, t.transitional_insert(3))
-                if state == _OK:
+                if _placement_fits(t):
                     return True
     return False
 

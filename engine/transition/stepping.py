@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Final, TYPE_CHECKING
 
-from ..constants import LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import ZERO, Plane, Vec3
 from ..geometry.precision import fl_add, fl_cross, fl_dot, fl_normalize_check_small, fl_scale, fl_sub
 from ..geometry.landdefs import get_block_offset
@@ -36,12 +35,7 @@ def step_up(t: Transition, collision_normal: Vec3) -> bool:
     path.step_up = True
     path.step_up_normal = collision_normal
 
-    step_down_height = STEP_DOWN_PROBE
-    z_landing = LANDING_Z
-    if oi.state & OI.ON_WALKABLE:
-        z_landing = oi.get_walkable_z()
-        step_down_height = oi.step_up_height
-
+    z_landing, step_down_height = oi.step_search(oi.step_up_height)
     path.walkable_allowance = z_landing
     path.backup_cell = path.check_cell
     path.backup_check_pos = path.check_pos

@@ -24,7 +24,7 @@ from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..cells.obj_cell import ObjCell
-from ..constants import EPSILON, LANDING_Z, STEP_DOWN_PROBE
+from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
 from ..geometry.precision import fl, fl_cross, fl_dot, fl_normalize_check_small, fl_plane_dist, fl_scale, fl_sub
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
@@ -305,11 +305,7 @@ class Transition:
                     return _OK
 
                 # In contact but nothing under us: look for ground a step below.
-                z_val = LANDING_Z
-                step_down_height = STEP_DOWN_PROBE
-                if oi.state & OI.ON_WALKABLE:
-                    z_val = oi.get_walkable_z()
-                    step_down_height = oi.step_down_height
+                z_val, step_down_height = oi.step_search(oi.step_down_height)
                 path.walkable_allowance = z_val
                 path.save_check_pos()
 

@@ -65,7 +65,7 @@ def attach_indoor(landblock: Landblock, lb_data: Mapping[str, Any], scene: Mappi
         model_id = hex_id(b.get("model_id"), "building model_id")
         frame = frame_from_dict(b.get("frame", {}))
         cell_id = outdoor_cell_id(landblock.id, frame.origin.x, frame.origin.y)
-        parts = cache.parts_of(model_id, frame, cell_id)
+        parts = cache.parts(model_id, Position(cell_id, frame))
         doors = [
             BldPortal(
                 int(p.get("flags", 0)),

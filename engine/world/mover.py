@@ -208,16 +208,16 @@ class Mover:
         landed, as a 0.4 m step-down would not reach, a 0.5 m one would;
         steep-043 and cliff-036 agree only this way too.
         """
-        return ObjectInfo(
-            state,
-            obj=self,
-            scale=self.scale,
-            step_up_height=self.step_up_height,
-            step_down_height=self.step_down_height,
-            ethereal=self.ethereal,
-            step_down=self.step_down and not self.missile,
-            gravity=self.gravity,
-        )
+        oi = ObjectInfo(state, self)
+        oi.scale = self.scale
+        oi.step_up_height = self.step_up_height
+        oi.step_down_height = self.step_down_height
+        oi.ethereal = self.ethereal
+        # a missile never probes for ground below
+        oi.step_down = self.step_down and not self.missile
+        oi.missile = not oi.step_down
+        oi.gravity = self.gravity
+        return oi
 
     def transition(self, world: CellLookup, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:
         t = self.make_transition(world, settings)

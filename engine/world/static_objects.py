@@ -13,30 +13,16 @@ from collections.abc import Mapping
 
 from ..geometry import Position
 from ..geometry.landdefs import outdoor_cell_id
+from ..objects.setup import frame_from_dict
 from ..objects.obstacle import Obstacle
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
 from ..cells.obj_cell import ObjCell
 from .landblock import Landblock
-from .portal_cache import PortalCache, frame_from_dict
+from .portal_cache import PortalCache
 
 __all__ = ["attach_static_objects"]
-
-
-def _setup_has_bsp(cache: PortalCache, model_id: int) -> bool:
-    if model_id >> 24 == 0x01:
-        return cache.gfx_obj(model_id).physics_bsp is not None
-    setup = cache.setup(model_id)
-    return any(cache.gfx_obj(int(p, 16)).physics_bsp is not None for p in setup.get("parts", []))
-
-
-def _make_object(cache: PortalCache, model_id: int, position: Position) -> Obstacle:
-    if _setup_has_bsp(cache, model_id):
-        # a dat object (Static, no weenie) shaped by its parts' physics BSPs
-        parts = cache.parts_of(model_id, position.frame, position.cell_id)
-        return Obstacle(0, position, parts=parts, static=True)
-    return Obstacle.static_from_setup(model_id, cache.setup(model_id), position)
 
 
 def attach_static_objects(landblock: Landblock, lb_data: Mapping[str, Any], cache: PortalCache) -> None:
@@ -45,17 +31,22 @@ def attach_static_objects(landblock: Landblock, lb_data: Mapping[str, Any], cach
         model_id = int(entry["id"], 16)
         frame = frame_from_dict(entry.get("frame", {}))
         cell_id = outdoor_cell_id(landblock.id, frame.origin.x, frame.origin.y)
-        obj = _make_object(cache, model_id, Position(cell_id, frame))
-        _register(landblock, obj, cell_id)
-        landblock.objects.append(obj)
+        _add_object(landblock, cache, model_id, Position(cell_id, frame))
     for ec in lb_data.get("env_cells", []):
         cell_id = int(ec["id"], 16)
         for entry in ec.get("static_objects", []):
             model_id = int(entry["id"], 16)
             frame = frame_from_dict(entry.get("frame", {}))
-            obj = _make_object(cache, model_id, Position(cell_id, frame))
-            _register(landblock, obj, cell_id)
-            landblock.objects.append(obj)
+            _add_object(landblock, cache, model_id, Position(cell_id, frame))
+
+
+def _add_object(landblock: Any, cache: PortalCache, model_id: int, position: Position) -> None:
+    """A static dat object (PhysicsState.Static, no weenie) of the model at
+    `position`, registered in its cells; a Setup without parts makes none."""
+    obj = cache.obstacle(model_id, position, static=True)
+    if obj is not None:
+        _register(landblock, obj, position.cell_id)
+        landblock.objects.append(obj)
 
 
 class _ThisLandblock:

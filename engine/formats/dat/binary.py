@@ -51,6 +51,16 @@ class RecordReader:
         """A DatError about this record (the caller raises it)."""
         return DatError(f"{self.record}: {message}", path=self.path, file_id=self.file_id)
 
+    def own_id(self) -> int:
+        """The id a record repeats first; one other than the file's own id
+        (when known) means we were pointed at the wrong bytes."""
+        return self.check_own_id(self.u32("id"))
+
+    def check_own_id(self, stored: int) -> int:
+        if self.file_id is not None and stored != self.file_id:
+            raise self.error(f"record starts with id 0x{stored:08X}, not its own id")
+        return stored
+
     def _need(self, size: int, what: str) -> int:
         start = self.pos
         if size < 0 or start + size > len(self._view):

@@ -60,18 +60,12 @@ class LandblockInfo:
     restriction_table: dict[int, int] = field(default_factory=dict)
 
 
-def _check_id(r: RecordReader, stored: int) -> None:
-    # The record repeats its own id first; a different one means we were pointed at the wrong bytes.
-    if r.file_id is not None and stored != r.file_id:
-        raise r.error(f"record starts with id 0x{stored:08X}, not its own id")
-
-
 def parse_cell_landblock(data: bytes, *, path: str | None = None, file_id: int | None = None) -> CellLandblock:
     """CellLandblock: id (uint), has-objects (uint, 1 = true), 81 terrain ushorts,
     81 height bytes, padding to 4 bytes."""
     r = RecordReader(data, path, file_id, "CellLandblock")
     lb_id = r.u32("id")
-    _check_id(r, lb_id)
+    r.check_own_id(lb_id)
     has_objects = r.u32("has-objects flag") == 1
     terrain = list(r.array("H", VERTICES_PER_LANDBLOCK, "terrain words"))
     heights = list(r.array("B", VERTICES_PER_LANDBLOCK, "height bytes"))
@@ -114,7 +108,7 @@ def parse_landblock_info(data: bytes, *, path: str | None = None, file_id: int |
     (uint, uint) pairs)."""
     r = RecordReader(data, path, file_id, "LandblockInfo")
     lbi_id = r.u32("id")
-    _check_id(r, lbi_id)
+    r.check_own_id(lbi_id)
     num_cells = r.u32("EnvCell count")
     objects = _read_stabs(r, "static object")
     num_buildings = r.count(r.u16("building count"), _MIN_BUILDING, "building")
@@ -139,7 +133,7 @@ def parse_env_cell(data: bytes, *, path: str | None = None, file_id: int | None 
     """
     r = RecordReader(data, path, file_id, "EnvCell")
     cell_id = r.u32("id")
-    _check_id(r, cell_id)
+    r.check_own_id(cell_id)
     flags = r.u32("flags")
     r.u32("repeated cell id")
     num_surfaces = r.u8("surface count")

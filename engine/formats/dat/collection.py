@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import os
 from collections.abc import Collection, Iterable, Iterator
-from types import TracebackType
 from typing import Any
 
 from .cell_records import parse_cell_landblock, parse_env_cell, parse_landblock_info
-from .container import DatFile
+from .container import ClosesOnExit, DatFile
 from .environment import parse_environment
 from .errors import DatError, DatFileMissing
 from .gfxobj import parse_gfx_obj
@@ -92,7 +91,7 @@ def landblock_references(landblock: dict[str, Any]) -> set[int]:
     return refs
 
 
-class DatCollection:
+class DatCollection(ClosesOnExit):
     """The client's cell and portal dats in one directory, read as scene dicts."""
 
     def __init__(self, directory: str | os.PathLike[str]) -> None:
@@ -242,14 +241,6 @@ class DatCollection:
         """Close both dat files."""
         self.cell.close()
         self.portal.close()
-
-    def __enter__(self) -> DatCollection:
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f"DatCollection({self.directory!r})"

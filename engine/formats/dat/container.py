@@ -30,6 +30,7 @@ from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Self
 
 from .errors import DatError, DatFileMissing, format_file_id
 
@@ -50,6 +51,19 @@ _HEADER = struct.Struct("<15I16sI")
 _BRANCHES = struct.Struct(f"<{MAX_BRANCHES}I")
 _ENTRY = struct.Struct("<HHIIIII")
 _U32 = struct.Struct("<I")
+
+
+class ClosesOnExit:
+    """A `with` block closes the object (its `close()`) on the way out."""
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        raise NotImplementedError
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,7 +109,7 @@ class _Node:
     branches: list[int]  # empty for a leaf, else len(entries) + 1 offsets
 
 
-class DatFile:
+class DatFile(ClosesOnExit):
     """One dat file (`client_cell_1.dat`, `client_portal.dat`, ...), opened read-only.
 
     `read(file_id)` returns a file's bytes; `file_id in dat` tests presence;
@@ -322,14 +336,6 @@ class DatFile:
     @property
     def closed(self) -> bool:
         return self._map is None
-
-    def __enter__(self) -> DatFile:
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         state = "closed" if self.closed else f"block size {self.header.block_size}"

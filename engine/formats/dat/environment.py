@@ -51,9 +51,7 @@ def parse_environment(data: bytes, *, path: str | None = None, file_id: int | No
     Returns `{"cell_structs": {"<index>": CellStruct, ...}}`.
     """
     r = RecordReader(data, path, file_id, "Environment")
-    env_id = r.u32("id")
-    if file_id is not None and env_id != file_id:
-        raise r.error(f"record starts with id 0x{env_id:08X}, not its own id")
+    r.own_id()
     count = r.count(r.u32("cell struct count"), _MIN_CELL_STRUCT, "cell struct")
     structs: dict[str, dict[str, Any]] = {}
     for _ in range(count):

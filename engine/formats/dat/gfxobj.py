@@ -26,9 +26,7 @@ def parse_gfx_obj(data: bytes, *, path: str | None = None, file_id: int | None =
     `physics_bsp` and `num_physics_leaves` (only with physics), `sort_center`.
     """
     r = RecordReader(data, path, file_id, "GfxObj")
-    obj_id = r.u32("id")
-    if file_id is not None and obj_id != file_id:
-        raise r.error(f"record starts with id 0x{obj_id:08X}, not its own id")
+    r.own_id()
     flags = r.u32("flags")
     num_surfaces = r.count(r.compressed_u32("surface count"), 4, "surface")
     r.skip(4 * num_surfaces, "surface ids")

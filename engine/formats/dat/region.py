@@ -44,9 +44,7 @@ def parse_region(data: bytes, *, path: str | None = None, file_id: int | None = 
     (floats), 256 float LandHeightTable entries. The rest is not read.
     """
     r = RecordReader(data, path, file_id, "Region")
-    region_id = r.u32("id")
-    if file_id is not None and region_id != file_id:
-        raise r.error(f"record starts with id 0x{region_id:08X}, not its own id")
+    region_id = r.own_id()
     number = r.u32("region number")
     version = r.u32("version")
     length = r.u16("name length")

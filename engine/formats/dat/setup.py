@@ -95,9 +95,7 @@ def parse_setup(data: bytes, *, path: str | None = None, file_id: int | None = N
     Returns the scene format's Setup dict.
     """
     r = RecordReader(data, path, file_id, "Setup")
-    setup_id = r.u32("id")
-    if file_id is not None and setup_id != file_id:
-        raise r.error(f"record starts with id 0x{setup_id:08X}, not its own id")
+    r.own_id()
     flags = r.u32("flags")
     num_parts = r.count(r.u32("part count"), 4, "part")
     parts = [dat_id_hex(p) for p in r.array("I", num_parts, "part ids")]
