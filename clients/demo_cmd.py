@@ -7,13 +7,14 @@ import math
 import sys
 from contextlib import ExitStack
 
+from tqdm import tqdm
+
 from .client import Client
 from .demo_map import height_grid
 from .demo_walk import DT, LEGS, SPEED, START, walk_demo
 from .demo_world import DEMO_LANDBLOCKS, demo_scene_path, global_to_cell
 from .embedded import EmbeddedService
 from .errors import AcphysError
-from .progress import Progress
 from .which_service import print_service
 
 __all__ = ["run_demo"]
@@ -86,10 +87,13 @@ def run_demo(args: argparse.Namespace) -> int:
               "(pip install 'acphys[demo]'; install.sh installs it)", file=sys.stderr)
     with ExitStack() as stack:
         client = _connect(args, stack)
-        progress = None if args.quiet else Progress(_estimated_steps(), "walking", estimate=True)
-        res = walk_demo(client, on_step=progress.update if progress else None)
-        if progress:
-            progress.done(res.steps)
+        # the estimate is the bar's total until the walk ends, then the real count is
+        bar = None if args.quiet else tqdm(total=_estimated_steps(), desc="walking", unit="step", file=sys.stderr)
+        res = walk_demo(client, on_step=(lambda n: bar.update(n - bar.n)) if bar is not None else None)
+        if bar is not None:
+            bar.total = res.steps
+            bar.update(res.steps - bar.n)
+            bar.close()
     print(_table(res))
     print()
     print("events (the letters of the picture):")

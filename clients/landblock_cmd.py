@@ -144,21 +144,12 @@ def region_ids(corner1: int, corner2: int) -> list[int]:
 
 
 def _progress(items: list[int], enabled: bool) -> Iterator[int]:
-    """`items` with a progress bar on stderr: tqdm when installed, else the built-in one."""
+    """`items` with a progress bar on stderr (tqdm)."""
     if not enabled:
         yield from items
         return
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        from .progress import Progress
+    from tqdm import tqdm
 
-        bar = Progress(len(items), "loading landblocks")
-        for n, item in enumerate(items, 1):
-            yield item
-            bar.update(n)
-        bar.done()
-        return
     yield from tqdm(items, desc="loading landblocks", unit="lb", file=sys.stderr)
 
 

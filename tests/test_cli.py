@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from clients.demo_cmd import _estimated_steps
 from service_support import ROOT, ServiceProcess, child_env, endpoint, free_port
 
 
@@ -137,10 +139,11 @@ def test_demo_embedded(tmp_path: Path) -> None:
     out = tmp_path / "walk.png"
     r = acphys("demo", "--embedded", "--out", str(out))
     assert r.returncode == 0, r.stderr
-    progress = [ln for ln in r.stderr.splitlines() if ln.startswith("walking")]
-    assert progress[0].startswith("walking: 1/~")  # an estimate while walking ...
+    # the progress bar (tqdm, redrawn with \r): an estimate while walking, the real count at the end
+    progress = [part for part in re.split(r"[\r\n]", r.stderr) if part.startswith("walking")]
     total = int(next(ln for ln in r.stdout.splitlines() if ln.startswith("total")).split()[1])
-    assert progress[-1] == f"walking: {total}/{total} done"  # ... the real count at the end
+    assert f" 0/{_estimated_steps()} " in progress[0]  # the first draw's total is the estimate
+    assert f" {total}/{total} " in progress[-1] and "100%" in progress[-1]
     line = _service_line(r.stderr)
     assert line.startswith("service: embedded instance ") and " on tcp/127.0.0.1:" in line
     assert _png_size(out.read_bytes()) == (2000, 1400)

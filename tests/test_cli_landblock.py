@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -121,16 +120,6 @@ def test_load_region_with_a_small_cache(capsys: pytest.CaptureFixture[str]) -> N
     assert "9 landblocks, 9 loaded, 0 not in the dats" in captured.out
     assert "2 held of 2; loads 9, unloads 7" in captured.out
     assert "loading" not in captured.err
-
-
-def test_load_region_without_tqdm_uses_the_builtin_bar(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    monkeypatch.setitem(sys.modules, "tqdm", None)  # import tqdm now raises ImportError
-    assert _run("load-region", str(DATS / "objects"), "A9B4", "A9B4", "--terrain-only") == 0
-    captured = capsys.readouterr()
-    assert "1 loaded" in captured.out
-    assert "loading landblocks: 1/1" in captured.err
 
 
 def test_load_region_reports_a_corrupt_landblock(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
