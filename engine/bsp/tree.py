@@ -130,7 +130,8 @@ class BSPTree:
     def sphere_intersects_poly(self, check_pos: Sphere, movement: Vec3) -> tuple[bool, Polygon | None, Vec3]:
         """(hits, polygon, contact point) of BSPNODE::sphere_intersects_poly
         on the root. `polygon` can be set while `hits` is False: the sphere
-        overlaps it but moves away from it."""
+        overlaps it but moves away from it.
+        Decompiled client: FUN_00539500 (the seed, transition_pseudocode.md)."""
         hit = PolyHit()
         result = self.root_node.sphere_intersects_poly(check_pos, movement, hit)
         return result, hit.poly, hit.contact_point
@@ -150,11 +151,13 @@ class BSPTree:
 
     def find_walkable(self, path: SpherePath, valid_pos: Sphere, movement: Vec3, up: Vec3) -> Polygon | None:
         """BSPNODE::find_walkable on the root: moves `valid_pos`, returns the
-        polygon it was last settled on (None: unchanged)."""
+        polygon it was last settled on (None: unchanged).
+        Decompiled client: FUN_0053a040 (the seed, transition_pseudocode.md)."""
         return self.root_node.find_walkable(path, valid_pos, movement, up)
 
     def hits_walkable(self, path: SpherePath, valid_pos: Sphere, up: Vec3) -> bool:
-        """BSPNODE::hits_walkable on the root."""
+        """BSPNODE::hits_walkable on the root.
+        Decompiled client: FUN_0053a230 (the seed, transition_pseudocode.md)."""
         return self.root_node.hits_walkable(path, valid_pos, up)
 
     def point_intersects_solid(self, point: Vec3) -> bool:

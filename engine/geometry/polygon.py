@@ -268,7 +268,8 @@ class Polygon:
 
     # -- construction -----------------------------------------------------
     def make_plane(self) -> None:
-        """Compute the plane and the per-edge cache (CPolygon::make_plane)."""
+        """Compute the plane and the per-edge cache (CPolygon::make_plane).
+        Decompiled client: FUN_00539110 (the seed, transition_pseudocode.md)."""
         verts = self.vertices
         self.num_points = n = len(verts)
         if n == 0:
@@ -550,7 +551,8 @@ class Polygon:
         """Time along `ray` at which it meets the polygon, or None
         (CPolygon::polygon_hits_ray). A single-sided (LANDBLOCK) polygon is
         not hit from behind; a ray parallel to the plane or pointing away
-        from it misses."""
+        from it misses.
+        Decompiled client: FUN_00539060 (the seed, transition_pseudocode.md)."""
         nx, ny, nz = self._nx, self._ny, self._nz
         d = ray.dir
         angle = d.x * nx + d.y * ny + d.z * nz

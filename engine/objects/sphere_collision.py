@@ -94,6 +94,7 @@ def intersects_sphere(obstacle_sphere: Sphere, transition: Transition, is_creatu
     - collide mode: a creature is ignored; otherwise solve for where along
       the step the foot sphere first rests on the obstacle and, if the
       surface there is walkable enough, make it the contact plane.
+    Decompiled client: FUN_005387c0 (the seed, transition_pseudocode.md).
     """
     path = transition.sphere_path
     center = obstacle_sphere.center
@@ -270,7 +271,8 @@ def step_sphere_up(center: Vec3, transition: Transition, disp: Vec3, radsum: flo
 def land_on_sphere(center: Vec3, transition: Transition) -> int:
     """A falling foot sphere meets an obstacle sphere: enter collide mode
     along the line of centres, ready to land on anything not steeper than
-    LandingZ (Sphere.LandOnSphere)."""
+    LandingZ (Sphere.LandOnSphere).
+    Decompiled client: FUN_00538f50 (the seed, transition_pseudocode.md)."""
     path = transition.sphere_path
     normal = (path.global_curr_center[0].center - center).normalized_or_none()
     if normal is None:
@@ -317,7 +319,8 @@ def collide_with_point(center: Vec3, transition: Transition, check_sphere: Spher
 def find_time_of_collision(movement: Vec3, sphere_pos: Vec3, radsum: float) -> float:
     """Fraction of `movement` at which a sphere at `sphere_pos` (relative to
     the obstacle) reaches distance `radsum`, or -1 when it never does or
-    already overlaps (Sphere.FindTimeOfCollision, sign conventions kept)."""
+    already overlaps (Sphere.FindTimeOfCollision, sign conventions kept).
+    Decompiled client: FUN_00539ba0 (the seed, transition_pseudocode.md)."""
     dist_sq = movement.length_sq()
     if dist_sq < EPSILON:
         return -1.0

@@ -68,7 +68,8 @@ class CollisionInfo:
         self.contact_plane_is_water = is_water
 
     def set_collision_normal(self, normal: Vec3) -> None:
-        """Record a collision normal; a (near-)zero one is stored as zero."""
+        """Record a collision normal; a (near-)zero one is stored as zero.
+        Decompiled client: FUN_004524a0 (the seed, transition_pseudocode.md)."""
         self.collision_normal_valid = True
         unit = normal.normalized_or_none()
         if unit is None:

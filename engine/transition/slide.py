@@ -25,6 +25,7 @@ def slide_sphere(t: Transition, collision_normal: Vec3, curr_center: Vec3, spher
     ground) it is pushed straight out of the wall. `sphere` is the path sphere
     that slides (the foot sphere unless given; object collisions slide the
     head sphere too).
+    Decompiled client: FUN_00538180 (the seed, transition_pseudocode.md).
     """
     path = t.sphere_path
     ci = t.collision_info
@@ -63,7 +64,8 @@ def slide_sphere_object(t: Transition, obstacle_center: Vec3, disp: Vec3, sphere
     """Slide off another object's sphere (Sphere.SlideSphere, object variant).
 
     At the working precision, in the order the client's expressions evaluate
-    (the skid is (offset . dir) dir, then scaled by 1 / |dir|^2)."""
+    (the skid is (offset . dir) dir, then scaled by 1 / |dir|^2).
+    Decompiled client: FUN_00538eb0 (the seed, transition_pseudocode.md)."""
     single = t.settings.single_precision
     path = t.sphere_path
     ci = t.collision_info
