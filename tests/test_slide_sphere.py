@@ -23,6 +23,7 @@ the check position in single precision, so most answers are exact.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -31,8 +32,10 @@ from engine.constants import EPSILON
 from engine.geometry import Frame, Plane, Position, Sphere, Vec3
 from engine.transition.slide import slide_sphere, slide_sphere_object
 from engine.transition.state import TransitionState as TS
+from engine.transition.settings import RETAIL
 from engine.transition.transition import Transition
 
+DOUBLE = dataclasses.replace(RETAIL, single_precision=False)
 CELL = 0xA9B40001  # landblock A9B4, outdoor cell (0, 0)
 EAST_CELL = 0xAAB40001  # the landblock east of it, 192 m further along x
 R = 0.5
@@ -44,9 +47,8 @@ CURR = Vec3(10.0, 10.0, 50.0)  # the mover's origin before the step; its foot sp
 def _transition(step: Vec3, *, single: bool = True, head: bool = False, curr: Vec3 = CURR,
                 curr_cell: int = CELL, check_cell: int = CELL, check: Vec3 | None = None) -> Transition:
     """A transition part-way through one step from `curr` by `step`, standing on GROUND."""
-    t = Transition(None)
+    t = Transition(None, RETAIL if single else DOUBLE)  # type: ignore[arg-type]  # no cells: none is looked up
     path = t.sphere_path
-    path.single_precision = single
     spheres = [Sphere(Vec3(0.0, 0.0, R), R)]
     if head:
         spheres.append(Sphere(Vec3(0.0, 0.0, R + 1.0), R))
