@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import io
 import json
 
 
 from clients import Move, ServiceError
 from clients.demo_world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height
 from clients.errors import BusyError
-from clients.progress import Progress
 from engine import load_scene
 from engine.constants import FLOOR_Z
 from engine.geometry import Position, Quat, Vec3
@@ -55,24 +53,3 @@ def test_demo_world_has_hills_an_unclimbable_face_and_a_ledge() -> None:
 def test_global_to_cell() -> None:
     assert global_to_cell(20.0, 20.0) == (0xA9B40001, 20.0, 20.0)
     assert global_to_cell(200.0, 262.0)[0] == 0xAAB50003
-
-
-def test_progress_without_a_terminal_prints_quarters() -> None:
-    out = io.StringIO()
-    p = Progress(100, "walking", stream=out)
-    for k in range(1, 101):
-        p.update(k)
-    p.done()
-    assert out.getvalue().splitlines() == ["walking: 1/100", "walking: 25/100", "walking: 50/100",
-                                           "walking: 75/100", "walking: 100/100"]
-
-
-def test_an_estimated_total_is_marked_and_replaced_by_the_real_count() -> None:
-    out = io.StringIO()
-    p = Progress(80, "walking", stream=out, estimate=True)
-    for k in range(1, 91):  # the estimate was short: 90 steps, not 80
-        p.update(k)
-    p.done(90)
-    lines = out.getvalue().splitlines()
-    assert lines[0] == "walking: 1/~80" and "walking: 20/~80" in lines
-    assert lines[-1] == "walking: 90/90 done"

@@ -53,7 +53,9 @@ def _insert(gap: float, radius: float, spheres: int, step_down_height: float,
     """One TransitionalInsert of a mover in contact whose feet are `gap` above the ground."""
     t = RecordingTransition()
     state = OI.CONTACT | (OI.ON_WALKABLE if on_walkable else 0)
-    t.init_object(ObjectInfo(state, step_up_height=0.4, step_down_height=step_down_height))
+    oi = ObjectInfo(state)
+    oi.step_up_height, oi.step_down_height = 0.4, step_down_height
+    t.init_object(oi)
     t.init_sphere([Sphere(Vec3(0.0, 0.0, radius + i * 1.0), radius) for i in range(spheres)], 1.0)
     pos = Position(CELL, Frame(Vec3(84.0, 84.0, GROUND_Z + gap)))
     cell = WORLD.get_landcell(CELL)

@@ -258,7 +258,10 @@ class Transition:
         path = self.sphere_path
         ci = self.collision_info
         oi = self.object_info
-        if path.check_cell is None:
+        # tested through a local: narrowing `path.check_cell` itself would make the compiled build check
+        # each later read of it for a cell, and a slide or step may clear it between rounds
+        start_cell = path.check_cell
+        if start_cell is None:
             return _OK
         if num_insertion_attempts <= 0:
             return _INVALID
