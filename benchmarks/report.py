@@ -724,6 +724,15 @@ def _handling(lat: dict[str, Any]) -> list[str]:
     return out
 
 
+def _run_batch_note(eng: dict[str, Any]) -> str:
+    """The engine's own batch entry point on the same moves, where the run measured it."""
+    rb = eng.get("run_batch")
+    if not rb:
+        return ""
+    return (f"; the engine's batch entry point (`engine.world.batch.run_batch`, batches of 100 as the clients send "
+            f"them) {rb['moves_per_s']:,.0f} moves/s, {rb['cpu_us_per_move']:.1f} µs of CPU per move")
+
+
 def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
     """Issue 10's workload through the map and the column batch, beside World.move in process."""
     if not data or "engine" not in data:
@@ -734,7 +743,7 @@ def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
                 "100 (every mover out and back), by map batch (`Client.move_many_maps`) and by column batch "
                 "(`Client.move_batch`, docs/protocol.md, Column batches); beside it `World.move` on the same movers in "
                 f"one process, in the same run: {eng['moves_per_s']:,.0f} moves/s, "
-                f"{eng['cpu_us_per_move']:.1f} µs of CPU per move."), "",
+                f"{eng['cpu_us_per_move']:.1f} µs of CPU per move{_run_batch_note(eng)}."), "",
            "| batch form | moves/s | service CPU µs per move | client CPU µs per move | moves/s / engine's | "
            "engine's CPU per move / service's | errors |", "|---|---:|---:|---:|---:|---:|---:|"]
     for r in data["service"]:
