@@ -98,6 +98,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
         info_prefix=worker_info,
         accept_handovers=cluster is not None, on_handover_in=persistence.save_locked if persistence.path else None,
+        tune_heap=True,
     )
     stop = threading.Event()
 

@@ -32,6 +32,7 @@ from .column_request import column_count, is_column_request, parse_column_reques
 from .capabilities import capabilities
 from .core import ServiceCore
 from .errors import ProtocolError
+from . import heap
 from .frames import STATE_HEAD, pack, results_message, state_message, states_message
 from .jobqueue import JobQueue
 from .messages import HEALTH, LANDBLOCK_LIST, STATS
@@ -87,6 +88,9 @@ class NodeOptions:
     #: at shutdown, keep the keys declared until no request has arrived for this long (seconds), so every
     #: request Zenoh has already delivered gets its answer (see `shutdown`)
     drain_quiet: float = 0.5
+    #: this process serves and nothing else (the CLI's `serve`): tune the garbage collector for a long-lived
+    #: world (service/heap.py); off for a node started inside another program, such as a test run
+    tune_heap: bool = False
     #: called with the core (engine lock held) after a hand-over is taken and before it is answered: the
     #: state file is written there, so the sender never forgets a mover this instance could still lose
     on_handover_in: Callable[[ServiceCore], None] | None = None
@@ -152,6 +156,9 @@ class ServiceNode:
         self._declared.append(s.declare_queryable(info.health, self._callback(self._on_health)))
         self._declared.append(s.declare_queryable(info.stats, self._callback(self._on_stats)))
         self._declared.append(s.declare_queryable(info.landblocks, self._callback(self._on_landblocks)))
+        if self.options.tune_heap:
+            heap.tune()
+            heap.settle()
         log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
 
     @property
@@ -245,6 +252,12 @@ class ServiceNode:
             if run_now:
                 return True
         return self.queue.offer(job)
+
+    def _world_changed(self, answer: dict[str, Any]) -> dict[str, Any]:
+        """After a landblock load or unload (the engine lock held): the heap settled again, when tuned."""
+        if self.options.tune_heap and not answer.get("already"):
+            heap.settle()
+        return answer
 
     # -- replies ----------------------------------------------------------------
     def _reply_ok(self, query: zenoh.Query, content: dict[str, Any] | bytes) -> None:
@@ -425,10 +438,10 @@ class ServiceNode:
             return lambda: core.get(mover_id)
         if op == "load":
             assert lb is not None
-            return lambda: core.load(lb)
+            return lambda: self._world_changed(core.load(lb))
         if op == "unload":
             assert lb is not None
-            return lambda: core.unload(lb)
+            return lambda: self._world_changed(core.unload(lb))
         if op == "handover":
             handover = parse_handover(msg)
             return lambda: core.handover_in(handover)
