@@ -738,18 +738,31 @@ def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
     if not data or "engine" not in data:
         return []
     eng = data["engine"]
+    rounds = data.get("rounds", 1)
+    how = (f"in {rounds} rounds of {data.get('seconds_each', 0):.0f} s each (World.move, then each form), "
+           "medians over the rounds" if rounds > 1 else "in one round")
     out = ["", (f"Issue 10's workload ({label}): {data['movers']} player movers one every {data['spacing_m']:.0f} m on "
                 f"the demo world walking ±{data['step_m']} m, two client processes each moving its half in batches of "
                 "100 (every mover out and back), by map batch (`Client.move_many_maps`) and by column batch "
                 "(`Client.move_batch`, docs/protocol.md, Column batches); beside it `World.move` on the same movers in "
-                f"one process, in the same run: {eng['moves_per_s']:,.0f} moves/s, "
-                f"{eng['cpu_us_per_move']:.1f} µs of CPU per move{_run_batch_note(eng)}."), "",
-           "| batch form | moves/s | service CPU µs per move | client CPU µs per move | moves/s / engine's | "
-           "engine's CPU per move / service's | errors |", "|---|---:|---:|---:|---:|---:|---:|"]
+                f"a process of its own, {how}: {eng['moves_per_s']:,.0f} moves/s, "
+                f"{eng['cpu_us_per_move']:.1f} µs of CPU per move{_run_batch_note(eng)}. \"The engine inside the "
+                "service\" is the service's own mean engine time per move (Stats `engine_ms`) while the clients run: "
+                "the same engine code, slowed by the clients and Zenoh sharing this machine's two cores; the column "
+                "after it is the rest of the service's CPU per move (decoding, checks, stats, encoding, Zenoh)."), "",
+           "| batch form | moves/s | service CPU µs per move | the engine inside the service, µs per move | "
+           "service CPU beyond its engine, µs per move | client CPU µs per move | moves/s / engine's | "
+           "engine's CPU per move / service's | errors |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in data["service"]:
+        inside, beyond = r.get("engine_in_service_us"), r.get("service_beyond_engine_us")
         out.append(f"| {r['form']} | {r['moves_per_s']:,.0f} | {r['service_cpu_us_per_move']:.1f} | "
+                   f"{'-' if inside is None else f'{inside:.1f}'} | {'-' if beyond is None else f'{beyond:.1f}'} | "
                    f"{r['client_cpu_us_per_move']:.1f} | {r['ratio_to_engine']:.2f} | {r['cpu_ratio_to_engine']:.2f} | "
                    f"{r['errors']} |")
+    per_round = [f"{r['form']} " + ", ".join(f"{x['ratio_to_engine']:.2f}" for x in r["rounds"])
+                 for r in data["service"] if len(r.get("rounds") or []) > 1]
+    if per_round:
+        out += ["", "Each round's moves/s ratio: " + "; ".join(per_round) + "."]
     return out
 
 
