@@ -122,18 +122,10 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
         status |= Status.HAS_CONTACT_PLANE
         n = cp.normal
         reals.extend((n.x, n.y, n.z, cp.d))
-    cn = r.collision_normal
-    if cn is None:
-        reals.extend((_NAN, _NAN, _NAN))
-    else:
+    if _append_vector(reals, r.collision_normal):
         status |= Status.HAS_COLLISION_NORMAL
-        reals.extend((cn.x, cn.y, cn.z))
-    sn = r.sliding_normal
-    if sn is None:
-        reals.extend((_NAN, _NAN, _NAN))
-    else:
+    if _append_vector(reals, r.sliding_normal):
         status |= Status.HAS_SLIDING_NORMAL
-        reals.extend((sn.x, sn.y, sn.z))
     cpc = r.contact_plane_cell
     plane_cell = 0
     if cpc is not None:
@@ -149,6 +141,15 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
                       _STATE_INDEX[r.transition_state], stationary_fall, plane_cell, len(collide)))
     if collide:
         rows.collide_ids.extend(collide)
+
+
+def _append_vector(reals: list[float], v: Vec3 | None) -> bool:
+    """Append v's components (NaN for none); whether there was one."""
+    if v is None:
+        reals.extend((_NAN, _NAN, _NAN))
+        return False
+    reals.extend((v.x, v.y, v.z))
+    return True
 
 
 def append_missing(rows: BatchRows) -> None:
