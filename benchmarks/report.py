@@ -405,6 +405,20 @@ def _limits(results: dict[str, Any]) -> list[str]:
                        "clients send (the engine runs on one thread; Python's GIL serialises the rest); 50,000 "
                        "moves/s needs at most 20 µs per move, decoding and encoding included, or several "
                        "instances owning different landblocks." + ctxt + both)
+        issue = svc.get("issue10_columns") or {}
+        cols = next((r for r in issue.get("service", []) if r["form"] == "columns"), None)
+        if cols and cols.get("engine_in_service_us") is not None:
+            eng = issue["engine"]
+            need = eng["cpu_us_per_move"] / 0.8
+            out.append(
+                f"- Issue 10's batched throughput: with the column form a move cost the service "
+                f"{cols['service_cpu_us_per_move']:.1f} µs of CPU, of which {cols['engine_in_service_us']:.1f} µs in "
+                f"the engine (its own stats) and {cols['service_beyond_engine_us']:.1f} µs in everything else "
+                "(Zenoh's receive and reply, msgpack, the column checks, the rows' bookkeeping and the reply's "
+                f"arrays). In a process of its own the same engine took {eng['cpu_us_per_move']:.1f} µs per move: "
+                "inside the service it shares this machine's two cores with the two client processes and "
+                "Zenoh's threads. 0.8 of the engine's rate asks the whole service for at most "
+                f"{need:.1f} µs per move.")
     err = results.get("error")
     if err and err["settings"]:
         base = err["settings"][0]["name"]
