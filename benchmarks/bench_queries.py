@@ -10,7 +10,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from .bench_service import Child, _demo_scene, free_port
+from .bench_service import Child, demo_scene, free_port
 from .common import log
 
 OPS = ("sight", "ray", "ground")
@@ -79,12 +79,12 @@ def run(quick: bool) -> dict[str, Any]:
     from engine import load_scene
 
     n = 100 if quick else 1000
-    world = load_scene(str(_demo_scene()))
+    world = load_scene(str(demo_scene()))
     pairs = _queries(world, n)
     log(f"queries: {n} of each kind in process")
     local = _in_process(world, pairs)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    service = Child([sys.executable, "-m", "service", "--scene", str(_demo_scene()), "--listen", endpoint,
+    service = Child([sys.executable, "-m", "service", "--scene", str(demo_scene()), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
     try:
         with Client([endpoint], timeout=60.0) as c:

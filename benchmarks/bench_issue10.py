@@ -1,0 +1,249 @@
+"""Issue 10's workload: the service against the engine in process, on the same movers and moves.
+
+100 player movers one every 8 m on the demo world, walking +-0.25 m and back, sent by two client
+processes in batches of 100 through the map batch and the column batch; beside it World.move and the
+engine's batch entry point (run_batch) on the same movers in a process of their own. Run by
+`python3 -m benchmarks --only service` (benchmarks/bench_service.py); its children are this module's
+`issue-engine` and `issue-worker` roles.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from . import common
+from .bench_service import Child, demo_scene, child_env, collect_reports, free_port
+from .common import log
+
+__all__ = ["issue_workload", "issue_spots", "ISSUE_MOVERS", "ISSUE_STEP"]
+
+
+# -- issue 10's workload: the map and the column form against the engine in process ------------------------
+#: 100 player movers one every 8 m on the demo world, walking +-0.25 m; each of the two client processes
+#: moves its 50 in batches of 100 (every mover out and back)
+ISSUE_MOVERS = 100
+
+
+ISSUE_SPACING = 8.0
+
+
+ISSUE_STEP = 0.25
+
+
+ISSUE_PROCESSES = 2
+
+
+ISSUE_FORMS = {
+    "maps": "Client.move_many_maps: the map batch, entries as decoded maps",
+    "columns": "Client.move_batch: the column batch, results as numpy arrays",
+}
+
+
+def issue_spots(world: Any) -> list[tuple[Any, Any, int]]:
+    """(position on the ground, its contact plane, cell) of every mover: a 10 x 10 grid 8 m apart."""
+    from clients.demo_world import global_to_cell
+    from engine.geometry import Plane, Position, Vec3
+
+    out = []
+    side = int(round(ISSUE_MOVERS ** 0.5))
+    for k in range(ISSUE_MOVERS):
+        gx, gy = 100.0 + ISSUE_SPACING * (k % side), 100.0 + ISSUE_SPACING * (k // side)
+        cell, x, y = global_to_cell(gx, gy)
+        z = world.terrain_height(cell, x, y)
+        n = world.landblocks[cell >> 16].terrain.normal_at(x, y)
+        out.append((Position.at(cell, Vec3(x, y, z)), Plane(n, -n.dot(Vec3(x, y, z))), cell))
+    return out
+
+
+def issue_engine_rate(seconds: float) -> dict[str, Any]:
+    """World.move on the same movers in this process: the rate the service is measured against; beside it
+    the engine's batch entry point (engine.world.batch.run_batch) on the same moves in batches of 100."""
+    from engine import load_scene
+    from engine.geometry import Vec3
+    from engine.world.batch import OFFSET, BatchRows, run_batch
+    from engine.world.mover import Mover
+
+    from .scenes import PLAYER
+
+    world = load_scene(str(demo_scene()))
+    ids = [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in issue_spots(world)]
+    out, back = Vec3(ISSUE_STEP, 0.0, 0.0), Vec3(-ISSUE_STEP, 0.0, 0.0)
+
+    def one_by_one() -> int:
+        for offset in (out, back):
+            for mid in ids:
+                world.move(mid, world.mover(mid).position.moved(offset))
+        return 2 * len(ids)
+
+    share = len(ids) // ISSUE_PROCESSES
+    batches = []
+    for k in range(ISSUE_PROCESSES):  # as the clients send them: each mover of a share out, then back
+        movers: list[Mover | None] = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
+        batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
+
+    def batched() -> int:
+        for movers, vectors in batches:
+            run_batch(world.landscape, movers, OFFSET, vectors, BatchRows())
+        return 2 * len(ids)
+
+    def rate(run: Any) -> dict[str, Any]:
+        run()  # warm: every mover's cells looked up once, as the service's are before timing
+        moves = 0
+        t0, cpu0 = time.perf_counter(), time.process_time()
+        end = t0 + seconds
+        while time.perf_counter() < end:
+            moves += run()
+        elapsed, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+        return {"moves": moves, "seconds": elapsed, "moves_per_s": moves / elapsed,
+                "cpu_us_per_move": cpu / moves * 1e6}
+
+    row = rate(one_by_one)
+    row["run_batch"] = rate(batched)
+    return row
+
+
+def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:
+    """Register this process's share of the grid, then send batches of 100 (each mover +0.25 m then -0.25 m)
+    in `form` until `seconds` have passed; print a JSON report."""
+    import numpy as np
+
+    from clients import Client, Move
+    from engine import load_scene
+
+    from .scenes import PLAYER
+
+    share = ISSUE_MOVERS // ISSUE_PROCESSES
+    spots = issue_spots(load_scene(str(demo_scene())))[index * share:(index + 1) * share]
+    with Client([endpoint], timeout=30.0) as c:
+        ids = [c.register(PLAYER, pos, contact_plane=plane, contact_plane_cell=cell).id for pos, plane, cell in spots]
+        batch_ids = np.array(ids + ids, dtype=np.uint64)
+        offsets = np.zeros((2 * share, 3))
+        offsets[:share, 0], offsets[share:, 0] = ISSUE_STEP, -ISSUE_STEP
+        map_moves = [Move(int(i), offset=(o[0], o[1], o[2])) for i, o in zip(batch_ids.tolist(), offsets.tolist())]
+        time.sleep(max(0.0, start_at - time.time()))
+        cpu0 = time.process_time()
+        end = time.monotonic() + seconds
+        moves = errors = 0
+        while time.monotonic() < end:
+            if form == "columns":
+                errors += len(c.move_batch(batch_ids, offsets=offsets).errors)
+            else:
+                errors += sum(1 for e in c.move_many_maps(map_moves) if not isinstance(e, dict) or "error" in e)
+            moves += len(map_moves)
+        elapsed = seconds + (time.monotonic() - end)
+        cpu = time.process_time() - cpu0
+        for mid in ids:
+            c.remove(mid)
+    print("RESULT " + json.dumps({"index": index, "moves": moves, "errors": errors, "seconds": elapsed,
+                                   "cpu_seconds": cpu}), flush=True)
+
+
+def issue_service_rate(endpoint: str, service: Child, form: str, seconds: float) -> dict[str, Any]:
+    start_at = time.time() + 4.0  # every worker has loaded the scene and registered its movers by then
+    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_issue10", "issue-worker", endpoint, str(i),
+                               repr(start_at), repr(seconds), form],
+                              cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for i in range(ISSUE_PROCESSES)]
+    time.sleep(max(0.0, start_at - time.time()))
+    cpu0 = service.cpu_seconds()
+    reports = collect_reports(procs, seconds + 90.0, "issue worker")
+    cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
+    moves = sum(r["moves"] for r in reports)
+    wall = max(r["seconds"] for r in reports)
+    row = {"form": form, "processes": ISSUE_PROCESSES, "batch": 2 * (ISSUE_MOVERS // ISSUE_PROCESSES),
+           "moves": moves, "seconds": wall, "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
+           "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None,
+           "client_cpu_us_per_move": sum(r["cpu_seconds"] for r in reports) / moves * 1e6 if moves else None}
+    log(f"service (issue 10): {ISSUE_PROCESSES} proc x batch {row['batch']} ({form:7s}): {row['moves_per_s']:9.0f} "
+        f"moves/s, service CPU {row['service_cpu_us_per_move']:.1f} µs/move, "
+        f"client CPU {row['client_cpu_us_per_move']:.1f} µs/move, {row['errors']} errors")
+    return row
+
+
+def _issue_engine_once(seconds: float, engine_root: Path | None) -> dict[str, Any]:
+    """World.move and run_batch in a child, with the same engine the service imports (`engine_root`'s when given)."""
+    p = subprocess.run([sys.executable, "-m", "benchmarks.bench_issue10", "issue-engine", repr(seconds)],
+                       cwd=engine_root or common.ROOT, env=child_env(engine_root), capture_output=True, text=True,
+                       timeout=seconds + 120)
+    lines = [ln for ln in p.stdout.splitlines() if ln.startswith("ENGINE ")]
+    if p.returncode != 0 or not lines:
+        raise RuntimeError(f"in-process engine run failed ({p.returncode}):\n{p.stderr[-2000:]}")
+    engine: dict[str, Any] = json.loads(lines[-1][7:])
+    log(f"service (issue 10): World.move in process on the same movers: {engine['moves_per_s']:9.0f} moves/s, "
+        f"CPU {engine['cpu_us_per_move']:.1f} µs/move; run_batch in process: "
+        f"{engine['run_batch']['moves_per_s']:9.0f} moves/s, CPU {engine['run_batch']['cpu_us_per_move']:.1f} µs/move")
+    return engine
+
+
+def _engine_inside(endpoint: str) -> float | None:
+    """The service's own mean engine time per move over its window (Stats `engine_ms`), in µs."""
+    from clients import Client
+
+    with Client([endpoint], timeout=30.0) as c:
+        (stats,) = c.stats()
+    mean = (stats.get("engine_ms") or {}).get("mean")
+    return None if mean is None else float(mean) * 1e3
+
+
+def _median_row(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """One row of medians over the rounds' rows (numbers only; the rounds are kept beside it)."""
+    out = dict(rows[0])
+    for k, v in rows[0].items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            vals = [r[k] for r in rows if isinstance(r.get(k), (int, float))]
+            out[k] = statistics.median(vals) if vals else None
+    out["rounds"] = rows
+    return out
+
+
+def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
+    """Issue 10's workload through the map and the column form, and World.move in process, in one run:
+    in rounds (engine, then each form), so that each ratio compares minutes of the same machine state on
+    this shared machine; the figures are the medians over the rounds, each round's ratio its own."""
+    seconds, rounds = (2.0, 1) if quick else (5.0, 3)
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    service = Child([sys.executable, "-m", "service", "--scene", str(demo_scene()), "--listen", endpoint,
+                     "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
+    engines: list[dict[str, Any]] = []
+    per_form: dict[str, list[dict[str, Any]]] = {form: [] for form in ISSUE_FORMS}
+    try:
+        for _ in range(rounds):
+            engine = _issue_engine_once(seconds, engine_root)
+            engines.append(engine)
+            for form in ISSUE_FORMS:
+                row = issue_service_rate(endpoint, service, form, seconds)
+                row["ratio_to_engine"] = row["moves_per_s"] / engine["moves_per_s"]
+                # CPU per move, less sensitive to other processes on a shared machine than the rates
+                row["cpu_ratio_to_engine"] = engine["cpu_us_per_move"] / row["service_cpu_us_per_move"]
+                inside = _engine_inside(endpoint)
+                row["engine_in_service_us"] = inside
+                row["service_beyond_engine_us"] = None if inside is None else row["service_cpu_us_per_move"] - inside
+                log(f"service (issue 10): {form} / engine in process = {row['ratio_to_engine']:.2f} in moves/s, "
+                    f"{row['cpu_ratio_to_engine']:.2f} in CPU per move (target >= 0.8); the engine inside the service "
+                    f"{inside or float('nan'):.1f} µs/move")
+                per_form[form].append(row)
+    finally:
+        service.stop()
+    engine_row = _median_row([{k: v for k, v in e.items() if k != "run_batch"} for e in engines])
+    engine_row["run_batch"] = _median_row([e["run_batch"] for e in engines])
+    return {"engine": engine_row, "service": [_median_row(rows) for rows in per_form.values()],
+            "movers": ISSUE_MOVERS, "spacing_m": ISSUE_SPACING, "step_m": ISSUE_STEP, "forms": ISSUE_FORMS,
+            "rounds": rounds, "seconds_each": seconds}
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "issue-worker":
+        issue_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
+    elif sys.argv[1] == "issue-engine":
+        print("ENGINE " + json.dumps(issue_engine_rate(float(sys.argv[2]))), flush=True)
+    elif sys.argv[1] == "issue":
+        print(json.dumps(issue_workload(quick=True)))
+    else:
+        raise SystemExit(f"unknown role {sys.argv[1]!r}")
