@@ -14,7 +14,8 @@ from typing import Any
 
 import msgpack
 
-from .schema import Field, Kind, Map, Quaternion, Vector, _Gen
+from .schema import Field, Map
+from .schema_kinds import Kind, Quaternion, SourceGen, Vector
 
 __all__ = ["Packed", "make_packer"]
 
@@ -25,7 +26,7 @@ def make_packer(m: Map, args: str) -> Callable[..., bytes]:
     """A function of `args` writing `m`'s msgpack bytes: fields whose `src` reads the arguments,
     nested maps flattened, fixed-size values packed together. `omit` fields come last, and the map's
     entry count counts them when given."""
-    g = _Gen()
+    g = SourceGen()
     g.ns.update(_packb=_packb, _cached=_cached, _cached_list=_cached_list, _NIL=_NIL, _SMALL=_SMALL)
     out = Packed(g)
     always = [f for f in m.fields if not f.omit]
@@ -47,7 +48,7 @@ def make_packer(m: Map, args: str) -> Callable[..., bytes]:
     return g.compile(fn)  # type: ignore[no-any-return]
 
 
-def _hoisted(g: _Gen, src: str, out: Packed, hoist: bool) -> str:
+def _hoisted(g: SourceGen, src: str, out: Packed, hoist: bool) -> str:
     """`src` as a local (evaluated once) where it is an expression and locals may be set up front."""
     if not hoist or src.isidentifier():
         return src
@@ -56,7 +57,7 @@ def _hoisted(g: _Gen, src: str, out: Packed, hoist: bool) -> str:
     return local
 
 
-def _pack_field(g: _Gen, f: Field, src: str, out: Packed, hoist: bool) -> None:
+def _pack_field(g: SourceGen, f: Field, src: str, out: Packed, hoist: bool) -> None:
     """The field's key and value. `hoist`: locals may be set at the function's start (not inside a
     branch taken only when an enclosing value is given)."""
     key = _packb(f.name)
@@ -71,7 +72,7 @@ def _pack_field(g: _Gen, f: Field, src: str, out: Packed, hoist: bool) -> None:
         _pack_value(g, f.kind, src, out, hoist)
 
 
-def _pack_value(g: _Gen, kind: Kind, src: str, out: Packed, hoist: bool) -> None:
+def _pack_value(g: SourceGen, kind: Kind, src: str, out: Packed, hoist: bool) -> None:
     if isinstance(kind, Map):  # flattened into the enclosing bytes; every field present
         obj = _hoisted(g, src, out, hoist)
         out.const(bytes((0x80 | len(kind.fields),)))
@@ -86,7 +87,7 @@ def _pack_value(g: _Gen, kind: Kind, src: str, out: Packed, hoist: bool) -> None
 class Packed:
     """Bytes being put together: runs of constants and fixed-size values become one Struct each."""
 
-    def __init__(self, g: _Gen) -> None:
+    def __init__(self, g: SourceGen) -> None:
         self.g = g
         self.parts: list[str] = []
         self.pre: list[str] = []  # statements the parts need first (locals)

@@ -15,397 +15,44 @@ a nested map). From that one declaration (service/messages.py holds every map-fo
 - `Field.doc_type` and `Map.required_names`: what docs/protocol.md's tables are checked against
   (tests/test_service_schema.py).
 
+The value kinds are in service/schema_kinds.py; this module holds the maps and their fields.
 Only the wire constants, validate.py's readers and the standard library are used here.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
-
-from engine.limits import FLOAT32_MAX
+from typing import Any
 
 from .errors import ProtocolError
-from .validate import (
-    as_bool,
-    as_float,
-    as_list,
-    as_map,
-    as_quat,
-    as_str,
-    as_uint,
-    as_vec3,
-    field_path,
+from .schema_kinds import (
+    MAX_TAG_LEN,
+    NON_NEGATIVE,
+    POSITIVE,
+    Bool,
+    Enum,
+    Int,
+    Kind,
+    ListOf,
+    Number,
+    Quaternion,
+    Range,
+    SourceGen,
+    Str,
+    Tag,
+    UInt,
+    Value,
+    Vector,
 )
+from .validate import as_map, field_path
 from .wire import ErrorKind
 
-if TYPE_CHECKING:
-    from .packing import Packed
-
+#: the value kinds are re-exported: a message is declared with `from .schema import ...` alone
 __all__ = [
-    "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Value", "UInt", "Number", "Bool", "Str", "Enum", "Tag", "Vector", "Quaternion", "ListOf", "Field", "Map",
-    "Rule", "MAX_TAG_LEN",
+    "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Value", "Number", "Bool", "Str", "Enum", "Tag", "Vector",
+    "Quaternion", "ListOf", "Field", "Map", "Rule", "MAX_TAG_LEN",
 ]
-
-MAX_TAG_LEN = 256
-
-
-class _Gen:
-    """Python source being generated, and the names it refers to."""
-
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-        self.ns: dict[str, Any] = {"ProtocolError": ProtocolError, "field_path": field_path, "isfinite": math.isfinite,
-                                   "sqrt": math.sqrt, "F32": FLOAT32_MAX}
-        self._n = 0
-
-    def var(self, stem: str = "v") -> str:
-        self._n += 1
-        return f"{stem}{self._n}"
-
-    def const(self, value: Any, stem: str = "K") -> str:
-        name = self.var(f"_{stem}")
-        self.ns[name] = value
-        return name
-
-    def emit(self, indent: int, line: str) -> None:
-        self.lines.append("    " * indent + line)
-
-    def compile(self, name: str) -> Any:
-        exec(compile("\n".join(self.lines), f"<schema {name}>", "exec"), self.ns)  # noqa: S102 - our own source
-        return self.ns[name]
-
-
-class Kind:
-    """What a value is. `read` is the full reader; `fast` emits the fast reader's code for it (the value
-    is in `x`; it emits `return None` for anything it cannot vouch for) and gives the expression of the
-    read value; `encode` gives the msgpack-ready value of `src` (an expression)."""
-
-    doc = "?"
-
-    def read(self, value: Any, path: str) -> Any:
-        raise NotImplementedError
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        raise NotImplementedError
-
-    def encode(self, g: _Gen, src: str) -> str:
-        return src
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        """Append the msgpack bytes of `src` to `out` (default: msgpack's own packing)."""
-        out.expr(f"_packb({self.encode(g, src)})")
-
-
-class UInt(Kind):
-    def __init__(self, bits: int = 64) -> None:
-        self.bits = bits
-        self.doc = f"uint{bits}"
-
-    def read(self, value: Any, path: str) -> int:
-        return as_uint(value, path, self.bits)
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not int or {x} < 0 or {x} >= {1 << self.bits}: return None")
-        return x
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        # fixed width (msgpack allows any width for a value): the run of fixed-size fields stays one Struct
-        code = {64: ("\xcf", "Q"), 32: ("\xce", "I"), 16: ("\xcd", "H"), 8: ("\xcc", "B")}[self.bits]
-        out.fixed(code[0].encode("latin-1"), code[1], src)
-
-
-class Int(Kind):
-    """A small signed integer (counters)."""
-
-    doc = "int"
-
-    def read(self, value: Any, path: str) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ProtocolError(ErrorKind.WRONG_TYPE, f"{path}: expected integer", path)
-        return value
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not int: return None")
-        return x
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.expr(f"(_SMALL[{src}] if 0 <= {src} < 128 else _packb({src}))")
-
-
-@dataclass(frozen=True, slots=True)
-class Range:
-    """Bounds of a number: `lo < x` (or `lo <= x`), `x <= hi`; `text` is how the error message says it."""
-
-    lo: float | None = None
-    lo_open: bool = False
-    hi: float | None = None
-    text: str = ""
-
-    def holds(self, f: float) -> bool:
-        if self.lo is not None and (f <= self.lo if self.lo_open else f < self.lo):
-            return False
-        return self.hi is None or f <= self.hi
-
-    def cond(self, x: str) -> str:
-        parts = []
-        if self.lo is not None:
-            parts.append(f"{x} {'>' if self.lo_open else '>='} {self.lo!r}")
-        if self.hi is not None:
-            parts.append(f"{x} <= {self.hi!r}")
-        return " and ".join(parts) or "True"
-
-
-POSITIVE = Range(0.0, True, None, "must be positive")
-NON_NEGATIVE = Range(0.0, False, None, "must not be negative")
-
-
-class Number(Kind):
-    """A finite number that fits single precision, within `range` when given."""
-
-    def __init__(self, range: Range | None = None, doc: str = "number") -> None:  # noqa: A002 - the word of the doc
-        self.range = range
-        self.doc = doc
-
-    def read(self, value: Any, path: str) -> float:
-        f = as_float(value, path)
-        r = self.range
-        if r is not None and not r.holds(f):
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: {r.text}, got {f}", path)
-        return f
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        r = "" if self.range is None else f" and {self.range.cond(x)}"
-        g.emit(ind, f"if type({x}) is not float or not (-F32 <= {x} <= F32{r}): return None")
-        return x
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.fixed(b"\xcb", "d", src)  # every real as float64, whatever its value
-
-
-class _Exact(Kind):
-    """A value of one msgpack type, read by validate.py's reader for it (the fast reader: its exact type)."""
-
-    type_name = ""
-
-    def read(self, value: Any, path: str) -> Any:
-        return (as_bool if self.type_name == "bool" else as_str)(value, path)
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not {self.type_name}: return None")
-        return x
-
-
-class Bool(_Exact):
-    doc = type_name = "bool"
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.flag(src)
-
-
-class Str(_Exact):
-    doc = "string"
-    type_name = "str"
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        # the handful of names a field takes, packed once each (with the key before them)
-        prefix = g.const(out.take_prefix(), "B")
-        cache = g.const({}, "strs")
-        out.expr(f"({cache}.get({src}) or _cached({cache}, {prefix}, {src}))")
-
-
-class Enum(Kind):
-    """A string from `values`; `what` names the set in the error message."""
-
-    def __init__(self, values: tuple[str, ...], what: str | None = None, doc: str = "string") -> None:
-        self.values = values
-        self.what = what
-        self.doc = doc
-
-    def read(self, value: Any, path: str) -> str:
-        if self.what is None:  # a short set: both errors list it
-            if not isinstance(value, str):
-                raise ProtocolError(ErrorKind.WRONG_TYPE, f"{path}: expected a string ({' or '.join(self.values)})", path)
-            if value not in self.values:
-                raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: {value[:40]!r} is not one of {', '.join(self.values)}",
-                                    path)
-            return value
-        s = as_str(value, path)
-        if s not in self.values:
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: unknown {self.what} {s!r} (known: {', '.join(self.values)})",
-                                path)
-        return s
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if type({x}) is not str or {x} not in {g.const(frozenset(self.values))}: return None")
-        return x
-
-
-class Value(Kind):
-    """Any value, as it comes (reply fields this code writes but never reads back)."""
-
-    def __init__(self, doc: str) -> None:
-        self.doc = doc
-
-    def read(self, value: Any, path: str) -> Any:
-        return value
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        return x
-
-
-class Tag(Kind):
-    """A request's tag: a 64-bit integer (signed or not) or a string of at most 256 characters."""
-
-    doc = "int or string"
-
-    def read(self, value: Any, path: str) -> int | str:
-        if isinstance(value, bool) or not isinstance(value, (int, str)):
-            raise ProtocolError(ErrorKind.WRONG_TYPE, f"{path}: expected integer or string", path)
-        if isinstance(value, str) and len(value) > MAX_TAG_LEN:
-            raise ProtocolError(ErrorKind.TOO_LARGE, f"{path}: longer than {MAX_TAG_LEN} characters", path)
-        if isinstance(value, int) and not -(1 << 63) <= value < (1 << 64):
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: out of 64-bit range", path)
-        return value
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        g.emit(ind, f"if not ((type({x}) is int and {-(1 << 63)} <= {x} < {1 << 64}) "
-                    f"or (type({x}) is str and len({x}) <= {MAX_TAG_LEN})): return None")
-        return x
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.expr(f"_packb({src})")
-
-
-class Vector(Kind):
-    """`[x, y, z]`: three numbers, read as `build(x, y, z)` (Vec3, or a tuple when build is None)."""
-
-    doc = "Vector"
-
-    def __init__(self, build: Callable[..., Any] | None = None,
-                 check: Callable[[Any, str], None] | None = None) -> None:
-        self.build = build
-        self.check = check  # an engine limit, raising ProtocolError naming the path
-
-    def _built(self, t: tuple[float, float, float]) -> Any:
-        return t if self.build is None else self.build(*t)
-
-    def read(self, value: Any, path: str) -> Any:
-        v = self._built(as_vec3(value, path))
-        if self.check is not None:
-            self.check(v, path)
-        return v
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        a, b, c = g.var("a"), g.var("b"), g.var("c")
-        g.emit(ind, f"if type({x}) is not list or len({x}) != 3: return None")
-        g.emit(ind, f"{a}, {b}, {c} = {x}")
-        # a NaN fails every comparison; an infinity or a number beyond float32 the bounds
-        g.emit(ind, f"if not (type({a}) is float and type({b}) is float and type({c}) is float and -F32 <= {a} <= F32 "
-                    f"and -F32 <= {b} <= F32 and -F32 <= {c} <= F32): return None")
-        out = f"({a}, {b}, {c})" if self.build is None else f"{g.const(self.build, 'build')}({a}, {b}, {c})"
-        if self.check is not None:
-            v = g.var()
-            g.emit(ind, f"{v} = {out}")
-            g.emit(ind, f"{g.const(self.check, 'check')}({v}, {path})")
-            return v
-        return out
-
-    def encode(self, g: _Gen, src: str) -> str:
-        return f"{g.const(_vec_list, 'vec')}({src})"
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.fixed(b"\x93\xcb", "d", f"{src}.x")
-        out.fixed(b"\xcb", "d", f"{src}.y")
-        out.fixed(b"\xcb", "d", f"{src}.z")
-
-
-def _vec_list(v: Any) -> list[float]:
-    """A Vec3, or three numbers in a tuple or list, as the wire's list."""
-    if type(v) is tuple or type(v) is list:
-        x, y, z = v
-        return [float(x), float(y), float(z)]
-    return [v.x, v.y, v.z]
-
-
-class Quaternion(Kind):
-    """`[w, x, y, z]` of unit length (within 1e-3), read as `build(w, x, y, z)`."""
-
-    doc = "[w, x, y, z]"
-
-    def __init__(self, build: Callable[..., Any]) -> None:
-        self.build = build
-
-    def read(self, value: Any, path: str) -> Any:
-        return self.build(*as_quat(value, path))
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        w, a, b, c, n2 = g.var("w"), g.var("a"), g.var("b"), g.var("c"), g.var("n")
-        g.emit(ind, f"if type({x}) is not list or len({x}) != 4: return None")
-        g.emit(ind, f"{w}, {a}, {b}, {c} = {x}")
-        g.emit(ind, f"if not (type({w}) is float and type({a}) is float and type({b}) is float and type({c}) is float): "
-                    "return None")
-        g.emit(ind, f"{n2} = {w} * {w} + {a} * {a} + {b} * {b} + {c} * {c}")
-        # finite components of a unit-length quaternion all lie within [-1.001, 1.001]
-        g.emit(ind, f"if not (isfinite({n2}) and abs(sqrt({n2}) - 1.0) <= 1e-3): return None")
-        return f"{g.const(self.build, 'build')}({w}, {a}, {b}, {c})"
-
-    def encode(self, g: _Gen, src: str) -> str:
-        return f"[{src}.w, {src}.x, {src}.y, {src}.z]"
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        out.fixed(b"\x94\xcb", "d", f"{src}.w")
-        for c in "xyz":
-            out.fixed(b"\xcb", "d", f"{src}.{c}")
-
-
-class ListOf(Kind):
-    """An array of `item`s: at most `max_len`, at least `min_len` (`min_text` says why)."""
-
-    def __init__(self, item: Kind, max_len: int | None = None, min_len: int = 0, min_text: str = "",
-                 doc: str | None = None) -> None:
-        self.item = item
-        self.max_len = max_len
-        self.min_len = min_len
-        self.min_text = min_text
-        self.doc = doc or f"array of {item.doc}"
-
-    def read(self, value: Any, path: str) -> list[Any]:
-        items = as_list(value, path, self.max_len)
-        if len(items) < self.min_len:
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: {self.min_text}", path)
-        return [self.item.read(v, field_path(path, i)) for i, v in enumerate(items)]
-
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
-        limit = "" if self.max_len is None else f" or len({x}) > {self.max_len}"
-        g.emit(ind, f"if type({x}) is not list or len({x}) < {self.min_len}{limit}: return None")
-        if isinstance(self.item, (Str, UInt, Int, Bool)):  # plain values: checked in place, the list kept
-            e = g.var("e")
-            g.emit(ind, f"for {e} in {x}:")
-            self.item.fast(g, ind + 1, e, path)
-            return x
-        out, e, i = g.var("l"), g.var("e"), g.var("i")
-        g.emit(ind, f"{out} = []")
-        g.emit(ind, f"for {i}, {e} in enumerate({x}):")
-        g.emit(ind + 1, f"{out}.append({self.item.fast(g, ind + 1, e, f'field_path({path}, {i})')})")
-        return out
-
-    def encode(self, g: _Gen, src: str) -> str:
-        if isinstance(self.item, (Str, UInt, Int, Bool)):
-            return f"list({src})"
-        e = g.var("e")
-        return f"[{self.item.encode(g, e)} for {e} in {src}]"
-
-    def pack(self, g: _Gen, src: str, out: Packed) -> None:
-        prefix = out.take_prefix()
-        if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each, key and all
-            cache = g.const({}, "lists")
-            out.expr(f"({cache}.get(tuple({src})) or _cached_list({cache}, {g.const(prefix, 'B')}, {src}))")
-        else:
-            empty = g.const(prefix + b"\x90", "B")  # an empty array
-            out.expr(f"({g.const(prefix, 'B')} + _packb({src}) if {src} else {empty})")
 
 
 @dataclass(frozen=True, slots=True)
@@ -527,14 +174,14 @@ class Map(Kind):
     def fast_reader(self) -> Callable[[Any, str], Any]:
         """`read` for the usual shape; None where the full reader must decide. Generated once."""
         if self._fast is None:
-            g = _Gen()
+            g = SourceGen()
             fn = f"fast_{self.name}"
             g.emit(0, f"def {fn}(m, path):")
             g.emit(1, f"return {self.fast(g, 1, 'm', 'path')}")  # the body is emitted before this line
             self._fast = g.compile(fn)
         return self._fast
 
-    def fast(self, g: _Gen, ind: int, x: str, path: str) -> str:
+    def fast(self, g: SourceGen, ind: int, x: str, path: str) -> str:
         if self.build is None:
             raise TypeError(f"{self.name}: a map without a build has no fast reader")
         n = g.var("n")
@@ -590,7 +237,7 @@ class Map(Kind):
             g.emit(ind, f"{g.const(c, 'check')}({built}, {path})")
         return built
 
-    def _fast_one_of(self, g: _Gen, ind: int, x: str, path: str, n: str, out: dict[str, str]) -> None:
+    def _fast_one_of(self, g: SourceGen, ind: int, x: str, path: str, n: str, out: dict[str, str]) -> None:
         """The `one_of` fields: the first one given is read and the others not looked at; one of them given
         as well is then a key not counted, so the key count refuses the map (and the full reader says why)."""
         names = sorted(self.one_of, key=lambda k: self.usual.index(k) if k in self.usual else len(self.usual))
@@ -613,7 +260,7 @@ class Map(Kind):
                 g.emit(at, "else:")
 
     @staticmethod
-    def _fast_value(g: _Gen, ind: int, f: Field, raw: str, fp: str) -> str:
+    def _fast_value(g: SourceGen, ind: int, f: Field, raw: str, fp: str) -> str:
         """The field's value read fast (its further check run), as an expression."""
         value = f.kind.fast(g, ind, raw, fp)
         if f.check is None:
@@ -636,7 +283,7 @@ class Map(Kind):
     def encode_fn(self) -> Callable[[Any], dict[str, Any]]:
         """`obj` (what the fields' `src` read) to the msgpack-ready map. Generated once."""
         if self._encode is None:
-            g = _Gen()
+            g = SourceGen()
             fn = f"encode_{self.name}"
             g.emit(0, f"def {fn}(o):")
             parts = []
@@ -660,7 +307,7 @@ class Map(Kind):
             self._encode = g.compile(fn)
         return self._encode
 
-    def encode(self, g: _Gen, src: str) -> str:
+    def encode(self, g: SourceGen, src: str) -> str:
         return f"{g.const(self.encode_fn(), 'enc')}({src})"
 
     def packer(self, args: str) -> Callable[..., bytes]:
