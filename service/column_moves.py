@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -56,7 +56,7 @@ from .wire import ErrorKind
 if TYPE_CHECKING:
     from .core import MoverRecord, ServiceCore
 
-__all__ = ["ColumnBus", "ColumnResults", "run_columns", "push_columns", "reply_message", "publication_message"]
+__all__ = ["ColumnResults", "run_columns", "push_columns", "reply_message", "publication_message"]
 
 log = logging.getLogger("acphys.service")
 
@@ -87,22 +87,6 @@ _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], d
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
 _NO_IDS: list[int] = []
-
-
-class ColumnBus(Protocol):
-    """What the column form needs from the bus beyond `BusPort` (service.node implements it)."""
-
-    def columns_watched(self) -> bool:
-        """Whether anyone subscribes to P/state_columns now."""
-        ...
-
-    def publish_columns(self, message: bytes) -> None:
-        """Put a columnar publication (a whole message) on P/state_columns."""
-        ...
-
-    def forward_columns(self, lb: int, message: bytes) -> None:
-        """Put a column push (a whole message) on `lb`'s push key."""
-        ...
 
 
 @dataclass(slots=True)
@@ -181,8 +165,8 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     if out.any_collide:
         _translate_collisions(core, out)
     core.moves_done([since + (t - started) for t in rows.finished_at], rows.engine_seconds)
-    if req.publish == "columns" and out.ids and cast_bus(core).columns_watched():
-        cast_bus(core).publish_columns(publication_message(out))
+    if req.publish == "columns" and out.ids and core.bus.columns_watched():
+        core.bus.publish_columns(publication_message(out))
     return out, out.packed
 
 
@@ -261,7 +245,7 @@ def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: lis
                     log.error("engine failed on move of %X", mid, exc_info=exc)
             elif forward and (fwd := core.forwarded_to(mid)) is not None:
                 # keep the mover's order: everything sent here after the hand-over follows it
-                cast_bus(core).forward_columns(fwd, _one_row_message(req, i))
+                core.bus.forward_columns(fwd, _one_row_message(req, i))
                 out.forwarded += 1
                 continue
             else:
@@ -292,10 +276,6 @@ def _translate_collisions(core: ServiceCore, out: ColumnResults) -> None:
         counts.append(len(got))
         wire.extend(got)
     out.collide_ids, out.collide_counts = wire, counts
-
-
-def cast_bus(core: ServiceCore) -> ColumnBus:
-    return core.bus  # type: ignore[return-value]  # the node implements both
 
 
 def _one_row_message(req: ColumnRequest, i: int) -> bytes:

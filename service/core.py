@@ -54,7 +54,7 @@ def _move_fields(item: MoveItem) -> dict[str, str]:
     return {"motion": f"{base}motion", "dt": f"{base}dt"}
 
 class BusPort(Protocol):
-    """What the core needs from the bus (service.node implements it)."""
+    """What the core needs from the bus (service.publication.ZenohBus implements it)."""
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
@@ -80,6 +80,18 @@ class BusPort(Protocol):
 
     def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
         """Send a mover to `lb`'s owner; its reply map, or ProtocolError."""
+        ...
+
+    def columns_watched(self) -> bool:
+        """Whether anyone subscribes to P/state_columns now."""
+        ...
+
+    def publish_columns(self, message: bytes) -> None:
+        """Put a columnar publication (a whole message) on P/state_columns."""
+        ...
+
+    def forward_columns(self, lb: int, message: bytes) -> None:
+        """Put a column push (a whole message) on `lb`'s push key."""
         ...
 
 

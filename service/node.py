@@ -33,10 +33,11 @@ from .capabilities import capabilities
 from .core import ServiceCore
 from .errors import ProtocolError
 from . import heap
-from .frames import STATE_HEAD, pack, results_message, state_message, states_message
+from .frames import STATE_HEAD, pack, results_message, state_message
 from .jobqueue import JobQueue
 from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
+from .publication import ZenohBus
 from .requests import (
     ItemError,
     decode_envelope,
@@ -55,8 +56,6 @@ __all__ = ["NodeOptions", "ServiceNode"]
 
 log = logging.getLogger("acphys.service")
 
-#: Most state keys kept as parsed key expressions (one per mover seen lately).
-_KEY_CACHE = 100_000
 #: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
 _LB_KEY_CACHE = 65536
 
@@ -117,12 +116,8 @@ class ServiceNode:
         self._draining = False
         self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
         self._inline = self.options.inline and self.options.ownership.everything
-        self._state_keys: dict[int, zenoh.KeyExpr] = {}
         self._key_lbs: dict[str, int | None] = {}  # request keys already checked by `_key_lb`: their landblock
-        self._publish_states = self.options.publish_states
-        self._state_watch: Any = None  # a publisher on P/obj/*/state, only for its matching status
-        self._batch_pub: Any = None  # the publisher on P/states
-        self._columns_pub: Any = None  # the publisher on P/state_columns
+        self.bus: ZenohBus | None = None  # what the core puts on the bus (service/publication.py)
         self._last_arrival = time.monotonic()  # when a callback last took a request (shutdown waits for quiet)
 
     # -- lifecycle ------------------------------------------------------------
@@ -131,19 +126,15 @@ class ServiceNode:
         core before any key is declared, so no request sees the instance half restored."""
         self.session = zenoh.open(self.config)
         instance = str(self.session.zid())
-        self.core = ServiceCore(
-            self.world, self, ownership=self.options.ownership, instance=instance, stats=self.stats
-        )
+        o = self.options
+        self.bus = ZenohBus(self.session, self.keys, self, publish_states=o.publish_states,
+                            skip_unwatched_states=o.skip_unwatched_states, handover_timeout=o.handover_timeout)
+        self.core = ServiceCore(self.world, self.bus, ownership=o.ownership, instance=instance, stats=self.stats)
         if restore is not None:
             restore(self.core)
         self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
         self._thread.start()
         s = self.session
-        if self.options.skip_unwatched_states:
-            # kept until the queued requests are answered at shutdown (they ask it)
-            self._state_watch = s.declare_publisher(self.keys.state("*"))
-        self._batch_pub = s.declare_publisher(self.keys.states)
-        self._columns_pub = s.declare_publisher(self.keys.state_columns)
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
                 if op == "handover" and not self.options.accept_handovers:
@@ -186,13 +177,8 @@ class ServiceNode:
             except Exception:  # already gone with the session: nothing to undo
                 pass
         self._declared.clear()
-        for pub in (self._state_watch, self._batch_pub, self._columns_pub):
-            if pub is not None:
-                try:
-                    pub.undeclare()
-                except Exception:  # already gone with the session
-                    pass
-        self._state_watch = self._batch_pub = self._columns_pub = None
+        if self.bus is not None:
+            self.bus.close()
         if self.session is not None:
             self.session.close()
             self.session = None
@@ -452,8 +438,8 @@ class ServiceNode:
 
     def _column_work(self, msg: dict[str, Any], received: float) -> Callable[[], bytes]:
         """A column request (docs/protocol.md, "Column batches"): checked here, run by the closure."""
-        core = self.core
-        assert core is not None
+        core, bus = self.core, self.bus
+        assert core is not None and bus is not None
         req = parse_column_request(msg)
 
         def run() -> bytes:
@@ -461,7 +447,7 @@ class ServiceNode:
             for _i, _mid, err in out.errors:
                 self.stats.error(err.kind)
             if packed:
-                self.publish_batch(packed)
+                bus.publish_batch(packed)
             return reply_message(out)
 
         return run
@@ -476,7 +462,7 @@ class ServiceNode:
                 self.stats.error(kind)
                 err = ProtocolError(kind, "the service's queue is full; this move was dropped" if kind == ErrorKind.BUSY
                                     else "the service is shutting down; this move was dropped")
-                self.publish_error(mid, ItemError(err, mid).to_wire())
+                self._bus().publish_error(mid, ItemError(err, mid).to_wire())
 
     # -- fire-and-forget ---------------------------------------------------------
     def _on_push(self, sample: zenoh.Sample) -> None:
@@ -490,11 +476,11 @@ class ServiceNode:
             batch = parse_moves(msg)
         except ProtocolError as e:
             self.stats.error(e.kind)
-            self._put(self.keys.errors, {"key": str(sample.key_expr), "error": e.to_wire()})
+            self._bus().put(self.keys.errors, {"key": str(sample.key_expr), "error": e.to_wire()})
             return
         except Exception as e:
             log.exception("decoding a push failed")
-            self._put(self.keys.errors, {"key": str(sample.key_expr), "error": {"kind": ErrorKind.INTERNAL, "message": str(e)}})
+            self._bus().put(self.keys.errors, {"key": str(sample.key_expr), "error": {"kind": ErrorKind.INTERNAL, "message": str(e)}})
             return
         raw = [msg["move"]] if batch.single else list(msg["moves"])
         core = self.core
@@ -505,7 +491,7 @@ class ServiceNode:
                 self.stats.error(kind)
                 err = ProtocolError(kind, "the service's queue is full; this move was dropped" if kind == ErrorKind.BUSY
                                     else "the service is shutting down; this move was dropped")
-                self.publish_error(item.id, ItemError(err, item.id, item.tag).to_wire())
+                self._bus().publish_error(item.id, ItemError(err, item.id, item.tag).to_wire())
 
     # -- per-instance queries (answered on the callback thread) -------------------------
     def _instance_request(self, query: zenoh.Query, op: str) -> bool:
@@ -561,104 +547,17 @@ class ServiceNode:
             "loaded": list(core.loaded),
         }))
 
-    # -- BusPort (called by the core on the engine thread) -------------------------
-    def _put(self, key: str, content: dict[str, Any]) -> None:
-        if self.session is not None:
-            self.session.put(key, pack(content))
+    def _bus(self) -> ZenohBus:
+        assert self.bus is not None, "the node is not started"
+        return self.bus
 
-    def states_watched(self) -> bool:
-        watch = self._state_watch
-        if watch is None:
-            return self._publish_states and self.session is not None
-        if not self._publish_states:
-            return False
-        try:
-            # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
-            return bool(watch.matching_status.matching)
-        except Exception:  # the publisher is gone (shutting down): publish as without it
-            return True
+    # -- HandoverWait (the bus waits on a hand-over's answer on the engine thread) --------
+    def wake(self) -> None:
+        self.queue.put_priority(lambda: None)
 
-    def _watched(self, pub: Any) -> bool:
-        """Whether a put on `pub`'s key would reach anyone (Zenoh's matching status, read now)."""
-        if not self.options.publish_states or self.session is None or pub is None:
-            return False
-        if not self.options.skip_unwatched_states:
-            return True
-        try:
-            return bool(pub.matching_status.matching)
-        except Exception:  # the publisher is gone (shutting down): publish as without it
-            return True
-
-    def batch_watched(self) -> bool:
-        return self._watched(self._batch_pub)
-
-    def publish_batch(self, packed_states: list[bytes]) -> None:
-        pub = self._batch_pub
-        if pub is not None:
-            pub.put(states_message(packed_states))
-
-    def columns_watched(self) -> bool:
-        return self._watched(self._columns_pub)
-
-    def publish_columns(self, message: bytes) -> None:
-        pub = self._columns_pub
-        if pub is not None:
-            pub.put(message)
-
-    def forward_columns(self, lb: int, message: bytes) -> None:
-        if self.session is not None:
-            self.session.put(self.keys.push(lb), message)
-
-    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
-        if not self.options.publish_states or self.session is None:
-            return
-        key = self._state_keys.get(mover_id)
-        if key is None:  # parsing the key expression costs more than the put itself
-            if len(self._state_keys) >= _KEY_CACHE:
-                self._state_keys.clear()
-            key = self._state_keys[mover_id] = zenoh.KeyExpr(self.keys.state(mover_id))
-        self.session.put(key, state_message(packed_state))
-
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
-        key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
-        self._put(key, error)
-
-    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
-        self._put(self.keys.push(lb), {"move": item, "publish": "batch"} if publish_batch else {"move": item})
-
-    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
-        """Ask `lb`'s owner to take a mover; serve arriving hand-overs while waiting."""
-        assert self.session is not None
-        replies: list[zenoh.Reply] = []
-        done = threading.Event()
-
-        def on_done() -> None:
-            done.set()
-            self.queue.put_priority(lambda: None)  # wake the waiting loop below
-
-        self.session.get(
-            self.keys.lb(lb, "handover"),
-            zenoh.handlers.Callback(replies.append, on_done),
-            payload=pack(payload),
-            timeout=self.options.handover_timeout,
-        )
-        deadline = time.monotonic() + self.options.handover_timeout + 1.0
+    def serve_until(self, done: threading.Event, deadline: float) -> None:
         while not done.is_set() and time.monotonic() < deadline:
             job = self.queue.get_priority(timeout=max(0.0, deadline - time.monotonic()))
             if job is not None:
                 self._run_job(job)  # on the engine thread, which holds the engine lock
-        for r in replies:
-            if r.ok is not None:
-                return dict(msgpack.unpackb(r.ok.payload.to_bytes(), raw=False))
-        for r in replies:
-            if r.err is None:
-                continue
-            raw = r.err.payload.to_bytes()
-            try:
-                err = msgpack.unpackb(raw, raw=False)["error"]
-                raise ProtocolError(err.get("kind", ErrorKind.INTERNAL), err.get("message", ""))
-            except ProtocolError:
-                raise
-            except Exception:
-                raise ProtocolError(ErrorKind.NO_OWNER, raw.decode("utf-8", "replace")) from None
-        raise ProtocolError(ErrorKind.NO_OWNER, "no instance owns that landblock")
+

@@ -173,19 +173,21 @@ def test_states_are_published_while_someone_subscribes(node: ServiceNode) -> Non
     watcher = raw_session(_ENDPOINTS[id(node)])  # a subscriber that comes after the node started
     try:
         sub = watcher.declare_subscriber(f"acphys/obj/{mid:X}/state", on_sample)
-        assert wait_until(node.states_watched, timeout=10.0)
+        bus = node.bus
+        assert bus is not None
+        assert wait_until(bus.states_watched, timeout=10.0)
         _ask(node, {"move": {"id": mid, "offset": [0.2, 0.0, 0.0]}})
         assert wait_until(lambda: len(received) == 1, timeout=10.0)
         assert received[0]["v"] == 1 and (received[0]["state"]["id"], received[0]["state"]["seq"]) == (mid, 1)
         sub.undeclare()
-        assert wait_until(lambda: not node.states_watched(), timeout=10.0)
+        assert wait_until(lambda: not bus.states_watched(), timeout=10.0)
         published: list[int] = []
-        real_publish = node.publish_state
-        node.publish_state = lambda mover_id, packed: published.append(mover_id)  # type: ignore[method-assign, assignment]
+        real_publish = bus.publish_state
+        bus.publish_state = lambda mover_id, packed: published.append(mover_id)  # type: ignore[method-assign]
         try:
             assert _ask(node, {"move": {"id": mid, "offset": [0.2, 0.0, 0.0]}}).ok[0]["state"]["seq"] == 2
         finally:
-            node.publish_state = real_publish  # type: ignore[method-assign, assignment]
+            bus.publish_state = real_publish  # type: ignore[method-assign]
         assert published == []  # nobody subscribes: the State is not put
     finally:
         watcher.close()
@@ -194,10 +196,10 @@ def test_states_are_published_while_someone_subscribes(node: ServiceNode) -> Non
 def test_no_state_is_published_when_publication_is_off() -> None:
     n, _ = _node(NodeOptions(publish_states=False))
     try:
-        assert not n.states_watched()
+        assert n.bus is not None and not n.bus.states_watched()
         n2, _ = _node(NodeOptions(skip_unwatched_states=False))
         try:
-            assert n2.states_watched()  # every State published, whoever listens
+            assert n2.bus is not None and n2.bus.states_watched()  # every State published, whoever listens
         finally:
             n2.shutdown(timeout=5.0)
     finally:
