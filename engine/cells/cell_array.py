@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Final
 from collections.abc import Iterator
 
 from .obj_cell import ObjCell
+from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..transition.interface import CellLookup
@@ -16,6 +17,7 @@ __all__ = ["CellArray", "END"]
 END: Final = object()
 
 
+@mypyc_attr(acyclic=True)
 class CellArray:
     """An ordered id -> cell map with the client's reuse-in-place order.
 

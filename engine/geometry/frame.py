@@ -12,10 +12,12 @@ from __future__ import annotations
 from ..constants import EPSILON
 from .quaternion import IDENTITY, Mat3, Quat
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Frame", "to_local_xyz"]
 
 
+@mypyc_attr(acyclic=True)
 class Frame:
     __slots__ = ("origin", "orientation", "_m")
 

@@ -7,12 +7,14 @@ from typing import Final
 
 from ..constants import EPSILON
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Quat", "IDENTITY", "Mat3"]
 
 _Matrix = tuple[float, float, float, float, float, float, float, float, float]
 
 
+@mypyc_attr(acyclic=True)
 class Mat3:
     """A row-major 3x3 rotation matrix kept as nine native floats (m0..m8,
     the entries of `Quat.rotation_matrix` in order), so compiled transforms
@@ -37,6 +39,7 @@ class Mat3:
         return (self.m0, self.m1, self.m2, self.m3, self.m4, self.m5, self.m6, self.m7, self.m8)
 
 
+@mypyc_attr(acyclic=True)
 class Quat:
     """An orientation quaternion (w + xi + yj + zk)."""
 

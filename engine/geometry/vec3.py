@@ -12,10 +12,12 @@ import math
 from typing import Final
 
 from ..constants import EPSILON
+from .._compat import mypyc_attr
 
 __all__ = ["Vec3", "ZERO", "UNIT_Z"]
 
 
+@mypyc_attr(acyclic=True)
 class Vec3:
     """A 3-vector of float components (x east, y north, z up)."""
 

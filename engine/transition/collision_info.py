@@ -5,10 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 from ..geometry import Plane, Vec3, ZERO
+from .._compat import mypyc_attr
 
 __all__ = ["CollisionInfo"]
 
 
+@mypyc_attr(acyclic=True)
 class CollisionInfo:
     """Accumulated results of one transition (the client's COLLISIONINFO).
 

@@ -11,6 +11,7 @@ from ..geometry.landdefs import get_block_offset
 from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
+from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
@@ -19,6 +20,7 @@ if TYPE_CHECKING:
 
 __all__ = ["SpherePath"]
 
+@mypyc_attr(acyclic=True)
 class SpherePath:
     """The client's SPHEREPATH.
 
