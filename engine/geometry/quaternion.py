@@ -99,8 +99,9 @@ class Quat:
         return self.x == 0.0 and self.y == 0.0 and self.z == 0.0 and self.w == 1.0
 
     def is_finite(self) -> bool:
-        isfinite = math.isfinite
-        return isfinite(self.w) and isfinite(self.x) and isfinite(self.y) and isfinite(self.z)
+        # x - x is 0 exactly for a finite x (as in Vec3.is_finite: no call by name when compiled)
+        w, x, y, z = self.w, self.x, self.y, self.z
+        return w - w == 0.0 and x - x == 0.0 and y - y == 0.0 and z - z == 0.0
 
     def is_valid(self) -> bool:
         """Finite and of unit length within 5 EPSILON (`Quaternion.IsValid`)."""

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Final
 
 from ..geometry import Plane, Vec3, ZERO
 from .._compat import mypyc_attr
 
-__all__ = ["CollisionInfo"]
+__all__ = ["CollisionInfo", "NO_PLANE"]
+
+#: the plane of a CollisionInfo that has none yet (planes are values, never changed in place: one serves all)
+NO_PLANE: Final = Plane(ZERO, 0.0)
 
 
 @mypyc_attr(acyclic=True)
@@ -42,11 +45,11 @@ class CollisionInfo:
 
     def __init__(self, ace_normals: bool = False) -> None:
         self.contact_plane_valid = False
-        self.contact_plane = Plane(ZERO, 0.0)
+        self.contact_plane = NO_PLANE
         self.contact_plane_cell_id = 0
         self.contact_plane_is_water = False
         self.last_known_contact_plane_valid = False
-        self.last_known_contact_plane = Plane(ZERO, 0.0)
+        self.last_known_contact_plane = NO_PLANE
         self.last_known_contact_plane_cell_id = 0
         self.last_known_contact_plane_is_water = False
         self.sliding_normal_valid = False

@@ -150,16 +150,28 @@ class SpherePath:
         # the client's spheres and scale are floats, and so is their product
         single = self.settings.single_precision
         f = fl(scale, single)
-        self.local_sphere = [
-            Sphere(fl_scale(fl_vec(s.center, single), f, single), fl(fl(s.radius, single) * f, single)) for s in spheres[: self.num_sphere]
-        ]
-        s0 = self.local_sphere[0]
+        local: list[Sphere] = []
+        for i in range(self.num_sphere):
+            s = spheres[i]
+            center = fl_vec(s.center, single)
+            if f != 1.0:  # (times 1 changes nothing: a float32 stays itself)
+                center = fl_scale(center, f, single)
+            local.append(Sphere(center, fl(fl(s.radius, single) * f, single)))
+        self.local_sphere = local
+        s0 = local[0]
         self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
         self._lss_curr = None
-        self.global_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.global_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.local_space_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+        # the caches' lists are filled in place (a path is made per transition, with empty ones)
+        global_sphere = self.global_sphere
+        global_curr_center = self.global_curr_center
+        global_sphere.clear()
+        global_curr_center.clear()
+        for s in local:
+            global_sphere.append(Sphere(ZERO, s.radius))
+            global_curr_center.append(Sphere(ZERO, s.radius))
+        # the local-space spheres are made by their first cache_local_space_sphere (terrain never asks)
+        self.local_space_sphere.clear()
+        self.local_space_curr_center.clear()
 
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
@@ -205,9 +217,9 @@ class SpherePath:
         pos = self.curr_pos
         assert pos is not None
         frame = pos.frame
+        single = self.settings.single_precision
         for i in range(self.num_sphere):
-            center = frame.local_to_global(self.local_sphere[i].center)
-            self.global_curr_center[i].center = fl_vec(center, self.settings.single_precision)
+            self.global_curr_center[i].center = frame.local_to_global_fl(self.local_sphere[i].center, single)
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
@@ -220,10 +232,10 @@ class SpherePath:
         frame = self.check_pos.frame
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
-            g.radius = self.local_sphere[i].radius
-            center = frame.local_to_global(self.local_sphere[i].center)
-            g.center = fl_vec(center, single)
-        self.global_low_point = fl_vec(frame.local_to_global(self.local_low_point), single)
+            local = self.local_sphere[i]
+            g.radius = local.radius
+            g.center = frame.local_to_global_fl(local.center, single)
+        self.global_low_point = frame.local_to_global_fl(self.local_low_point, single)
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),
@@ -252,6 +264,9 @@ class SpherePath:
             self._lss_sums = sums
             self._lss_curr = curr
             self._lss_check = check
+        if len(self.local_space_sphere) != self.num_sphere:
+            self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+            self.local_space_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
         inv = fl(1.0 / scale, single)
         q = pos.frame.orientation
         ident = q.x == 0.0 and q.y == 0.0 and q.z == 0.0

@@ -58,10 +58,10 @@ class Transition:
 
     __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "world")
 
-    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL) -> None:
+    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL, object_info: ObjectInfo | None = None) -> None:
         self.world = world
         self.settings = settings
-        self.object_info = ObjectInfo()
+        self.object_info = ObjectInfo() if object_info is None else object_info
         self.sphere_path = SpherePath()
         self.sphere_path.settings = settings
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)

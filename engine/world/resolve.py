@@ -25,8 +25,13 @@ __all__ = ["move_mover", "move_result"]
 
 def _block_distance(a: int, b: int) -> int:
     """How many landblocks apart two cell ids are (Chebyshev, in block units)."""
-    dx = abs(((a >> 24) & 0xFF) - ((b >> 24) & 0xFF))
-    dy = abs(((a >> 16) & 0xFF) - ((b >> 16) & 0xFF))
+    dx = ((a >> 24) & 0xFF) - ((b >> 24) & 0xFF)
+    dy = ((a >> 16) & 0xFF) - ((b >> 16) & 0xFF)
+    # signs by comparison: compiled, abs() of an int is a generic call
+    if dx < 0:
+        dx = -dx
+    if dy < 0:
+        dy = -dy
     return dx if dx > dy else dy
 
 
