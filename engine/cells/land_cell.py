@@ -121,6 +121,8 @@ class LandCell(ObjCell):
 def _add_outside_cell(world: CellLookup, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
     if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
         cell_id = outdoor_cell_id_at_lcoord(x, y)
+        if cell_id in cell_array:
+            return  # (add_cell would keep the one there: no lookup needed)
         # the World's own Landscape is called natively; anything else by name
         cell = landscape.get_landcell(cell_id) if landscape is not None else world.get_landcell(cell_id)
         if cell is not None:
