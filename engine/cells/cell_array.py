@@ -53,6 +53,12 @@ class CellArray:
         self.added_outside = False
         self.outside_searched = False
 
+    def reset(self, world: CellLookup) -> None:
+        """An empty array looking cells up in `world` (Transition.reset)."""
+        self.world = world
+        self.load_cells = False
+        self.clear()
+
     def clear(self) -> None:
         self._ids.clear()
         self._cells.clear()

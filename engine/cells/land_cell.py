@@ -157,7 +157,9 @@ def add_all_outside_cells(
     # the same spheres add the same cells again later in this search
     cell_array.outside_searched = settings is None or settings.skip_repeat_outside
     last_x = last_y = last_r = math.nan
-    for sphere in spheres[:num_sphere]:
+    # by index, as spheres[:num_sphere] would give them (no new list)
+    for i in range(num_sphere if num_sphere < len(spheres) else len(spheres)):
+        sphere = spheres[i]
         c = sphere.center
         cx = c.x
         cy = c.y

@@ -44,6 +44,11 @@ class CollisionInfo:
     )
 
     def __init__(self, ace_normals: bool = False) -> None:
+        self.collide_object: list[Any] = []
+        self.reset(ace_normals)
+
+    def reset(self, ace_normals: bool) -> None:
+        """The state of a new transition's CollisionInfo (Transition.reset)."""
         self.contact_plane_valid = False
         self.contact_plane = NO_PLANE
         self.contact_plane_cell_id = 0
@@ -57,7 +62,8 @@ class CollisionInfo:
         self.collision_normal_valid = False
         self.collision_normal = ZERO
         self.adjust_offset = ZERO
-        self.collide_object: list[Any] = []
+        if self.collide_object:
+            self.collide_object = []  # (a new list: the last move's result may still read the old one)
         self.last_collided_object: Any = None
         self.collided_with_environment = False
         self.frames_stationary_fall = 0

@@ -80,14 +80,22 @@ class SpherePath:
     )
 
     def __init__(self) -> None:
-        self.num_sphere = 0
         self.local_sphere: list[Sphere] = []
-        self.local_low_point = ZERO
         self.global_sphere: list[Sphere] = []
-        self.global_low_point = ZERO
         self.local_space_sphere: list[Sphere] = []
         self.local_space_curr_center: list[Sphere] = []
         self.global_curr_center: list[Sphere] = []
+        #: the transition's settings (their single_precision: the precision
+        #: of the check position and the sphere caches)
+        self.settings: EngineSettings = RETAIL
+        self.reset()
+
+    def reset(self) -> None:
+        """The state of a new path, for a transition that is reused (Transition.reset). The sphere
+        lists are init_sphere's to fill: it reuses the spheres in them."""
+        self.num_sphere = 0
+        self.local_low_point = ZERO
+        self.global_low_point = ZERO
         self.local_space_pos: Position | None = None
         self.local_space_z = UNIT_Z
         self.begin_cell: ObjCell | None = None
@@ -121,9 +129,6 @@ class SpherePath:
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
         self.placement_allows_sliding = True
-        #: the transition's settings (their single_precision: the precision
-        #: of the check position and the sphere caches)
-        self.settings: EngineSettings = RETAIL
         #: the sphere centres of curr_pos and check_pos in their landblock
         #: frame (float32), kept while those two positions stay the same
         self._lss_curr: Position | None = None
@@ -161,14 +166,24 @@ class SpherePath:
         s0 = local[0]
         self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
         self._lss_curr = None
-        # the caches' lists are filled in place (a path is made per transition, with empty ones)
+        # the caches' spheres: those of a reused path's last transition when there are as many
         global_sphere = self.global_sphere
         global_curr_center = self.global_curr_center
-        global_sphere.clear()
-        global_curr_center.clear()
-        for s in local:
-            global_sphere.append(Sphere(ZERO, s.radius))
-            global_curr_center.append(Sphere(ZERO, s.radius))
+        if len(global_sphere) == len(local) and len(global_curr_center) == len(local):
+            for i in range(len(local)):
+                radius = local[i].radius
+                g = global_sphere[i]
+                g.center = ZERO
+                g.radius = radius
+                g = global_curr_center[i]
+                g.center = ZERO
+                g.radius = radius
+        else:
+            global_sphere.clear()
+            global_curr_center.clear()
+            for s in local:
+                global_sphere.append(Sphere(ZERO, s.radius))
+                global_curr_center.append(Sphere(ZERO, s.radius))
         # the local-space spheres are made by their first cache_local_space_sphere (terrain never asks)
         self.local_space_sphere.clear()
         self.local_space_curr_center.clear()

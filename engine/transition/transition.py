@@ -37,7 +37,7 @@ from .slide import slide_sphere
 from .sphere_path import SpherePath
 from .state import OI, InsertType, TransitionState
 
-__all__ = ["Transition"]
+__all__ = ["Transition", "take_transition", "give_back"]
 
 _OK: Final = TransitionState.OK
 _COLLIDED: Final = TransitionState.COLLIDED
@@ -66,6 +66,17 @@ class Transition:
         self.sphere_path.settings = settings
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)
         self.cell_array = CellArray(world)
+
+    def reset(self, world: CellLookup, settings: EngineSettings, object_info: ObjectInfo) -> None:
+        """Start over as a new transition would (take_transition reuses a finished one this way)."""
+        self.world = world
+        self.settings = settings
+        self.object_info = object_info
+        path = self.sphere_path
+        path.reset()
+        path.settings = settings
+        self.collision_info.reset(settings.ace_normals)
+        self.cell_array.reset(world)
 
     # -- set-up -------------------------------------------------------------
     def init_object(self, object_info: ObjectInfo) -> None:
@@ -267,7 +278,7 @@ class Transition:
             return _INVALID
 
         state = _INVALID
-        for _ in range(num_insertion_attempts):
+        for _attempt in range(num_insertion_attempts):  # (named: compiled, `_` is boxed every turn)
             state = self.insert_into_cell(path.check_cell, num_insertion_attempts)
             if state == _OK:
                 state = self.check_other_cells(path.check_cell)
@@ -365,7 +376,7 @@ class Transition:
             return _COLLIDED
         ci = self.collision_info
         state = _OK
-        for _ in range(num_insertion_attempts):
+        for _attempt in range(num_insertion_attempts):
             state = cell.find_collisions(self)
             if state == _OK or state == _COLLIDED:
                 return state
@@ -513,3 +524,25 @@ class Transition:
 
     def placement_insert(self) -> int:
         return placement.placement_insert(self)
+
+
+#: finished transitions for the next move to reuse (at most one: a move runs one at a time), so that a move
+#: does not build and free a transition's path, collision info and cell array (the client keeps its
+#: transitions in a pool too)
+_SPARE: Final[list[Transition]] = []
+
+
+def take_transition(world: CellLookup, settings: EngineSettings, object_info: ObjectInfo) -> Transition:
+    """A transition as Transition(world, settings, object_info) makes it: a spare one reset, else a new one."""
+    try:
+        t = _SPARE.pop()  # (no test first: another thread may take it in between)
+    except IndexError:
+        return Transition(world, settings, object_info)
+    t.reset(world, settings, object_info)
+    return t
+
+
+def give_back(t: Transition) -> None:
+    """`t`'s move is over and nothing keeps it: take_transition may reuse it."""
+    if not _SPARE and type(t) is Transition:
+        _SPARE.append(t)

@@ -31,7 +31,7 @@ from ..geometry.quaternion import Quat
 from ..transition.object_info import ObjectInfo
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
-from ..transition.transition import Transition
+from ..transition.transition import Transition, take_transition
 from .transient import TS
 from .types import CylSphereSpec
 
@@ -187,7 +187,7 @@ class Mover:
                     state |= OI.ON_WALKABLE
         if self.missile:
             state |= OI.PATH_CLIPPED
-        t = Transition(world, settings, self.object_info(state))
+        t = take_transition(world, settings, self.object_info(state))
         if self.transient & TS.CONTACT:
             is_water = bool(self.transient & TS.WATER_CONTACT)
             if in_contact:

@@ -13,7 +13,7 @@ from typing import Any
 
 from ..geometry.position import Position
 from ..geometry.vec3 import Vec3
-from ..transition.transition import Transition
+from ..transition.transition import Transition, give_back
 from ..cells.landscape import Landscape
 from .mover import Mover
 from .shadows import reshadow
@@ -52,7 +52,9 @@ def move_mover(landscape: Landscape, mover: Mover, target: Position) -> MoveResu
         return move_result(mover, False, "Invalid", t)
     mover.set_position_internal(t)
     reshadow(mover, t.cell_array)
-    return move_result(mover, True, "OK", t)
+    result = move_result(mover, True, "OK", t)
+    give_back(t)
+    return result
 
 
 def _object_id(obj: Any) -> int:
