@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
+from ..geometry import UNIT_Z, ZERO, Frame, Position, Sphere, Vec3
 
 from ..geometry.precision import fl, fl_add, fl_local_z, fl_rotate, fl_scale, fl_unrotate, fl_vec
 from ..geometry.landdefs import get_block_offset
@@ -77,6 +77,7 @@ class SpherePath:
         "_lss_curr",
         "_lss_check",
         "_lss_sums",
+        "_curr_center_pos",
     )
 
     def __init__(self) -> None:
@@ -134,6 +135,8 @@ class SpherePath:
         self._lss_curr: Position | None = None
         self._lss_check: Position | None = None
         self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
+        #: the position global_curr_center was placed at (None: not placed since init_sphere)
+        self._curr_center_pos: Position | None = None
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
     def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
@@ -166,6 +169,7 @@ class SpherePath:
         s0 = local[0]
         self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
         self._lss_curr = None
+        self._curr_center_pos = None
         # the caches' spheres: those of a reused path's last transition when there are as many
         global_sphere = self.global_sphere
         global_curr_center = self.global_curr_center
@@ -196,10 +200,20 @@ class SpherePath:
         """Move the check position and its cached global spheres by `offset`,
         keeping them at the working precision (single, as the client does)."""
         single = self.settings.single_precision
+        # fl_add written out: the offset's components read once for every point moved
+        ox = offset.x
+        oy = offset.y
+        oz = offset.z
         for sphere in self.global_sphere:
-            sphere.center = fl_add(sphere.center, offset, single)
-        self.global_low_point = fl_add(self.global_low_point, offset, single)
-        self.check_pos = self.check_pos.with_origin(fl_add(self.check_pos.frame.origin, offset, single))
+            c = sphere.center
+            sphere.center = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        c = self.global_low_point
+        self.global_low_point = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        check = self.check_pos
+        frame = check.frame
+        c = frame.origin
+        origin = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        self.check_pos = Position(check.cell_id, Frame(origin, frame.orientation))
 
     def adjust_check_pos(self, cell_id: int) -> None:
         """Re-home the check position into `cell_id` (an outdoor cell may be in
@@ -235,6 +249,7 @@ class SpherePath:
         single = self.settings.single_precision
         for i in range(self.num_sphere):
             self.global_curr_center[i].center = frame.local_to_global_fl(self.local_sphere[i].center, single)
+        self._curr_center_pos = pos
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
@@ -244,12 +259,16 @@ class SpherePath:
                 s.center = fl_vec(s.center + offset, single)
             self.global_low_point = fl_vec(self.global_low_point + offset, single)
             return
-        frame = self.check_pos.frame
+        check = self.check_pos
+        frame = check.frame
+        # at the position the current centres were placed at (each step's end: curr_pos becomes check_pos),
+        # the same sums give the same vectors: share them (vectors are immutable)
+        placed = check is self._curr_center_pos
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
             local = self.local_sphere[i]
             g.radius = local.radius
-            g.center = frame.local_to_global_fl(local.center, single)
+            g.center = self.global_curr_center[i].center if placed else frame.local_to_global_fl(local.center, single)
         self.global_low_point = frame.local_to_global_fl(self.local_low_point, single)
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
