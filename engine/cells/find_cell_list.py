@@ -67,7 +67,9 @@ def find_cell_list(
 
         if find_cell:
             center = spheres[0].center
-            for cell in cell_array.cells():
+            # in iteration order, without a snapshot: nothing here adds or removes cells
+            for i in range(len(cell_array)):
+                cell = cell_array.live_cell(i)
                 if cell is None:
                     continue
                 block_offset = get_block_offset(cell_id, cell.id)

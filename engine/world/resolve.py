@@ -35,17 +35,19 @@ def _block_distance(a: int, b: int) -> int:
     return dx if dx > dy else dy
 
 
-def move_mover(landscape: Landscape, mover: Mover, target: Position) -> MoveResult:
+def move_mover(landscape: Landscape, mover: Mover, target: Position, loaded: bool = False) -> MoveResult:
     """Move `mover` toward `target` (already checked): PhysicsObj.SetPosition through
     a transition. A target within EPSILON of where the mover stands runs no
-    transition; one more than a landblock away is refused, as the client refuses it."""
+    transition; one more than a landblock away is refused, as the client refuses it.
+    `loaded`: the target's landblock is known to be loaded (its check loaded it)."""
     current = mover.position
     if target.cell_id == current.cell_id and target.frame.equals_within_epsilon(current.frame):
         mover.position = Position(current.cell_id, target.frame)
         return move_result(mover, True, "NoTransition", None)
     if _block_distance(current.cell_id, target.cell_id) > 1:
         return move_result(mover, False, "NoTransition", None)
-    landscape.ensure_loaded(target.cell_id)
+    if not loaded:
+        landscape.ensure_loaded(target.cell_id)
     t = mover.transition(landscape, current, target, landscape.settings)
     if t is None or t.sphere_path.curr_cell is None:
         mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
