@@ -23,6 +23,7 @@ from typing import Final
 from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
+from ..cells.landscape import Landscape
 from ..cells.obj_cell import ObjCell
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
@@ -526,23 +527,21 @@ class Transition:
         return placement.placement_insert(self)
 
 
-#: finished transitions for the next move to reuse (at most one: a move runs one at a time), so that a move
-#: does not build and free a transition's path, collision info and cell array (the client keeps its
-#: transitions in a pool too)
-_SPARE: Final[list[Transition]] = []
-
-
 def take_transition(world: CellLookup, settings: EngineSettings, object_info: ObjectInfo) -> Transition:
-    """A transition as Transition(world, settings, object_info) makes it: a spare one reset, else a new one."""
-    try:
-        t = _SPARE.pop()  # (no test first: another thread may take it in between)
-    except IndexError:
-        return Transition(world, settings, object_info)
-    t.reset(world, settings, object_info)
-    return t
+    """A transition as Transition(world, settings, object_info) makes it: the landscape's spare one (its
+    last move's, given back) reset, else a new one. Reusing it spares a move building and freeing a
+    transition's path, collision info and cell array (the client keeps its transitions in a pool too)."""
+    if isinstance(world, Landscape):
+        t = world.spare_transition
+        if t is not None:
+            world.spare_transition = None
+            t.reset(world, settings, object_info)
+            return t
+    return Transition(world, settings, object_info)
 
 
 def give_back(t: Transition) -> None:
-    """`t`'s move is over and nothing keeps it: take_transition may reuse it."""
-    if not _SPARE and type(t) is Transition:
-        _SPARE.append(t)
+    """`t`'s move is over and nothing keeps it: its landscape's next take_transition may reuse it."""
+    world = t.world
+    if type(t) is Transition and isinstance(world, Landscape):
+        world.spare_transition = t
