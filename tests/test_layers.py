@@ -203,9 +203,10 @@ def test_leaf_modules_import_nothing_of_the_engine() -> None:
 
 
 def test_geometry_imports_only_the_leaf_constants() -> None:
+    # (and the leaf shim engine._compat: its mypyc_attr marks the value classes acyclic for the compiler)
     for module, edges in _graph().items():
         if _in(module, "engine.geometry"):
-            assert {e for e in edges if not _in(e, "engine.geometry")} <= {"engine.constants"}, module
+            assert {e for e in edges if not _in(e, "engine.geometry")} <= {"engine.constants", "engine._compat"}, module
 
 
 def test_collision_layer_sees_the_transition_only_through_its_interface() -> None:

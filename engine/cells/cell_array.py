@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Final
 from collections.abc import Iterator
 
 from .obj_cell import ObjCell
+from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..transition.interface import CellLookup
@@ -14,8 +15,11 @@ __all__ = ["CellArray", "END"]
 
 #: What `live_entry` returns past the last entry (a cell may itself be None).
 END: Final = object()
+#: the id of a removed slot (cell ids are unsigned)
+_EMPTY: Final = -1
 
 
+@mypyc_attr(acyclic=True)
 class CellArray:
     """An ordered id -> cell map with the client's reuse-in-place order.
 
@@ -24,9 +28,13 @@ class CellArray:
     also puts a newly added cell into the slot of the most recently removed
     one, which decides the order cells are tested in; that is reproduced here
     with an explicit slot list and free list.
+
+    A search holds a handful of cells: the slots are two parallel lists (ids,
+    cells) searched in order, which keeps the ids native ints in the compiled
+    engine (a dict would box and hash every id looked up).
     """
 
-    __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_slots", "_index", "_free")
+    __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_ids", "_cells", "_free")
 
     def __init__(self, world: CellLookup) -> None:
         #: Where cells are looked up by id (the client's LScape).
@@ -35,8 +43,9 @@ class CellArray:
         #: the outdoor cells under this search's spheres are in (skip_repeat_outside)
         self.outside_searched = False
         self.load_cells = False
-        self._slots: list[tuple[int, ObjCell | None] | None] = []
-        self._index: dict[int, int] = {}
+        #: each slot's cell id (_EMPTY once removed) and cell
+        self._ids: list[int] = []
+        self._cells: list[ObjCell | None] = []
         self._free: list[int] = []
 
     def reset_count(self) -> None:
@@ -44,63 +53,85 @@ class CellArray:
         self.added_outside = False
         self.outside_searched = False
 
+    def reset(self, world: CellLookup) -> None:
+        """An empty array looking cells up in `world` (Transition.reset)."""
+        self.world = world
+        self.load_cells = False
+        self.clear()
+
     def clear(self) -> None:
-        self._slots.clear()
-        self._index.clear()
+        self._ids.clear()
+        self._cells.clear()
         self._free.clear()
         self.added_outside = False
         self.outside_searched = False
 
+    def _slot_of(self, cell_id: int) -> int:
+        """The slot holding `cell_id`, or -1."""
+        ids = self._ids
+        for slot in range(len(ids)):
+            if ids[slot] == cell_id:
+                return slot
+        return -1
+
     def add_cell(self, cell_id: int, cell: ObjCell | None) -> None:
-        if cell_id in self._index:
+        if self._slot_of(cell_id) >= 0:
             return
         if self._free:
             slot = self._free.pop()
-            self._slots[slot] = (cell_id, cell)
+            self._ids[slot] = cell_id
+            self._cells[slot] = cell
         else:
-            slot = len(self._slots)
-            self._slots.append((cell_id, cell))
-        self._index[cell_id] = slot
+            self._ids.append(cell_id)
+            self._cells.append(cell)
 
     def remove_cell(self, cell_id: int) -> None:
-        slot = self._index.pop(cell_id, None)
-        if slot is None:
+        slot = self._slot_of(cell_id)
+        if slot < 0:
             return
-        self._slots[slot] = None
+        self._ids[slot] = _EMPTY
+        self._cells[slot] = None
         self._free.append(slot)
 
+    def cell_of(self, cell_id: int) -> ObjCell | None:
+        """The cell held under `cell_id` (None when absent, or held with no cell)."""
+        slot = self._slot_of(cell_id)
+        return self._cells[slot] if slot >= 0 else None
+
     def __contains__(self, cell_id: int) -> bool:
-        return cell_id in self._index
+        return self._slot_of(cell_id) >= 0
 
     def __len__(self) -> int:
-        return len(self._index)
+        return len(self._ids) - len(self._free)
 
     def live_entry(self, i: int) -> object:
         """The cell of the i-th live entry in iteration order, or END."""
-        if i >= len(self._index):
+        if i >= len(self):
             return END
         return self.live_cell(i)
 
     def live_cell(self, i: int) -> ObjCell | None:
         """The cell of the i-th live entry in iteration order (i < len(self))."""
-        slots = self._slots
         if not self._free:
-            entry = slots[i]
-            assert entry is not None
-            return entry[1]
-        for e in slots:
-            if e is not None:
+            return self._cells[i]
+        ids = self._ids
+        for slot in range(len(ids)):
+            if ids[slot] != _EMPTY:
                 if i == 0:
-                    return e[1]
+                    return self._cells[slot]
                 i -= 1
         raise IndexError(i)
 
     def cells(self) -> list[ObjCell | None]:
         """The cells in iteration order (a snapshot: safe to mutate while looping)."""
-        return [e[1] for e in self._slots if e is not None]
+        if not self._free:
+            return self._cells[:]
+        ids = self._ids
+        cells = self._cells
+        return [cells[slot] for slot in range(len(ids)) if ids[slot] != _EMPTY]
 
     def ids(self) -> list[int]:
-        return [e[0] for e in self._slots if e is not None]
+        return [cell_id for cell_id in self._ids if cell_id != _EMPTY]
 
     def __iter__(self) -> Iterator[ObjCell | None]:
         return iter(self.cells())

@@ -36,12 +36,16 @@ def find_cell_list(
     world = cell_array.world
     cell_array.reset_count()
     cell_id = position.cell_id
-    if not cell_id:
-        visible_cell = None
-    elif isinstance(world, Landscape):
-        visible_cell = world.get_landcell(cell_id)  # natively, for the World's own
-    else:
-        visible_cell = world.get_landcell(cell_id)
+    visible_cell: ObjCell | None = None
+    if cell_id:
+        # a cell an earlier search of this transition found is the one the lookup gives (the
+        # landblocks do not change during a transition): most searches start in one
+        visible_cell = cell_array.cell_of(cell_id)
+        if visible_cell is None:
+            if isinstance(world, Landscape):
+                visible_cell = world.get_landcell(cell_id)  # natively, for the World's own
+            else:
+                visible_cell = world.get_landcell(cell_id)
 
     if (cell_id & 0xFFFF) >= 0x100:
         if path is not None:
@@ -63,7 +67,9 @@ def find_cell_list(
 
         if find_cell:
             center = spheres[0].center
-            for cell in cell_array.cells():
+            # in iteration order, without a snapshot: nothing here adds or removes cells
+            for i in range(len(cell_array)):
+                cell = cell_array.live_cell(i)
                 if cell is None:
                     continue
                 block_offset = get_block_offset(cell_id, cell.id)

@@ -6,7 +6,7 @@ import math
 from typing import Final, TYPE_CHECKING
 
 from ..constants import BLOCK_LENGTH, CELL_LENGTH, EPSILON, LAND_LENGTH
-from ..geometry import Position, Sphere, Vec3
+from ..geometry import ZERO, Position, Sphere, Vec3
 from ..geometry.landdefs import adjust_to_outside, cell_in_range, get_block_offset
 from ..terrain.triangle import TerrainTriangle
 from ..terrain.water import WaterType
@@ -67,9 +67,13 @@ class LandCell(ObjCell):
             point.x < x0 - _MARGIN or point.x > x0 + CELL_LENGTH + _MARGIN or point.y < y0 - _MARGIN or point.y > y0 + CELL_LENGTH + _MARGIN
         ):
             return None
-        for tri in self.polygons:
-            if tri.point_in_poly_2d(point):
-                return tri
+        # the two triangles unpacked, not looped over: compiled, a loop over the native pair boxes it
+        # into a new tuple every call
+        first, second = self.polygons
+        if first.point_in_poly_2d(point):
+            return first
+        if second.point_in_poly_2d(point):
+            return second
         return None
 
     def find_env_collisions(self, transition: Transition) -> int:
@@ -78,7 +82,8 @@ class LandCell(ObjCell):
             return refused
         path = transition.sphere_path
         block_offset = get_block_offset(path.check_pos.cell_id, self.id)
-        local_point = path.global_low_point - block_offset
+        same_block = block_offset is ZERO  # nothing to take off (most cells)
+        local_point = path.global_low_point if same_block else path.global_low_point - block_offset
         walkable = self.find_terrain_poly(local_point, transition.settings.skip_far_cells)
         if walkable is None:
             return TransitionState.OK
@@ -94,7 +99,9 @@ class LandCell(ObjCell):
 
         water_depth = self.get_water_depth(local_point)
         g = path.global_sphere[0]
-        check_sphere = Sphere(g.center - block_offset, g.radius)
+        # validate_walkable only reads the sphere (before it moves the check position): the path's own
+        # foot sphere serves when it is already in this cell's landblock
+        check_sphere = g if same_block else Sphere(g.center - block_offset, g.radius)
         return transition.validate_walkable(
             check_sphere, walkable.plane_at(transition.settings.single_precision), self.water_type != WaterType.NOT_WATER, water_depth, self.id
         )
@@ -114,6 +121,8 @@ class LandCell(ObjCell):
 def _add_outside_cell(world: CellLookup, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
     if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
         cell_id = outdoor_cell_id_at_lcoord(x, y)
+        if cell_id in cell_array:
+            return  # (add_cell would keep the one there: no lookup needed)
         # the World's own Landscape is called natively; anything else by name
         cell = landscape.get_landcell(cell_id) if landscape is not None else world.get_landcell(cell_id)
         if cell is not None:
@@ -148,7 +157,9 @@ def add_all_outside_cells(
     # the same spheres add the same cells again later in this search
     cell_array.outside_searched = settings is None or settings.skip_repeat_outside
     last_x = last_y = last_r = math.nan
-    for sphere in spheres[:num_sphere]:
+    # by index, as spheres[:num_sphere] would give them (no new list)
+    for i in range(num_sphere if num_sphere < len(spheres) else len(spheres)):
+        sphere = spheres[i]
         c = sphere.center
         cx = c.x
         cy = c.y

@@ -17,6 +17,7 @@ from ..geometry.position import Position
 from ..transition.settings import EngineSettings
 
 if TYPE_CHECKING:
+    from ..transition.transition import Transition
     from ..world.landblock import Landblock
     from .obj_cell import ObjCell
 
@@ -42,7 +43,7 @@ class Landscape:
     lookups then go through its own methods so every use is seen.
     """
 
-    __slots__ = ("settings", "_landblocks", "_tracked", "_load")
+    __slots__ = ("settings", "_landblocks", "_tracked", "_load", "spare_transition")
 
     def __init__(
         self,
@@ -55,6 +56,9 @@ class Landscape:
         # a dict subclass, reached through its own (overridden) methods
         self._tracked: TrackedLandblocks | None = None if type(landblocks) is dict else landblocks
         self._load = load
+        #: a finished transition in this landscape for the next move to reuse (engine.transition.transition
+        #: take_transition / give_back)
+        self.spare_transition: Transition | None = None
 
     @property
     def landblocks(self) -> dict[int, Landblock]:

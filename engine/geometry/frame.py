@@ -11,11 +11,14 @@ from __future__ import annotations
 
 from ..constants import EPSILON
 from .quaternion import IDENTITY, Mat3, Quat
+from .single import fl
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Frame", "to_local_xyz"]
 
 
+@mypyc_attr(acyclic=True)
 class Frame:
     __slots__ = ("origin", "orientation", "_m")
 
@@ -58,6 +61,20 @@ class Frame:
             o.x + (m.m0 * x + m.m1 * y + m.m2 * z),
             o.y + (m.m3 * x + m.m4 * y + m.m5 * z),
             o.z + (m.m6 * x + m.m7 * y + m.m8 * z),
+        )
+
+    def local_to_global_fl(self, p: Vec3, single: bool) -> Vec3:
+        """fl_vec(local_to_global(p), single): the same sums, each component rounded to the
+        working precision, as one new vector."""
+        o = self.origin
+        m = self._m
+        if m is None:
+            return Vec3(fl(o.x + p.x, single), fl(o.y + p.y, single), fl(o.z + p.z, single))
+        x, y, z = p.x, p.y, p.z
+        return Vec3(
+            fl(o.x + (m.m0 * x + m.m1 * y + m.m2 * z), single),
+            fl(o.y + (m.m3 * x + m.m4 * y + m.m5 * z), single),
+            fl(o.z + (m.m6 * x + m.m7 * y + m.m8 * z), single),
         )
 
     def global_to_local(self, p: Vec3) -> Vec3:

@@ -8,6 +8,7 @@ from typing import Final
 from ..constants import EPSILON
 from .single import fl
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Plane", "Side"]
 
@@ -21,6 +22,7 @@ class Side:
     CROSSING: Final = 3
 
 
+@mypyc_attr(acyclic=True)
 class Plane:
     __slots__ = ("normal", "d")
 

@@ -6,10 +6,12 @@ from .frame import Frame, to_local_xyz
 from .landdefs import get_block_offset
 from .quaternion import IDENTITY, Quat
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Position"]
 
 
+@mypyc_attr(acyclic=True)
 class Position:
     """Immutable (cell id, frame). Frame origins are landblock-local metres."""
 

@@ -54,17 +54,28 @@ _Matrix = tuple[float, float, float, float, float, float, float, float, float]
 
 
 def fl_vec(v: Vec3, single: bool) -> Vec3:
-    """`v` at the working precision (itself in double precision)."""
+    """`v` at the working precision: `v` itself in double precision, or when its
+    components are float32 values already (what a move stores mostly is)."""
     if not single:
         return v
-    return Vec3(fl(v.x, True), fl(v.y, True), fl(v.z, True))
+    x = fl(v.x, True)
+    y = fl(v.y, True)
+    z = fl(v.z, True)
+    if x == v.x and y == v.y and z == v.z:
+        return v  # (vectors are immutable: sharing is a copy)
+    return Vec3(x, y, z)
 
 
 def fl_plane(p: Plane, single: bool) -> Plane:
-    """`p` at the working precision (itself in double precision)."""
+    """`p` at the working precision: `p` itself in double precision, or when it is
+    a float32 plane already."""
     if not single:
         return p
-    return Plane(fl_vec(p.normal, True), fl(p.d, True))
+    normal = fl_vec(p.normal, True)
+    d = fl(p.d, True)
+    if normal is p.normal and d == p.d:
+        return p
+    return Plane(normal, d)
 
 
 def fl_dot(ax: float, ay: float, az: float, bx: float, by: float, bz: float, single: bool) -> float:

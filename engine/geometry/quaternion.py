@@ -7,12 +7,14 @@ from typing import Final
 
 from ..constants import EPSILON
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Quat", "IDENTITY", "Mat3"]
 
 _Matrix = tuple[float, float, float, float, float, float, float, float, float]
 
 
+@mypyc_attr(acyclic=True)
 class Mat3:
     """A row-major 3x3 rotation matrix kept as nine native floats (m0..m8,
     the entries of `Quat.rotation_matrix` in order), so compiled transforms
@@ -37,6 +39,7 @@ class Mat3:
         return (self.m0, self.m1, self.m2, self.m3, self.m4, self.m5, self.m6, self.m7, self.m8)
 
 
+@mypyc_attr(acyclic=True)
 class Quat:
     """An orientation quaternion (w + xi + yj + zk)."""
 
@@ -96,8 +99,9 @@ class Quat:
         return self.x == 0.0 and self.y == 0.0 and self.z == 0.0 and self.w == 1.0
 
     def is_finite(self) -> bool:
-        isfinite = math.isfinite
-        return isfinite(self.w) and isfinite(self.x) and isfinite(self.y) and isfinite(self.z)
+        # x - x is 0 exactly for a finite x (as in Vec3.is_finite: no call by name when compiled)
+        w, x, y, z = self.w, self.x, self.y, self.z
+        return w - w == 0.0 and x - x == 0.0 and y - y == 0.0 and z - z == 0.0
 
     def is_valid(self) -> bool:
         """Finite and of unit length within 5 EPSILON (`Quaternion.IsValid`)."""

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from .vec3 import Vec3
+from .._compat import mypyc_attr
 
 __all__ = ["Sphere"]
 
 
+@mypyc_attr(acyclic=True)
 class Sphere:
     """Mutable on purpose: the path moves its cached global spheres in place."""
 

@@ -12,10 +12,12 @@ import math
 from typing import Final
 
 from ..constants import EPSILON
+from .._compat import mypyc_attr
 
 __all__ = ["Vec3", "ZERO", "UNIT_Z"]
 
 
+@mypyc_attr(acyclic=True)
 class Vec3:
     """A 3-vector of float components (x east, y north, z up)."""
 
@@ -100,7 +102,9 @@ class Vec3:
         return abs(self.x) < EPSILON and abs(self.y) < EPSILON and abs(self.z) < EPSILON
 
     def is_finite(self) -> bool:
-        return math.isfinite(self.x) and math.isfinite(self.y) and math.isfinite(self.z)
+        # x - x is 0 exactly for a finite x, NaN for an infinity or a NaN (compiled, math.isfinite
+        # would be a call by name; this stays in registers)
+        return self.x - self.x == 0.0 and self.y - self.y == 0.0 and self.z - self.z == 0.0
 
     def with_z(self, z: float) -> Vec3:
         return Vec3(self.x, self.y, z)

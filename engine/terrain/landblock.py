@@ -24,7 +24,8 @@ class LandblockTerrain:
     order x * 9 + y.
     """
 
-    __slots__ = ("landblock_id", "heights", "terrain", "z", "water_vertex", "cell_water", "water_type", "triangles", "split")
+    __slots__ = ("landblock_id", "heights", "terrain", "z", "water_vertex", "water_flags", "cell_water", "water_type", "triangles",
+                 "split")
 
     def __init__(
         self,
@@ -50,6 +51,9 @@ class LandblockTerrain:
         table = np.asarray(height_table, dtype=np.float64)
         self.z = table[self.heights]  # (9, 9) absolute vertex heights
         self.water_vertex = np.array([[is_water_terrain(int(w)) for w in row] for row in self.terrain])
+        #: water_vertex as plain flags in index order x * 9 + y: read per move (compiled, indexing a
+        #: numpy array is a generic call that boxes the index)
+        self.water_flags: list[bool] = [bool(w) for w in self.water_vertex.flatten()]
         self._build_water()
         self._build_triangles()
 
@@ -130,16 +134,18 @@ class LandblockTerrain:
     def calc_water_depth(self, cell_id: int, point: Vec3) -> float:
         """Depth in a partially flooded cell: deeper by a water corner
         (LandblockStruct.calc_water_depth: the corner of the cell's quadrant)."""
-        import math
-
         index = (cell_id & 0xFFFF) - 1
         vx = index // 8
         vy = index % 8
-        if math.fmod(point.x, CELL_LENGTH) >= 12.0:
+        # fmod(c, CELL_LENGTH) >= 12: for c >= 0 Python's % is that same remainder (a native float
+        # operation compiled, where math.fmod is a call by name); for c < 0 fmod's is negative
+        x = point.x
+        y = point.y
+        if x >= 0.0 and x % CELL_LENGTH >= 12.0:
             vx += 1
-        if math.fmod(point.y, CELL_LENGTH) >= 12.0:
+        if y >= 0.0 and y % CELL_LENGTH >= 12.0:
             vy += 1
-        return PARTIAL_WATER_DEPTH if self.water_vertex[vx, vy] else SHORE_DEPTH
+        return PARTIAL_WATER_DEPTH if self.water_flags[vx * 9 + vy] else SHORE_DEPTH
 
     def cell_position(self, cx: int, cy: int) -> Position:
         """Where the client places a LandCell: the centre of its 24 m square."""

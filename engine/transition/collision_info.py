@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Final
 
 from ..geometry import Plane, Vec3, ZERO
+from .._compat import mypyc_attr
 
-__all__ = ["CollisionInfo"]
+__all__ = ["CollisionInfo", "NO_PLANE"]
+
+#: the plane of a CollisionInfo that has none yet (planes are values, never changed in place: one serves all)
+NO_PLANE: Final = Plane(ZERO, 0.0)
 
 
+@mypyc_attr(acyclic=True)
 class CollisionInfo:
     """Accumulated results of one transition (the client's COLLISIONINFO).
 
@@ -39,12 +44,17 @@ class CollisionInfo:
     )
 
     def __init__(self, ace_normals: bool = False) -> None:
+        self.collide_object: list[Any] = []
+        self.reset(ace_normals)
+
+    def reset(self, ace_normals: bool) -> None:
+        """The state of a new transition's CollisionInfo (Transition.reset)."""
         self.contact_plane_valid = False
-        self.contact_plane = Plane(ZERO, 0.0)
+        self.contact_plane = NO_PLANE
         self.contact_plane_cell_id = 0
         self.contact_plane_is_water = False
         self.last_known_contact_plane_valid = False
-        self.last_known_contact_plane = Plane(ZERO, 0.0)
+        self.last_known_contact_plane = NO_PLANE
         self.last_known_contact_plane_cell_id = 0
         self.last_known_contact_plane_is_water = False
         self.sliding_normal_valid = False
@@ -52,7 +62,8 @@ class CollisionInfo:
         self.collision_normal_valid = False
         self.collision_normal = ZERO
         self.adjust_offset = ZERO
-        self.collide_object: list[Any] = []
+        if self.collide_object:
+            self.collide_object = []  # (a new list: the last move's result may still read the old one)
         self.last_collided_object: Any = None
         self.collided_with_environment = False
         self.frames_stationary_fall = 0

@@ -7,6 +7,7 @@ from typing import Any
 from ..constants import FLOOR_Z, LANDING_Z, STEP_DOWN_PROBE
 from ..geometry import Vec3
 from .state import OI
+from .._compat import mypyc_attr
 
 __all__ = ["ObjectInfo", "is_valid_walkable"]
 
@@ -16,6 +17,7 @@ def is_valid_walkable(normal: Vec3) -> bool:
     return normal.z >= FLOOR_Z
 
 
+@mypyc_attr(acyclic=True)
 class ObjectInfo:
     """The client's OBJECTINFO.
 

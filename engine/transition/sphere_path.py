@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..geometry import UNIT_Z, ZERO, Position, Sphere, Vec3
+from ..geometry import UNIT_Z, ZERO, Frame, Position, Sphere, Vec3
 
 from ..geometry.precision import fl, fl_add, fl_local_z, fl_rotate, fl_scale, fl_unrotate, fl_vec
 from ..geometry.landdefs import get_block_offset
 from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
+from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
@@ -19,6 +20,7 @@ if TYPE_CHECKING:
 
 __all__ = ["SpherePath"]
 
+@mypyc_attr(acyclic=True)
 class SpherePath:
     """The client's SPHEREPATH.
 
@@ -75,17 +77,26 @@ class SpherePath:
         "_lss_curr",
         "_lss_check",
         "_lss_sums",
+        "_curr_center_pos",
     )
 
     def __init__(self) -> None:
-        self.num_sphere = 0
         self.local_sphere: list[Sphere] = []
-        self.local_low_point = ZERO
         self.global_sphere: list[Sphere] = []
-        self.global_low_point = ZERO
         self.local_space_sphere: list[Sphere] = []
         self.local_space_curr_center: list[Sphere] = []
         self.global_curr_center: list[Sphere] = []
+        #: the transition's settings (their single_precision: the precision
+        #: of the check position and the sphere caches)
+        self.settings: EngineSettings = RETAIL
+        self.reset()
+
+    def reset(self) -> None:
+        """The state of a new path, for a transition that is reused (Transition.reset). The sphere
+        lists are init_sphere's to fill: it reuses the spheres in them."""
+        self.num_sphere = 0
+        self.local_low_point = ZERO
+        self.global_low_point = ZERO
         self.local_space_pos: Position | None = None
         self.local_space_z = UNIT_Z
         self.begin_cell: ObjCell | None = None
@@ -119,14 +130,13 @@ class SpherePath:
         self.neg_collision_normal = ZERO
         self.neg_poly_hit = False
         self.placement_allows_sliding = True
-        #: the transition's settings (their single_precision: the precision
-        #: of the check position and the sphere caches)
-        self.settings: EngineSettings = RETAIL
         #: the sphere centres of curr_pos and check_pos in their landblock
         #: frame (float32), kept while those two positions stay the same
         self._lss_curr: Position | None = None
         self._lss_check: Position | None = None
         self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
+        #: the position global_curr_center was placed at (None: not placed since init_sphere)
+        self._curr_center_pos: Position | None = None
 
     # -- set-up (SpherePath.InitPath / InitSphere) -------------------------
     def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
@@ -148,16 +158,39 @@ class SpherePath:
         # the client's spheres and scale are floats, and so is their product
         single = self.settings.single_precision
         f = fl(scale, single)
-        self.local_sphere = [
-            Sphere(fl_scale(fl_vec(s.center, single), f, single), fl(fl(s.radius, single) * f, single)) for s in spheres[: self.num_sphere]
-        ]
-        s0 = self.local_sphere[0]
+        local: list[Sphere] = []
+        for i in range(self.num_sphere):
+            s = spheres[i]
+            center = fl_vec(s.center, single)
+            if f != 1.0:  # (times 1 changes nothing: a float32 stays itself)
+                center = fl_scale(center, f, single)
+            local.append(Sphere(center, fl(fl(s.radius, single) * f, single)))
+        self.local_sphere = local
+        s0 = local[0]
         self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
         self._lss_curr = None
-        self.global_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.global_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
-        self.local_space_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+        self._curr_center_pos = None
+        # the caches' spheres: those of a reused path's last transition when there are as many
+        global_sphere = self.global_sphere
+        global_curr_center = self.global_curr_center
+        if len(global_sphere) == len(local) and len(global_curr_center) == len(local):
+            for i in range(len(local)):
+                radius = local[i].radius
+                g = global_sphere[i]
+                g.center = ZERO
+                g.radius = radius
+                g = global_curr_center[i]
+                g.center = ZERO
+                g.radius = radius
+        else:
+            global_sphere.clear()
+            global_curr_center.clear()
+            for s in local:
+                global_sphere.append(Sphere(ZERO, s.radius))
+                global_curr_center.append(Sphere(ZERO, s.radius))
+        # the local-space spheres are made by their first cache_local_space_sphere (terrain never asks)
+        self.local_space_sphere.clear()
+        self.local_space_curr_center.clear()
 
     # -- moving the check position ----------------------------------------
     def add_offset_to_check_pos(self, offset: Vec3) -> None:
@@ -167,10 +200,20 @@ class SpherePath:
         """Move the check position and its cached global spheres by `offset`,
         keeping them at the working precision (single, as the client does)."""
         single = self.settings.single_precision
+        # fl_add written out: the offset's components read once for every point moved
+        ox = offset.x
+        oy = offset.y
+        oz = offset.z
         for sphere in self.global_sphere:
-            sphere.center = fl_add(sphere.center, offset, single)
-        self.global_low_point = fl_add(self.global_low_point, offset, single)
-        self.check_pos = self.check_pos.with_origin(fl_add(self.check_pos.frame.origin, offset, single))
+            c = sphere.center
+            sphere.center = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        c = self.global_low_point
+        self.global_low_point = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        check = self.check_pos
+        frame = check.frame
+        c = frame.origin
+        origin = Vec3(fl(c.x + ox, single), fl(c.y + oy, single), fl(c.z + oz, single))
+        self.check_pos = Position(check.cell_id, Frame(origin, frame.orientation))
 
     def adjust_check_pos(self, cell_id: int) -> None:
         """Re-home the check position into `cell_id` (an outdoor cell may be in
@@ -203,9 +246,10 @@ class SpherePath:
         pos = self.curr_pos
         assert pos is not None
         frame = pos.frame
+        single = self.settings.single_precision
         for i in range(self.num_sphere):
-            center = frame.local_to_global(self.local_sphere[i].center)
-            self.global_curr_center[i].center = fl_vec(center, self.settings.single_precision)
+            self.global_curr_center[i].center = frame.local_to_global_fl(self.local_sphere[i].center, single)
+        self._curr_center_pos = pos
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
@@ -215,13 +259,17 @@ class SpherePath:
                 s.center = fl_vec(s.center + offset, single)
             self.global_low_point = fl_vec(self.global_low_point + offset, single)
             return
-        frame = self.check_pos.frame
+        check = self.check_pos
+        frame = check.frame
+        # at the position the current centres were placed at (each step's end: curr_pos becomes check_pos),
+        # the same sums give the same vectors: share them (vectors are immutable)
+        placed = check is self._curr_center_pos
         for i in range(self.num_sphere):
             g = self.global_sphere[i]
-            g.radius = self.local_sphere[i].radius
-            center = frame.local_to_global(self.local_sphere[i].center)
-            g.center = fl_vec(center, single)
-        self.global_low_point = fl_vec(frame.local_to_global(self.local_low_point), single)
+            local = self.local_sphere[i]
+            g.radius = local.radius
+            g.center = self.global_curr_center[i].center if placed else frame.local_to_global_fl(local.center, single)
+        self.global_low_point = frame.local_to_global_fl(self.local_low_point, single)
 
     def cache_local_space_sphere(self, pos: Position, scale: float) -> None:
         """Express the path's spheres in the frame of `pos` (a cell or a part),
@@ -250,6 +298,9 @@ class SpherePath:
             self._lss_sums = sums
             self._lss_curr = curr
             self._lss_check = check
+        if len(self.local_space_sphere) != self.num_sphere:
+            self.local_space_sphere = [Sphere(ZERO, s.radius) for s in self.local_sphere]
+            self.local_space_curr_center = [Sphere(ZERO, s.radius) for s in self.local_sphere]
         inv = fl(1.0 / scale, single)
         q = pos.frame.orientation
         ident = q.x == 0.0 and q.y == 0.0 and q.z == 0.0

@@ -23,6 +23,7 @@ from typing import Final
 from .._compat import mypyc_attr
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
+from ..cells.landscape import Landscape
 from ..cells.obj_cell import ObjCell
 from ..constants import EPSILON, LANDING_Z
 from ..geometry import UNIT_Z, ZERO, Plane, Position, Quat, Sphere, Vec3
@@ -37,7 +38,7 @@ from .slide import slide_sphere
 from .sphere_path import SpherePath
 from .state import OI, InsertType, TransitionState
 
-__all__ = ["Transition"]
+__all__ = ["Transition", "take_transition", "give_back"]
 
 _OK: Final = TransitionState.OK
 _COLLIDED: Final = TransitionState.COLLIDED
@@ -58,14 +59,25 @@ class Transition:
 
     __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "world")
 
-    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL) -> None:
+    def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL, object_info: ObjectInfo | None = None) -> None:
         self.world = world
         self.settings = settings
-        self.object_info = ObjectInfo()
+        self.object_info = ObjectInfo() if object_info is None else object_info
         self.sphere_path = SpherePath()
         self.sphere_path.settings = settings
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)
         self.cell_array = CellArray(world)
+
+    def reset(self, world: CellLookup, settings: EngineSettings, object_info: ObjectInfo) -> None:
+        """Start over as a new transition would (take_transition reuses a finished one this way)."""
+        self.world = world
+        self.settings = settings
+        self.object_info = object_info
+        path = self.sphere_path
+        path.reset()
+        path.settings = settings
+        self.collision_info.reset(settings.ace_normals)
+        self.cell_array.reset(world)
 
     # -- set-up -------------------------------------------------------------
     def init_object(self, object_info: ObjectInfo) -> None:
@@ -267,7 +279,7 @@ class Transition:
             return _INVALID
 
         state = _INVALID
-        for _ in range(num_insertion_attempts):
+        for _attempt in range(num_insertion_attempts):  # (named: compiled, `_` is boxed every turn)
             state = self.insert_into_cell(path.check_cell, num_insertion_attempts)
             if state == _OK:
                 state = self.check_other_cells(path.check_cell)
@@ -365,7 +377,7 @@ class Transition:
             return _COLLIDED
         ci = self.collision_info
         state = _OK
-        for _ in range(num_insertion_attempts):
+        for _attempt in range(num_insertion_attempts):
             state = cell.find_collisions(self)
             if state == _OK or state == _COLLIDED:
                 return state
@@ -513,3 +525,23 @@ class Transition:
 
     def placement_insert(self) -> int:
         return placement.placement_insert(self)
+
+
+def take_transition(world: CellLookup, settings: EngineSettings, object_info: ObjectInfo) -> Transition:
+    """A transition as Transition(world, settings, object_info) makes it: the landscape's spare one (its
+    last move's, given back) reset, else a new one. Reusing it spares a move building and freeing a
+    transition's path, collision info and cell array (the client keeps its transitions in a pool too)."""
+    if isinstance(world, Landscape):
+        t = world.spare_transition
+        if t is not None:
+            world.spare_transition = None
+            t.reset(world, settings, object_info)
+            return t
+    return Transition(world, settings, object_info)
+
+
+def give_back(t: Transition) -> None:
+    """`t`'s move is over and nothing keeps it: its landscape's next take_transition may reuse it."""
+    world = t.world
+    if type(t) is Transition and isinstance(world, Landscape):
+        world.spare_transition = t

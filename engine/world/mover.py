@@ -31,7 +31,7 @@ from ..geometry.quaternion import Quat
 from ..transition.object_info import ObjectInfo
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
-from ..transition.transition import Transition
+from ..transition.transition import Transition, take_transition
 from .transient import TS
 from .types import CylSphereSpec
 
@@ -177,22 +177,25 @@ class Mover:
     # -- one transition (PhysicsObj.transition) --------------------------------
     def make_transition(self, world: CellLookup, settings: EngineSettings) -> Transition:
         """A Transition set up from this object's carried state (get_object_info)."""
-        t = Transition(world, settings)
         state = self.oi_flags
+        in_contact = False
         if self.transient & TS.CONTACT:
-            is_water = bool(self.transient & TS.WATER_CONTACT)
-            if self.check_contact(True):
-                t.init_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
+            in_contact = self.check_contact(True)
+            if in_contact:
                 state |= OI.CONTACT
                 if self.transient & TS.ON_WALKABLE:
                     state |= OI.ON_WALKABLE
+        if self.missile:
+            state |= OI.PATH_CLIPPED
+        t = take_transition(world, settings, self.object_info(state))
+        if self.transient & TS.CONTACT:
+            is_water = bool(self.transient & TS.WATER_CONTACT)
+            if in_contact:
+                t.init_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
             else:
                 t.init_last_known_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
         if self.transient & TS.SLIDING:
             t.init_sliding_normal(self.sliding_normal)
-        if self.missile:
-            state |= OI.PATH_CLIPPED
-        t.init_object(self.object_info(state))
         t.init_sphere(self.spheres, self.scale)
         return t
 
@@ -243,7 +246,10 @@ class Mover:
         # what the object keeps, it keeps at the working precision (the client's: single)
         cur = path.curr_pos
         single = t.settings.single_precision
-        self.position = Position(cur.cell_id, cur.frame.with_origin(fl_vec(cur.frame.origin, single)))
+        origin = cur.frame.origin
+        kept = fl_vec(origin, single)
+        # (positions are immutable: when nothing rounds, the path's own is the copy)
+        self.position = cur if kept is origin else Position(cur.cell_id, cur.frame.with_origin(kept))
         self.cell = path.curr_cell
 
         self.contact_plane_cell_id = ci.contact_plane_cell_id

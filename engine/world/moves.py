@@ -34,7 +34,7 @@ def move_checked(landscape: Landscape, mover: Mover, target: Position, velocity:
     if velocity is not None:
         mover.velocity = velocity
     try:
-        result = move_mover(landscape, mover, target)
+        result = move_mover(landscape, mover, target, True)  # (check_position loaded its landblock)
     except BaseException:
         snapshot.restore()
         raise

@@ -18,23 +18,28 @@ apply it to each mover's own clock.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from .._compat import mypyc_attr
 from ..constants import HUGE_QUANTUM, MIN_QUANTUM
 
 __all__ = ["QuantumSplit", "split_elapsed"]
 
 
-@dataclass(frozen=True, slots=True)
+@mypyc_attr(acyclic=True)
 class QuantumSplit:
-    """What update_object does with some elapsed time."""
+    """What update_object does with some elapsed time (a value: not changed once made).
 
-    #: the physics steps to run, in order (seconds)
-    quanta: tuple[float, ...]
-    #: time kept for the next update (seconds)
-    held: float
-    #: True when the elapsed time was beyond the huge quantum and dropped
-    dropped: bool = False
+    A slots class with its __init__ written out, not a dataclass: one is made per physics step, and a
+    dataclass's generated __init__ stays interpreted in the compiled engine."""
+
+    __slots__ = ("quanta", "held", "dropped")
+
+    def __init__(self, quanta: tuple[float, ...], held: float, dropped: bool = False) -> None:
+        #: the physics steps to run, in order (seconds)
+        self.quanta = quanta
+        #: time kept for the next update (seconds)
+        self.held = held
+        #: True when the elapsed time was beyond the huge quantum and dropped
+        self.dropped = dropped
 
 
 def split_elapsed(elapsed: float, max_quantum: float) -> QuantumSplit:

@@ -13,7 +13,7 @@ from typing import Any
 
 from ..geometry.position import Position
 from ..geometry.vec3 import Vec3
-from ..transition.transition import Transition
+from ..transition.transition import Transition, give_back
 from ..cells.landscape import Landscape
 from .mover import Mover
 from .shadows import reshadow
@@ -25,29 +25,38 @@ __all__ = ["move_mover", "move_result"]
 
 def _block_distance(a: int, b: int) -> int:
     """How many landblocks apart two cell ids are (Chebyshev, in block units)."""
-    dx = abs(((a >> 24) & 0xFF) - ((b >> 24) & 0xFF))
-    dy = abs(((a >> 16) & 0xFF) - ((b >> 16) & 0xFF))
+    dx = ((a >> 24) & 0xFF) - ((b >> 24) & 0xFF)
+    dy = ((a >> 16) & 0xFF) - ((b >> 16) & 0xFF)
+    # signs by comparison: compiled, abs() of an int is a generic call
+    if dx < 0:
+        dx = -dx
+    if dy < 0:
+        dy = -dy
     return dx if dx > dy else dy
 
 
-def move_mover(landscape: Landscape, mover: Mover, target: Position) -> MoveResult:
+def move_mover(landscape: Landscape, mover: Mover, target: Position, loaded: bool = False) -> MoveResult:
     """Move `mover` toward `target` (already checked): PhysicsObj.SetPosition through
     a transition. A target within EPSILON of where the mover stands runs no
-    transition; one more than a landblock away is refused, as the client refuses it."""
+    transition; one more than a landblock away is refused, as the client refuses it.
+    `loaded`: the target's landblock is known to be loaded (its check loaded it)."""
     current = mover.position
     if target.cell_id == current.cell_id and target.frame.equals_within_epsilon(current.frame):
         mover.position = Position(current.cell_id, target.frame)
         return move_result(mover, True, "NoTransition", None)
     if _block_distance(current.cell_id, target.cell_id) > 1:
         return move_result(mover, False, "NoTransition", None)
-    landscape.ensure_loaded(target.cell_id)
+    if not loaded:
+        landscape.ensure_loaded(target.cell_id)
     t = mover.transition(landscape, current, target, landscape.settings)
     if t is None or t.sphere_path.curr_cell is None:
         mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
         return move_result(mover, False, "Invalid", t)
     mover.set_position_internal(t)
     reshadow(mover, t.cell_array)
-    return move_result(mover, True, "OK", t)
+    result = move_result(mover, True, "OK", t)
+    give_back(t)
+    return result
 
 
 def _object_id(obj: Any) -> int:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .mover import Mover
+from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
@@ -19,6 +20,7 @@ if TYPE_CHECKING:
 __all__ = ["MoverSnapshot"]
 
 
+@mypyc_attr(acyclic=True)
 class MoverSnapshot:
     """The mutable state of one mover at one moment: the slots a transition, SetPositionInternal or a
     physics step writes. Every value is immutable or replaced, never edited in place, so keeping the

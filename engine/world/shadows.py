@@ -57,8 +57,34 @@ def _add_shadows(mover: Mover, cells: list[ObjCell | None]) -> None:
 
 def reshadow(mover: Mover, cell_array: CellArray) -> None:
     """After a successful transition: shadows move to that transition's cells."""
+    cells = cell_array.cells()
+    if _shadows_stay(mover, cells):
+        return
     remove_shadows(mover)
-    _add_shadows(mover, cell_array.cells())
+    _add_shadows(mover, cells)
+
+
+def _shadows_stay(mover: Mover, cells: list[ObjCell | None]) -> bool:
+    """Would moving the shadows into `cells` leave every list as it is? So when the mover shadows the
+    same cells in the same order and is the newest shadow in each (a mover standing or walking within
+    its cells, alone in them): removing and adding it again changes nothing."""
+    obstacle = mover.obstacle
+    if obstacle is None:
+        return False
+    shadow_cells = mover.shadow_cells
+    n = len(shadow_cells)
+    i = 0
+    for cell in cells:
+        if cell is None:
+            continue
+        # the new list skips repeats; the old one has none, so a repeat here means a different list
+        if i >= n or shadow_cells[i] is not cell:
+            return False
+        objects = cell.shadow_objects
+        if not objects or objects[len(objects) - 1] is not obstacle:
+            return False
+        i += 1
+    return i == n
 
 
 def enter_world(world: CellLookup, mover: Mover) -> None:

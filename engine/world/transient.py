@@ -32,12 +32,14 @@ NAMED_BITS: Final = (
 )
 
 
-_NAMES_BY_BITS: Final[dict[int, list[str]]] = {}
+#: the named bits (all below 0x80)
+_NAMED_MASK: Final = 0x7F
+#: the names of every combination of the named bits, indexed by it (a list: no boxed key per lookup)
+_NAMES_BY_BITS: Final[list[list[str]]] = [
+    [name for name, bit in NAMED_BITS if bits & bit] for bits in range(_NAMED_MASK + 1)
+]
 
 
 def transient_names(bits: int) -> list[str]:
     """The flag names the formats use, in the client's bit order (a new list)."""
-    names = _NAMES_BY_BITS.get(bits)
-    if names is None:
-        names = _NAMES_BY_BITS[bits] = [name for name, bit in NAMED_BITS if bits & bit]
-    return list(names)
+    return list(_NAMES_BY_BITS[bits & _NAMED_MASK])

@@ -11,6 +11,7 @@ from typing import Final
 
 from ..geometry import Plane, Position, Vec3
 from ..transition.state import OI
+from .._compat import mypyc_attr
 
 __all__ = ["SphereSpec", "CylSphereSpec", "MoverSpec", "MoveResult", "ObjectState"]
 
@@ -90,6 +91,7 @@ class MoverSpec:
     sledding: bool = False
 
 
+@mypyc_attr(acyclic=True)
 @dataclass(slots=True, init=False)
 class MoveResult:
     """The resolved outcome of one move (one transition + SetPositionInternal)."""

@@ -223,7 +223,10 @@ class World:
         `velocity` is the mover's velocity while the move is resolved (what the
         contact checks and collision responses see); None keeps its own.
         """
-        return move_checked(self.landscape, self.mover(mover_id), target, velocity)
+        # the table read here, not through self.mover (an interpreted call less per move); a missing id
+        # still raises there
+        mover = self.movers.get(mover_id)
+        return move_checked(self.landscape, mover if mover is not None else self.mover(mover_id), target, velocity)
 
     def step(self, mover_id: int, motion: Vec3, dt: float) -> MoveResult:
         """Advance a mover by `dt` seconds with its own motion `motion` (metres
@@ -242,7 +245,8 @@ class World:
 
         Without it (ACE_COMPAT) `dt` is one integration step as given
         (UpdateObjectInternal), as the reference traces record them."""
-        return step_checked(self.landscape, self.mover(mover_id), motion, dt)
+        mover = self.movers.get(mover_id)  # (as in move)
+        return step_checked(self.landscape, mover if mover is not None else self.mover(mover_id), motion, dt)
 
     def _enter_cells(self, mover: Mover) -> None:
         """Cast the mover's shadow into the cells its spheres touch, so other
