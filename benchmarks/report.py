@@ -305,8 +305,13 @@ def _engine_tables(eng: dict[str, Any]) -> list[str]:
             o = vw.get(r["name"], {}).get("us", {}).get("median")
             line += f" {num(o)} | {speedup(u['median'], o)} |"
         out.append(line)
+    rounds = max((len(r.get("round_medians_us") or []) for r in eng["traces"]), default=0)
+    how = (f" Each trace is replayed {rounds} times, the traces taking turns; its row is the round with the lowest "
+           "median, every round's median listed after the table (this machine has a slow mode lasting seconds)."
+           if rounds > 1 else "")
     out += ["", ("The reference traces replayed move by move (ACE_COMPAT, placements skipped) against ACE's own time "
-            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class):"), ""]
+            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class)."
+            + how), ""]
     head = "| trace scene | moves | median µs | p99 µs | moves/s | ACE µs | acphys / ACE |"
     rule = "|---|---:|---:|---:|---:|---:|---:|"
     if has:
@@ -322,6 +327,9 @@ def _engine_tables(eng: dict[str, Any]) -> list[str]:
             line += (f" {num(o)} | {ratio(o / r['anchor_us'] if o and r.get('anchor_us') else None)} "
                      f"| {speedup(u['median'], o)} |")
         out.append(line)
+    if rounds > 1:
+        out += ["", "Each round's median, µs per move: " + "; ".join(
+            f"{r['name']} " + ", ".join(f"{m:.1f}" for m in r.get("round_medians_us") or []) for r in eng["traces"]) + "."]
     if var.get("failed"):
         out += ["", f"The {label} run failed: {var['failed']}"]
     elif has:
