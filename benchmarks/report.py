@@ -186,18 +186,16 @@ def _limits(results: dict[str, Any]) -> list[str]:
         compiled = eng.get("meta", {}).get("machine", {}).get("compiled_engine_modules") or []
         txt = "- Engine: "
         if flat:
-            txt += (f"a flat-terrain move takes {flat['us']['median']:.0f} µs against ACE's 4.5 µs under Mono "
-                    f"({flat['us']['median'] / 4.5:.0f}x). ")
+            txt += (f"a move of the flat trace takes {flat['us']['median']:.1f} µs against ACE's 4.5 µs under Mono "
+                    f"({flat['us']['median'] / 4.5:.2f}x). ")
         if prof:
             txt += (f"The profile of the flat workload counts {prof['python_calls_per_move']:,.0f} interpreted function "
                     "calls per move (compiled functions count as one call each); ")
         if prof and prof["top"]:
             t0 = prof["top"][0]
             txt += (f"the biggest single function (`{t0['function']}`) has {100 * t0['own_share']:.0f} % of the own "
-                    "time, the rest is spread over the per-step geometry (vector and plane arithmetic that allocates "
-                    "a new object per operation, the cell and sphere loops of the transition): no single hot spot "
-                    "closes a gap of this size; compiling the per-step path, or restructuring it to allocate less, is "
-                    "what the issue asks for. ")
+                    "time (cProfile sees a compiled call as one function; the rest is the interpreted harness and "
+                    "the World's entry points). ")
         var = eng.get("variant") or {}
         vflat = next((r["us"]["median"] for r in var.get("traces", []) if r["name"] == "flat" and "us" in r), None)
         if var.get("kind") == "compiled" and vflat and flat:

@@ -306,8 +306,9 @@ def service_limits(results: dict[str, Any]) -> list[str]:
             txt += (f" Without the network the service handles one move in {hot['handler']['median']:.0f} µs back to "
                     f"back (engine {hot['engine']['median']:.0f} µs) but in {warm['handler']['median']:.0f} µs "
                     f"(engine {warm['engine']['median']:.0f} µs) when each move follows 0.4 ms of idling, as in a "
-                    "round trip: on this shared machine code runs 2-3x slower after the CPU idled or ran other "
-                    "processes, and the service runs far more code per request than the echo.")
+                    f"round trip: on this shared machine code runs {warm['handler']['median'] / hot['handler']['median']:.0f}x "
+                    "slower after the CPU idled or ran other processes (its caches cold), and the service runs far "
+                    "more code per request than the echo.")
         out.append(txt)
         if best and best.get("service_cpu_us_per_move"):
             cpu = best["service_cpu_us_per_move"]
