@@ -129,18 +129,18 @@ TRACE_ROUNDS = 3
 
 
 def run_traces(max_moves: int | None, seconds_each: float, rounds: int = TRACE_ROUNDS) -> list[dict[str, Any]]:
-    best: dict[str, list[float]] = {}
+    best: dict[str, tuple[float, list[float]]] = {}  # each trace's lowest median so far, with its samples
     medians: dict[str, list[float]] = {name: [] for name in TRACE_SCENES}
     for _ in range(rounds):
         for name in TRACE_SCENES:
             samples = replay_trace(name, max_moves, Deadline(seconds_each))
             med = statistics.median(samples)
             medians[name].append(med * 1e6)
-            if name not in best or med < statistics.median(best[name]):
-                best[name] = samples
+            if name not in best or med < best[name][0]:
+                best[name] = (med, samples)
     rows = []
     for name in TRACE_SCENES:
-        s = summary(best[name], 1e6)
+        s = summary(best[name][1], 1e6)
         anchor = ACE_ANCHORS_US.get(name)
         target = TERRAIN_TARGET_US if name in ACE_ANCHORS_US else BSP_TARGET_US
         if anchor is not None:
