@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Final
 
 from ..geometry import UNIT_Z, ZERO, Frame, Position, Sphere, Vec3
 
@@ -18,7 +18,44 @@ if TYPE_CHECKING:
     from ..geometry.polygon import Polygon
     from .transition import Transition
 
-__all__ = ["SpherePath"]
+__all__ = ["SpherePath", "ScaledSpheres"]
+
+#: the empty sphere sums of a reset path (never appended to: cache_local_space_sphere replaces the list)
+_NO_SUMS: Final[list[tuple[float, float, float, float, float, float]]] = []
+
+
+@mypyc_attr(acyclic=True)
+class ScaledSpheres:
+    """The spheres a path moves: at most two of an object's spheres (foot, head), scaled into its frame, and
+    the foot sphere's lowest point (the scaling half of SpherePath.InitSphere).
+
+    Never changed once made: a mover keeps its own from move to move while its sphere list, scale and
+    precision stay the same (`made_from`), and every path of its moves shares it."""
+
+    __slots__ = ("source", "scale", "single", "spheres", "low_point")
+
+    def __init__(self, source: list[Sphere], scale: float, single: bool) -> None:
+        self.source = source
+        self.scale = scale
+        self.single = single
+        # the client's spheres and scale are floats, and so is their product
+        f = fl(scale, single)
+        spheres: list[Sphere] = []
+        for i in range(min(len(source), 2)):
+            s = source[i]
+            center = fl_vec(s.center, single)
+            if f != 1.0:  # (times 1 changes nothing: a float32 stays itself)
+                center = fl_scale(center, f, single)
+            spheres.append(Sphere(center, fl(fl(s.radius, single) * f, single)))
+        self.spheres = spheres
+        foot = spheres[0]
+        self.low_point = Vec3(foot.center.x, foot.center.y, fl(foot.center.z - foot.radius, single))
+
+    def made_from(self, source: list[Sphere], scale: float, single: bool) -> bool:
+        """Whether these are `source` scaled by `scale` at that precision (the list is known by identity:
+        a mover's spheres are replaced, never edited in place)."""
+        return source is self.source and scale == self.scale and single == self.single
+
 
 @mypyc_attr(acyclic=True)
 class SpherePath:
@@ -134,7 +171,7 @@ class SpherePath:
         #: frame (float32), kept while those two positions stay the same
         self._lss_curr: Position | None = None
         self._lss_check: Position | None = None
-        self._lss_sums: list[tuple[float, float, float, float, float, float]] = []
+        self._lss_sums: list[tuple[float, float, float, float, float, float]] = _NO_SUMS
         #: the position global_curr_center was placed at (None: not placed since init_sphere)
         self._curr_center_pos: Position | None = None
 
@@ -153,21 +190,15 @@ class SpherePath:
         self.cache_global_curr_center()
 
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
-        """Take at most two spheres (foot, head), scaled into the mover's frame."""
-        self.num_sphere = min(len(spheres), 2)
-        # the client's spheres and scale are floats, and so is their product
-        single = self.settings.single_precision
-        f = fl(scale, single)
-        local: list[Sphere] = []
-        for i in range(self.num_sphere):
-            s = spheres[i]
-            center = fl_vec(s.center, single)
-            if f != 1.0:  # (times 1 changes nothing: a float32 stays itself)
-                center = fl_scale(center, f, single)
-            local.append(Sphere(center, fl(fl(s.radius, single) * f, single)))
+        """Take at most two spheres (foot, head), scaled into the mover's frame (SpherePath.InitSphere)."""
+        self.init_scaled_spheres(ScaledSpheres(spheres, scale, self.settings.single_precision))
+
+    def init_scaled_spheres(self, scaled: ScaledSpheres) -> None:
+        """InitSphere with the scaling already done (a mover keeps its ScaledSpheres from move to move)."""
+        local = scaled.spheres
+        self.num_sphere = len(local)
         self.local_sphere = local
-        s0 = local[0]
-        self.local_low_point = Vec3(s0.center.x, s0.center.y, fl(s0.center.z - s0.radius, single))
+        self.local_low_point = scaled.low_point
         self._lss_curr = None
         self._curr_center_pos = None
         # the caches' spheres: those of a reused path's last transition when there are as many

@@ -35,7 +35,7 @@ from .interface import CellLookup
 from .object_info import ObjectInfo
 from .settings import RETAIL, EngineSettings
 from .slide import slide_sphere
-from .sphere_path import SpherePath
+from .sphere_path import ScaledSpheres, SpherePath
 from .state import OI, InsertType, TransitionState
 
 __all__ = ["Transition", "take_transition", "give_back"]
@@ -85,6 +85,9 @@ class Transition:
 
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         self.sphere_path.init_sphere(spheres, scale)
+
+    def init_scaled_spheres(self, scaled: ScaledSpheres) -> None:
+        self.sphere_path.init_scaled_spheres(scaled)
 
     def init_path(self, begin_cell: ObjCell | None, begin_pos: Position | None, end_pos: Position) -> None:
         self.sphere_path.init_path(begin_cell, begin_pos, end_pos)

@@ -31,6 +31,7 @@ from ..geometry.quaternion import Quat
 from ..transition.object_info import ObjectInfo
 from ..transition.settings import RETAIL, EngineSettings
 from ..transition.state import OI
+from ..transition.sphere_path import ScaledSpheres
 from ..transition.transition import Transition, take_transition
 from .transient import TS
 from .types import CylSphereSpec
@@ -84,6 +85,7 @@ class Mover:
         "colliding_with_environment",
         "held_time",
         "held_motion",
+        "scaled_spheres",
         "__weakref__",
     )
 
@@ -142,6 +144,9 @@ class Mover:
         #: motion that goes with it
         self.held_time = 0.0
         self.held_motion = ZERO
+        #: `spheres` as its transitions move them (made by the first move, again when spheres, scale or
+        #: precision change: the list is replaced, never edited in place)
+        self.scaled_spheres: ScaledSpheres | None = None
 
     # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------
     def set_velocity(self, velocity: Vec3) -> None:
@@ -196,7 +201,11 @@ class Mover:
                 t.init_last_known_contact_plane(self.contact_plane_cell_id, self.contact_plane, is_water)
         if self.transient & TS.SLIDING:
             t.init_sliding_normal(self.sliding_normal)
-        t.init_sphere(self.spheres, self.scale)
+        scaled = self.scaled_spheres
+        single = settings.single_precision
+        if scaled is None or not scaled.made_from(self.spheres, self.scale, single):
+            scaled = self.scaled_spheres = ScaledSpheres(self.spheres, self.scale, single)
+        t.init_scaled_spheres(scaled)
         return t
 
     def object_info(self, state: int) -> ObjectInfo:
