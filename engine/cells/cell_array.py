@@ -5,11 +5,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Final
 from collections.abc import Iterator
 
+from .landscape import Landscape, cell_of_landblock
 from .obj_cell import ObjCell
 from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..transition.interface import CellLookup
+    from ..world.landblock import Landblock
 
 __all__ = ["CellArray", "END"]
 
@@ -34,7 +36,7 @@ class CellArray:
     engine (a dict would box and hash every id looked up).
     """
 
-    __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_ids", "_cells", "_free")
+    __slots__ = ("added_outside", "outside_searched", "load_cells", "world", "_ids", "_cells", "_free", "_lb_id", "_lb")
 
     def __init__(self, world: CellLookup) -> None:
         #: Where cells are looked up by id (the client's LScape).
@@ -47,6 +49,20 @@ class CellArray:
         self._ids: list[int] = []
         self._cells: list[ObjCell | None] = []
         self._free: list[int] = []
+        #: the landblock `landcell` looked up last (_EMPTY: none yet), kept for the rest of the transition
+        self._lb_id = _EMPTY
+        self._lb: Landblock | None = None
+
+    def landcell(self, landscape: Landscape, cell_id: int) -> ObjCell | None:
+        """landscape.get_landcell(cell_id), with the landblock of the last lookup remembered: a transition's
+        searches look up a handful of outdoor cells, nearly always of one landblock, and no landblock is
+        loaded or unloaded while a transition runs (the array is reset for each)."""
+        lb_id = (cell_id >> 16) & 0xFFFF
+        if lb_id != self._lb_id:
+            self._lb = landscape.landblock(lb_id)
+            self._lb_id = lb_id
+        lb = self._lb
+        return None if lb is None else cell_of_landblock(lb, cell_id)
 
     def reset_count(self) -> None:
         """What the client does at the start of a search: keep the cells."""
@@ -65,6 +81,8 @@ class CellArray:
         self._free.clear()
         self.added_outside = False
         self.outside_searched = False
+        self._lb_id = _EMPTY
+        self._lb = None
 
     def _slot_of(self, cell_id: int) -> int:
         """The slot holding `cell_id`, or -1."""

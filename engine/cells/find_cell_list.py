@@ -43,7 +43,7 @@ def find_cell_list(
         visible_cell = cell_array.cell_of(cell_id)
         if visible_cell is None:
             if isinstance(world, Landscape):
-                visible_cell = world.get_landcell(cell_id)  # natively, for the World's own
+                visible_cell = cell_array.landcell(world, cell_id)  # natively, for the World's own
             else:
                 visible_cell = world.get_landcell(cell_id)
 

@@ -124,7 +124,7 @@ def _add_outside_cell(world: CellLookup, landscape: Landscape | None, cell_array
         if cell_id in cell_array:
             return  # (add_cell would keep the one there: no lookup needed)
         # the World's own Landscape is called natively; anything else by name
-        cell = landscape.get_landcell(cell_id) if landscape is not None else world.get_landcell(cell_id)
+        cell = cell_array.landcell(landscape, cell_id) if landscape is not None else world.get_landcell(cell_id)
         if cell is not None:
             cell_array.add_cell(cell_id, cell)
 

@@ -21,10 +21,18 @@ if TYPE_CHECKING:
     from ..world.landblock import Landblock
     from .obj_cell import ObjCell
 
-__all__ = ["Landscape", "TrackedLandblocks"]
+__all__ = ["Landscape", "TrackedLandblocks", "cell_of_landblock"]
 
 #: where a landblock that is not loaded comes from (the World's loader)
 LandblockLoad = Callable[[int], "Landblock | None"]
+
+
+def cell_of_landblock(lb: Landblock, cell_id: int) -> ObjCell | None:
+    """The cell `cell_id` of its landblock `lb`, or None: an outdoor cell by index, an EnvCell by id."""
+    index = cell_id & 0xFFFF
+    if 1 <= index <= 64:
+        return lb.cells[index - 1]
+    return lb.env_cells.get(cell_id)
 
 
 class TrackedLandblocks(Protocol):
@@ -81,12 +89,7 @@ class Landscape:
     def get_landcell(self, cell_id: int) -> ObjCell | None:
         """The cell with this id if its landblock is loaded, else None (LScape.get_landcell)."""
         lb = self.landblock((cell_id >> 16) & 0xFFFF)
-        if lb is None:
-            return None
-        index = cell_id & 0xFFFF
-        if 1 <= index <= 64:
-            return lb.cells[index - 1]
-        return lb.env_cells.get(cell_id)
+        return None if lb is None else cell_of_landblock(lb, cell_id)
 
     def ensure_loaded(self, cell_id: int) -> None:
         """Load the landblock of `cell_id` from the World's source if it is not loaded."""
