@@ -18,7 +18,7 @@ from .._compat import mypyc_attr
 __all__ = ["Frame", "to_local_xyz"]
 
 
-@mypyc_attr(acyclic=True)
+@mypyc_attr(acyclic=True, free_list_len=1)
 class Frame:
     __slots__ = ("origin", "orientation", "_m")
 

@@ -11,7 +11,7 @@ from .._compat import mypyc_attr
 __all__ = ["Position"]
 
 
-@mypyc_attr(acyclic=True)
+@mypyc_attr(acyclic=True, free_list_len=1)
 class Position:
     """Immutable (cell id, frame). Frame origins are landblock-local metres."""
 

@@ -17,7 +17,7 @@ from .._compat import mypyc_attr
 __all__ = ["Vec3", "ZERO", "UNIT_Z"]
 
 
-@mypyc_attr(acyclic=True)
+@mypyc_attr(acyclic=True, free_list_len=1)
 class Vec3:
     """A 3-vector of float components (x east, y north, z up)."""
 

@@ -17,7 +17,7 @@ def is_valid_walkable(normal: Vec3) -> bool:
     return normal.z >= FLOOR_Z
 
 
-@mypyc_attr(acyclic=True)
+@mypyc_attr(acyclic=True, free_list_len=1)
 class ObjectInfo:
     """The client's OBJECTINFO.
 

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 __all__ = ["MoverSnapshot"]
 
 
-@mypyc_attr(acyclic=True)
+@mypyc_attr(acyclic=True, free_list_len=1)
 class MoverSnapshot:
     """The mutable state of one mover at one moment: the slots a transition, SetPositionInternal or a
     physics step writes. Every value is immutable or replaced, never edited in place, so keeping the
