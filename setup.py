@@ -42,5 +42,11 @@ if os.environ.get("ACPHYS_COMPILE", "1") != "0":
     print(f"acphys: compiling {len(modules)} engine modules with mypyc: about 2 minutes on an idle 2-core machine "
           "(ACPHYS_COMPILE=0 installs the pure-Python engine instead)", file=sys.stderr, flush=True)
     ext_modules = mypycify(modules, opt_level="3")
+    if sys.platform != "win32":
+        # All compiled modules share one C file; without this, -fPIC keeps GCC and clang from inlining one
+        # exported function into another (another library could interpose it), so small hot helpers such
+        # as geometry.single.fl stay calls. CPython itself is built with it for the same reason.
+        for ext in ext_modules:
+            ext.extra_compile_args = [*ext.extra_compile_args, "-fno-semantic-interposition"]
 
 setup(ext_modules=ext_modules)
