@@ -125,7 +125,7 @@ def replay_trace(name: str, max_moves: int | None, deadline: Deadline,
 #: round with the lowest median. This machine has a fast and a slow mode (other tenants, clock changes)
 #: that last seconds: in one process the same replay has measured 2.6 and 4.1 µs per move. A replay that
 #: never met the slow mode is the figure to compare across commits and with ACE's.
-TRACE_ROUNDS = 3
+TRACE_ROUNDS = 5
 
 
 def run_traces(max_moves: int | None, seconds_each: float, rounds: int = TRACE_ROUNDS) -> list[dict[str, Any]]:
