@@ -34,7 +34,8 @@ place, a move within EPSILON, a failed move's new heading).
 
 from __future__ import annotations
 
-from typing import Any, Final, TYPE_CHECKING
+import math
+from typing import Final, TYPE_CHECKING
 
 from ..geometry import Position
 from ..geometry.landdefs import get_block_offset
@@ -60,8 +61,8 @@ class ShapeBounds:
     def __init__(self, obstacle: MoverObstacle, position: Position, scale: float) -> None:
         self.position = position
         frame = position.frame
-        lo_x = lo_y = lo_z = float("inf")
-        hi_x = hi_y = hi_z = float("-inf")
+        lo_x = lo_y = lo_z = math.inf  # (float("inf") would parse the text on every call, compiled)
+        hi_x = hi_y = hi_z = -math.inf
         for sphere in obstacle.spheres:
             c = frame.local_to_global(sphere.center * scale)
             r = sphere.radius * scale
@@ -87,7 +88,7 @@ def mover_bounds(obstacle: MoverObstacle) -> ShapeBounds:
     Made again when the mover's Position object is not the one it was made
     for. Its scale is read then too: a mover's scale is fixed for its life
     (World.update_mover gives the object a new Mover)."""
-    mover: Any = obstacle.mover
+    mover = obstacle.mover
     position: Position = mover.position
     bounds: ShapeBounds | None = mover.broad_phase_bounds
     if bounds is None or bounds.position is not position:

@@ -28,6 +28,7 @@ from .sphere_collision import intersects_sphere
 if TYPE_CHECKING:
     from ..transition.object_info import ObjectInfo
     from ..transition.transition import Transition
+    from ..world.mover import Mover  # (typed for mypyc: its fields are then read natively, every test)
 
 __all__ = ["Obstacle", "MoverObstacle", "find_obj_collisions", "missile_ignore"]
 
@@ -186,7 +187,7 @@ class MoverObstacle(Obstacle):
 
     __slots__ = ("mover",)
 
-    def __init__(self, mover: Any) -> None:
+    def __init__(self, mover: Mover) -> None:
         cyl = [c if isinstance(c, CylSphere) else CylSphere.from_spec(c) for c in (mover.cyl_spheres or ())]
         super().__init__(
             mover.id,
@@ -198,7 +199,7 @@ class MoverObstacle(Obstacle):
             dat_object=False,
             owner=mover,
         )
-        self.mover = mover
+        self.mover: Mover = mover
         self.refresh()
 
     def refresh(self) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Final
 
 from ..constants import EPSILON
@@ -56,7 +57,7 @@ def validate_walkable(
             return TransitionState.OK
         offset = center - path.global_curr_center[0].center
         denom = offset.dot(normal)
-        angle = dist / denom if denom != 0.0 else (float("inf") if dist >= 0.0 else float("-inf"))
+        angle = dist / denom if denom != 0.0 else (math.inf if dist >= 0.0 else -math.inf)
         if (angle <= 0.0 or angle > 1.0) and clear_ok:
             return TransitionState.OK
         pull_back = offset * -angle

@@ -64,7 +64,12 @@ INTS_PER_ROW: Final = 7
 TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 
-_NAN: Final = math.nan
+# The NaN runs written for missing values, made once: compiled, a NaN written as a constant is made
+# again (parsed from text) at every use.
+_NO_VECTOR: Final[list[float]] = [math.nan] * 3
+_NO_PLANE: Final[list[float]] = [math.nan] * 4
+_NO_REALS: Final[list[float]] = [math.nan] * REALS_PER_ROW
+_NO_INTS: Final[list[int]] = [0] * INTS_PER_ROW
 
 
 class Status:
@@ -117,7 +122,7 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
     reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z))
     cp = r.contact_plane
     if cp is None:
-        reals.extend((_NAN, _NAN, _NAN, _NAN))
+        reals.extend(_NO_PLANE)
     else:
         status |= Status.HAS_CONTACT_PLANE
         n = cp.normal
@@ -146,7 +151,7 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
 def _append_vector(reals: list[float], v: Vec3 | None) -> bool:
     """Append v's components (NaN for none); whether there was one."""
     if v is None:
-        reals.extend((_NAN, _NAN, _NAN))
+        reals.extend(_NO_VECTOR)
         return False
     reals.extend((v.x, v.y, v.z))
     return True
@@ -154,8 +159,8 @@ def _append_vector(reals: list[float], v: Vec3 | None) -> bool:
 
 def append_missing(rows: BatchRows) -> None:
     """Add an empty row (an item that did not run)."""
-    rows.reals.extend([_NAN] * REALS_PER_ROW)
-    rows.ints.extend([0] * INTS_PER_ROW)
+    rows.reals.extend(_NO_REALS)
+    rows.ints.extend(_NO_INTS)
 
 
 _TRANSIENT_BIT: Final = {name: bit for name, bit in NAMED_BITS}
