@@ -525,6 +525,8 @@ Re-run:
     python3 -m benchmarks --quick   # a few minutes, small counts
     python3 -m benchmarks --only engine,error --error-cases 5
     python3 -m benchmarks --only stress --stress-moves 1000000 --stress-seconds 3600
+    python3 -m benchmarks --only instructions --against OLD_CHECKOUT   # callgrind counts: this checkout's
+                                             # compiled engine against another's (needs valgrind)
 
 Raw results: `docs/performance.json` (each section's latest run); plots: `benchmarks/plots/`.
 """
@@ -546,6 +548,10 @@ def write(results: dict[str, Any]) -> None:
         from .bench_queries import section
 
         lines += section(results["queries"], meta_line(results["queries"]))
+    if "instructions" in results:
+        from .bench_instructions import section as instructions_section
+
+        lines += instructions_section(results["instructions"], meta_line(results["instructions"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

@@ -20,12 +20,13 @@ import shlex
 import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "memory", "stress", "queries")
+SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions")
 
 
 def _git_commit() -> str:
@@ -85,6 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-variant", action="store_true",
                    help="measure only the working tree's engine (no pure-Python or compiled copy beside it)")
     p.add_argument("--no-doc", action="store_true", help="do not rewrite docs/performance.md and the plots")
+    p.add_argument("--against", type=Path, default=None, metavar="DIR",
+                   help="the instructions section also counts the compiled engine of the checkout DIR (its .venv), "
+                        "e.g. a clone of the commit before a change, for an A/B that machine noise cannot blur")
     args = p.parse_args(argv)
     only = [s.strip() for s in args.only.split(",") if s.strip()]
     bad = [s for s in only if s not in SECTIONS]
@@ -165,6 +169,14 @@ def main(argv: list[str] | None = None) -> int:
                 data = bench_queries.run(args.quick)
             except Exception as e:  # noqa: BLE001 - the doc says why instead
                 data = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "instructions":
+            from . import bench_instructions
+
+            try:
+                data = bench_instructions.run(args.quick, args.against)
+            except Exception as e:  # noqa: BLE001 - the doc says why instead
+                log(f"instructions benchmark failed: {type(e).__name__}: {e}")
+                data = {"unavailable": f"the run failed: {type(e).__name__}: {e}"}
         elif section == "memory":
             from . import bench_memory
 

@@ -1,0 +1,161 @@
+"""Instructions per engine call on the reference traces, counted by valgrind's callgrind.
+
+A noise-free complement to section 1's timings, and an A/B against another build. On this shared VM the
+same compiled replay times 2.6 or 4.1 µs a move minutes apart; its instruction count does not move. A
+count leaves out cache misses and allocation stalls, so it does not replace the timings: it tells
+whether a change does less work, in one run, whatever else the machine is doing.
+
+Each trace is replayed once, move by move as section 1 replays it (bench_engine.replay_trace), in a
+child process under `valgrind --tool=callgrind --collect-atstart=no` with collection switched on only
+inside the compiled engine's two entry points (World.move's move_checked and World.step's
+step_checked): the interpreted harness, loading and start-up are not counted. Needs valgrind and a
+compiled engine. `--against DIR` counts the compiled engine of another checkout (its .venv, its
+engine) replayed by this checkout's harness, beside the working tree's; the children run side by side,
+as counts do not depend on what else runs.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from . import common
+from .bench_engine import TRACE_SCENES
+from .common import log
+
+__all__ = ["run", "section", "totals_of", "ENTRY_SYMBOLS"]
+
+#: the C symbols of the compiled entry points World.move and World.step call (mypyc's wrappers)
+ENTRY_SYMBOLS = ("CPyPy_moves___move_checked", "CPyPy_moves___step_checked")
+QUICK_TRACES = ("flat", "house")
+QUICK_MOVES = 2000
+CHILD_TIMEOUT_S = 1800.0
+
+# Run by the build's own python: the engine of `engine_root` is imported first, then this checkout's
+# harness (it imports the engine already loaded, whichever checkout that came from).
+_CHILD = """
+import json, sys
+engine_root, bench_root, name, max_moves = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+sys.path.insert(0, engine_root)
+import engine
+import engine.world.moves as moves
+sys.path.insert(0, bench_root)
+from benchmarks.bench_engine import replay_trace
+from benchmarks.common import Deadline
+calls = len(replay_trace(name, max_moves or None, Deadline(3600.0)))
+print("RESULT " + json.dumps({"calls": calls, "compiled": not moves.__file__.endswith(".py"),
+                              "engine": engine.__file__}))
+"""
+
+_TOTALS = re.compile(r"^(?:totals|summary):\s+(\d+)\s*$", re.MULTILINE)
+
+
+def totals_of(callgrind_out: str) -> int:
+    """The instruction total of a callgrind output file's text (its `totals:` or `summary:` line)."""
+    m = _TOTALS.search(callgrind_out)
+    if m is None:
+        raise ValueError("no totals line in the callgrind output")
+    return int(m.group(1))
+
+
+def _python_of(root: Path) -> str:
+    venv = root / ".venv" / "bin" / "python"
+    return str(venv) if venv.exists() else sys.executable
+
+
+def _count(root: Path, name: str, max_moves: int) -> dict[str, Any]:
+    """One trace replayed under callgrind with `root`'s engine: engine calls and instructions inside them."""
+    with tempfile.TemporaryDirectory(prefix="acphys-callgrind-") as tmp:
+        out = Path(tmp) / "callgrind.out"
+        cmd = ["valgrind", "--tool=callgrind", "--collect-atstart=no",
+               *(f"--toggle-collect={s}" for s in ENTRY_SYMBOLS), f"--callgrind-out-file={out}",
+               _python_of(root), "-c", _CHILD, str(root), str(common.ROOT), name, str(max_moves)]
+        env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONHASHSEED="0")  # the same count every run
+        env.pop("PYTHONPATH", None)
+        p = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
+        lines = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")]
+        if p.returncode != 0 or not lines or not out.exists():
+            raise RuntimeError(f"callgrind replay of {name} with {root} failed ({p.returncode}): {p.stderr[-800:]}")
+        result: dict[str, Any] = json.loads(lines[-1][7:])
+        if not result["compiled"]:
+            raise RuntimeError(f"{root}: its engine is not compiled ({result['engine']}); counts of interpreted "
+                               "code would say nothing about the compiled build")
+        result["instructions"] = totals_of(out.read_text())
+    return result
+
+
+def unavailable() -> str | None:
+    """Why the section cannot run here, or None."""
+    if shutil.which("valgrind") is None:
+        return "valgrind is not installed (Debian: apt-get install valgrind)"
+    if not common.compiled_modules():
+        return "the working tree's engine is not compiled (sh install.sh, then run .venv/bin/python -m benchmarks)"
+    return None
+
+
+def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
+    why = unavailable()
+    if why is not None:
+        log(f"instructions: not measured: {why}")
+        return {"unavailable": why}
+    traces = QUICK_TRACES if quick else tuple(TRACE_SCENES)
+    max_moves = QUICK_MOVES if quick else 0
+    roots = [common.ROOT] + ([against.resolve()] if against is not None else [])
+    jobs = [(root, name) for name in traces for root in roots]
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        counted = list(pool.map(lambda job: _count(job[0], job[1], max_moves), jobs))
+    by_job = dict(zip(jobs, counted))
+    rows = []
+    for name in traces:
+        mine = by_job[(common.ROOT, name)]
+        row: dict[str, Any] = {"name": name, "calls": mine["calls"], "instructions": mine["instructions"],
+                               "per_call": mine["instructions"] / mine["calls"]}
+        if against is not None:
+            other = by_job[(roots[1], name)]
+            if other["calls"] != mine["calls"]:
+                raise RuntimeError(f"{name}: {other['calls']} engine calls with {against}, {mine['calls']} here")
+            row["against_per_call"] = other["instructions"] / other["calls"]
+            row["ratio"] = row["per_call"] / row["against_per_call"]
+        rows.append(row)
+        log(f"instructions: {name:9s} {row['per_call']:9.0f} per engine call (n={row['calls']})"
+            + (f"; against {row['against_per_call']:9.0f}: {row['ratio']:.2f}" if against is not None else ""))
+    return {"rows": rows, "against": str(against) if against is not None else None,
+            "against_commit": _commit_of(roots[1]) if against is not None else None,
+            "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None}
+
+
+def _commit_of(root: Path) -> str:
+    p = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10)
+    return p.stdout.strip() or "unknown"
+
+
+def section(data: dict[str, Any], meta: str) -> list[str]:
+    """The report's section (benchmarks/report.py); `meta` its line on how it was measured."""
+    out = ["## 6. Instructions per engine call (callgrind)", "", meta, ""]
+    if "unavailable" in data:
+        return out + [f"Not measured: {data['unavailable']}.", ""]
+    against = data.get("against")
+    out += [("Each reference trace replayed once as section 1 replays it, under valgrind's callgrind, counting only "
+             "the instructions inside the compiled engine's entry points (World.move's `move_checked`, World.step's "
+             "`step_checked`): the same count in every run, whatever else the machine does, so it shows whether a "
+             "change does less work where the timings above cannot tell. It leaves out cache misses and allocation "
+             "stalls: it does not replace the timings.")
+            + (f" Beside it, the compiled engine of `{against}` (commit {data.get('against_commit')}), replayed by "
+               "the same harness." if against else ""), ""]
+    if against:
+        out += ["| trace | engine calls | instructions per call | the other build's | this / other |",
+                "|---|---:|---:|---:|---:|"]
+        out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} | {r['against_per_call']:,.0f} | "
+                f"{r['ratio']:.2f} |" for r in data["rows"]]
+    else:
+        out += ["| trace | engine calls | instructions per call |", "|---|---:|---:|"]
+        out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} |" for r in data["rows"]]
+    return out + [""]

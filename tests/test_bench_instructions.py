@@ -1,0 +1,43 @@
+"""The instruction-count benchmark (benchmarks/bench_instructions.py): its reading of callgrind's
+output, and (where valgrind and a compiled engine are here) that one build counted twice agrees with
+itself exactly."""
+
+from __future__ import annotations
+
+import pytest
+
+from benchmarks import bench_instructions as bi
+from benchmarks import common
+
+CALLGRIND_OUT = """# callgrind format
+version: 1
+creator: callgrind-3.19.0
+events: Ir
+summary: 5150
+fl=(1) engine.c
+fn=(1) CPyPy_moves___move_checked
+16 5000
+fn=(2) other
+3 150
+totals: 5150
+"""
+
+
+def test_totals_are_read_from_the_totals_line() -> None:
+    assert bi.totals_of(CALLGRIND_OUT) == 5000 + 150
+    assert bi.totals_of("events: Ir\nsummary: 42\n") == 42  # older files give only the summary line
+    with pytest.raises(ValueError):
+        bi.totals_of("events: Ir\nfn=(1) f\n16 5000\n")
+
+
+def test_the_section_says_why_it_was_not_measured() -> None:
+    lines = bi.section({"unavailable": "valgrind is not installed"}, "Measured by ...")
+    assert "Not measured: valgrind is not installed." in lines
+
+
+@pytest.mark.skipif(bi.unavailable() is not None, reason=str(bi.unavailable()))
+def test_one_build_counted_twice_agrees_with_itself() -> None:
+    a = bi._count(common.ROOT, "flat", 40)
+    b = bi._count(common.ROOT, "flat", 40)
+    assert a["calls"] == b["calls"] > 0
+    assert a["instructions"] == b["instructions"] > 1000 * a["calls"]
