@@ -64,8 +64,8 @@ INTS_PER_ROW: Final = 7
 TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 
-# The NaN runs written for missing values, made once: compiled, a NaN written as a constant is made
-# again (parsed from text) at every use.
+# The runs written for missing values, made once: compiled, each NaN written from a constant is boxed
+# into a new float object (and each run into a new tuple) at every use.
 _NO_VECTOR: Final[list[float]] = [math.nan] * 3
 _NO_PLANE: Final[list[float]] = [math.nan] * 4
 _NO_REALS: Final[list[float]] = [math.nan] * REALS_PER_ROW
