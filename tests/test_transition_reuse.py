@@ -58,7 +58,7 @@ def test_cell_array_landcell_gives_what_the_landscape_gives() -> None:
     ids = [cell(0xA9B4, 12.0, 12.0), cell(0xA9B5, 180.0, 3.0), cell(0xA9B4, 100.0, 190.0), cell(0xAAB4, 5.0, 5.0),
            cell(0xA9B5, 12.0, 12.0), 0xA9B40100, cell(0xAAB4, 30.0, 30.0), cell(0xA9B4, 50.0, 50.0)]
     for cell_id in ids:
-        got = cells.landcell(landscape, cell_id)
+        got = cells.landcell(cell_id)
         assert got is landscape.get_landcell(cell_id), f"{cell_id:08X}"
         if (cell_id >> 16) != 0xAAB4 and (cell_id & 0xFFFF) < 0x100:
             assert got is not None and got.id == cell_id
@@ -67,5 +67,5 @@ def test_cell_array_landcell_gives_what_the_landscape_gives() -> None:
     other = world_from_heights(lambda bx, by, x, y: 90, blocks=((0xAA, 0xB4),))
     world.add_landblock(other.landblocks[0xAAB4])
     cells.reset(landscape)
-    found = cells.landcell(landscape, cell(0xAAB4, 5.0, 5.0))
+    found = cells.landcell(cell(0xAAB4, 5.0, 5.0))
     assert found is not None and found is landscape.get_landcell(cell(0xAAB4, 5.0, 5.0))

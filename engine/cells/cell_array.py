@@ -53,13 +53,17 @@ class CellArray:
         self._lb_id = _EMPTY
         self._lb: Landblock | None = None
 
-    def landcell(self, landscape: Landscape, cell_id: int) -> ObjCell | None:
-        """landscape.get_landcell(cell_id), with the landblock of the last lookup remembered: a transition's
-        searches look up a handful of outdoor cells, nearly always of one landblock, and no landblock is
-        loaded or unloaded while a transition runs (the array is reset for each)."""
+    def landcell(self, cell_id: int) -> ObjCell | None:
+        """`world.get_landcell(cell_id)`. On the World's own Landscape the call is native and the landblock
+        of the last lookup is remembered: a transition's searches look up a handful of cells, nearly always
+        of one landblock, and no landblock is loaded or unloaded while a transition runs (the array is
+        reset for each); any other CellLookup is asked by name."""
+        world = self.world
+        if not isinstance(world, Landscape):
+            return world.get_landcell(cell_id)
         lb_id = (cell_id >> 16) & 0xFFFF
         if lb_id != self._lb_id:
-            self._lb = landscape.landblock(lb_id)
+            self._lb = world.landblock(lb_id)
             self._lb_id = lb_id
         lb = self._lb
         return None if lb is None else cell_of_landblock(lb, cell_id)

@@ -9,7 +9,6 @@ from ..geometry.landdefs import get_block_offset
 from .cell_array import CellArray
 from .env_cell import EnvCell
 from .land_cell import add_all_outside_cells
-from .landscape import Landscape
 from .obj_cell import ObjCell
 
 if TYPE_CHECKING:
@@ -42,10 +41,7 @@ def find_cell_list(
         # landblocks do not change during a transition): most searches start in one
         visible_cell = cell_array.cell_of(cell_id)
         if visible_cell is None:
-            if isinstance(world, Landscape):
-                visible_cell = cell_array.landcell(world, cell_id)  # natively, for the World's own
-            else:
-                visible_cell = world.get_landcell(cell_id)
+            visible_cell = cell_array.landcell(cell_id)
 
     if (cell_id & 0xFFFF) >= 0x100:
         if path is not None:

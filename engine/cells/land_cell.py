@@ -118,13 +118,12 @@ class LandCell(ObjCell):
             self.building.find_building_transit_cells(position, num_sphere, spheres, cell_array, path)
 
 
-def _add_outside_cell(world: CellLookup, landscape: Landscape | None, cell_array: CellArray, x: int, y: int) -> None:
+def _add_outside_cell(cell_array: CellArray, x: int, y: int) -> None:
     if 0 <= x < LAND_LENGTH and 0 <= y < LAND_LENGTH:
         cell_id = outdoor_cell_id_at_lcoord(x, y)
         if cell_id in cell_array:
             return  # (add_cell would keep the one there: no lookup needed)
-        # the World's own Landscape is called natively; anything else by name
-        cell = cell_array.landcell(landscape, cell_id) if landscape is not None else world.get_landcell(cell_id)
+        cell = cell_array.landcell(cell_id)
         if cell is not None:
             cell_array.add_cell(cell_id, cell)
 
@@ -146,7 +145,7 @@ def add_all_outside_cells(
         cell_id, _ = adjust_to_outside(cell_id, position.frame.origin)
         if cell_id:
             x, y = _lcoord(cell_id)
-            _add_outside_cell(world, landscape, cell_array, x, y)
+            _add_outside_cell(cell_array, x, y)
         return
     if not cell_in_range(cell_id & 0xFFFF):
         return
@@ -188,23 +187,23 @@ def add_all_outside_cells(
             py = cy - math.floor(cy / CELL_LENGTH) * CELL_LENGTH
         min_rad = sphere.radius
         max_rad = CELL_LENGTH - min_rad
-        _add_outside_cell(world, landscape, cell_array, x, y)
+        _add_outside_cell(cell_array, x, y)
         if px > max_rad:
-            _add_outside_cell(world, landscape, cell_array, x + 1, y)
+            _add_outside_cell(cell_array, x + 1, y)
             if py > max_rad:
-                _add_outside_cell(world, landscape, cell_array, x + 1, y + 1)
+                _add_outside_cell(cell_array, x + 1, y + 1)
             if py < min_rad:
-                _add_outside_cell(world, landscape, cell_array, x + 1, y - 1)
+                _add_outside_cell(cell_array, x + 1, y - 1)
         if px < min_rad:
-            _add_outside_cell(world, landscape, cell_array, x - 1, y)
+            _add_outside_cell(cell_array, x - 1, y)
             if py > max_rad:
-                _add_outside_cell(world, landscape, cell_array, x - 1, y + 1)
+                _add_outside_cell(cell_array, x - 1, y + 1)
             if py < min_rad:
-                _add_outside_cell(world, landscape, cell_array, x - 1, y - 1)
+                _add_outside_cell(cell_array, x - 1, y - 1)
         if py > max_rad:
-            _add_outside_cell(world, landscape, cell_array, x, y + 1)
+            _add_outside_cell(cell_array, x, y + 1)
         if py < min_rad:
-            _add_outside_cell(world, landscape, cell_array, x, y - 1)
+            _add_outside_cell(cell_array, x, y - 1)
 
 
 def _lcoord(cell_id: int) -> tuple[int, int]:
