@@ -128,13 +128,8 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
         log(f"instructions: {name:9s} {row['per_call']:9.0f} per engine call (n={row['calls']})"
             + (f"; against {row['against_per_call']:9.0f}: {row['ratio']:.2f}" if against is not None else ""))
     return {"rows": rows, "against": str(against) if against is not None else None,
-            "against_commit": _commit_of(roots[1]) if against is not None else None,
+            "against_commit": common.short_commit(roots[1]) if against is not None else None,
             "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None}
-
-
-def _commit_of(root: Path) -> str:
-    p = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10)
-    return p.stdout.strip() or "unknown"
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:

@@ -8,6 +8,7 @@ import math
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import time
 from collections.abc import Iterable
@@ -104,6 +105,16 @@ class Deadline:
 
     def over(self) -> bool:
         return time.monotonic() >= self.end
+
+
+def short_commit(root: Path = ROOT) -> str:
+    """The short id of the commit checked out at `root` ("unknown" outside git)."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, cwd=root, capture_output=True,
+                             text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return out.stdout.strip() or "unknown"
 
 
 def fmt(x: float, digits: int = 1) -> str:

@@ -31,10 +31,9 @@ SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instru
 
 def _git_commit() -> str:
     try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, cwd=common.ROOT, capture_output=True, text=True, timeout=10)
         dirty = subprocess.run(["git", "status", "--porcelain", "--", "engine", "service", "clients"], check=False, cwd=common.ROOT,
                                capture_output=True, text=True, timeout=10).stdout.strip()
-        return out.stdout.strip() + ("+uncommitted engine/service changes" if dirty else "")
+        return common.short_commit() + ("+uncommitted engine/service changes" if dirty else "")
     except Exception:  # noqa: BLE001
         return "unknown"
 
