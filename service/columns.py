@@ -44,6 +44,9 @@ __all__ = [
 #: The wire's names for element types (all little-endian) and their numpy dtypes.
 WIRE_DTYPES: Final[dict[str, str]] = {"f64": "<f8", "u64": "<u8", "u32": "<u4", "u16": "<u2", "u8": "|u1"}
 
+# the numpy dtypes made once: a Column's `np_dtype` is read per column per request
+_NP_DTYPES: Final[dict[str, np.dtype[Any]]] = {name: np.dtype(code) for name, code in WIRE_DTYPES.items()}
+
 #: The move kinds of a column request (its `kind` field): one kind for every item of the request.
 KINDS: Final = ("offset", "to", "motion")
 
@@ -70,7 +73,7 @@ class Column:
 
     @property
     def np_dtype(self) -> np.dtype[Any]:
-        return np.dtype(WIRE_DTYPES[self.dtype])
+        return _NP_DTYPES[self.dtype]
 
     @property
     def item_bytes(self) -> int:
@@ -157,14 +160,20 @@ def pack_columns(columns: tuple[Column, ...], arrays: dict[str, Any]) -> dict[st
     for col in columns:
         a = arrays.get(col.name)
         if a is not None:
-            out[col.name] = np.ascontiguousarray(a, dtype=col.np_dtype).tobytes()
+            wire = col.np_dtype
+            if not isinstance(a, np.ndarray) or a.dtype != wire:
+                a = np.asarray(a, dtype=wire)
+            out[col.name] = a.tobytes()  # row-major whatever the array's strides
     return out
 
 
 def unpack_column(col: Column, data: bytes, n: int) -> np.ndarray[Any, Any]:
     """A column's bytes as an array of shape (n,) for width 1, else (n, width), in native byte order.
     The caller has checked the length (ValueError otherwise)."""
-    if len(data) != n * col.item_bytes:
+    wire = col.np_dtype
+    if len(data) != n * wire.itemsize * col.width:
         raise ValueError(f"column {col.name}: {len(data)} bytes for {n} items of {col.item_bytes}")
-    a = np.frombuffer(data, dtype=col.np_dtype).astype(col.np_dtype.newbyteorder("="), copy=False)
+    a = np.frombuffer(data, dtype=wire)
+    if not wire.isnative:  # a big-endian machine
+        a = a.astype(wire.newbyteorder("="))
     return a if col.width == 1 else a.reshape(n, col.width)
