@@ -12,9 +12,10 @@ move. Runs on the engine thread, with the engine lock held, as the map form.
 from __future__ import annotations
 
 import logging
+import struct
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -86,7 +87,8 @@ _TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FL
 _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
-_NO_IDS: list[int] = []
+#: where a row's count of collided objects is among its integers (engine.world.batch.append_row)
+_COLLIDE_COUNT = 6
 
 
 @dataclass(slots=True)
@@ -97,19 +99,16 @@ class ColumnResults:
     rows: BatchRows = field(default_factory=BatchRows)
     #: `seq` of every row (0 for items that did not resolve)
     seqs: list[int] = field(default_factory=list)
-    #: the wire ids of the movers each row collided with, in row order, and how many a row has
+    #: the wire ids of the movers each row collided with, in row order, and how many a row has (None:
+    #: no row collided with anything)
     collide_ids: list[int] = field(default_factory=list)
     collide_counts: list[int] | None = None
     #: (index, mover id, error) of every item that failed, in index order
     errors: list[tuple[int, int, ProtocolError]] = field(default_factory=list)
-    #: the ids of the rows that resolved, for the columnar publication
-    ids: list[int] = field(default_factory=list)
     #: items forwarded to another instance's push key (fire-and-forget only); they have no row values
     forwarded: int = 0
     #: items before this index have their seq, error or forward settled
     settled: int = 0
-    #: whether any row collided with an object (its ids are then translated to wire ids)
-    any_collide: bool = False
     #: States to publish as they settle: one put each ("each"), or gathered into `packed` ("batch")
     publish_each: bool = False
     gather: bool = False
@@ -161,12 +160,14 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
             _leave(core, req, out, movers, recs, ids, i, forward)
             i += 1
     _settle(core, req, out, recs, ids, forward, req.n)
-    out.errors.sort(key=lambda e: e[0])
-    if out.any_collide:
+    if out.errors:
+        out.errors.sort(key=lambda e: e[0])
+    if any(rows.ints[_COLLIDE_COUNT::INTS_PER_ROW]):  # a row collided: its engine ids become wire ids
         _translate_collisions(core, out)
-    core.moves_done([since + (t - started) for t in rows.finished_at], rows.engine_seconds)
-    if req.publish == "columns" and out.ids and core.bus.columns_watched():
-        core.bus.publish_columns(publication_message(out))
+    # each move's latency: from the request's arrival to its result (a C loop, not a comprehension)
+    core.moves_done(list(map((since - started).__add__, rows.finished_at)), rows.engine_seconds)
+    if req.publish == "columns" and len(out.errors) + out.forwarded < req.n and core.bus.columns_watched():
+        core.bus.publish_columns(publication_message(out, req))
     return out, out.packed
 
 
@@ -201,8 +202,6 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
     else:
         append_row(out.rows, result)
         out.seqs.append(rec.seq)
-        out.ids.append(rec.id)
-        out.any_collide = out.any_collide or bool(result.collide_objects)
         _published(core, out, rec.id, rec.seq, result)
     out.settled = i + 1
     back = core.movers.get(rec.id)  # None after a hand-over; a new record after a failed one
@@ -216,42 +215,55 @@ def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: lis
             ids: list[int], forward: bool, upto: int) -> None:
     """Items `out.settled` .. `upto - 1` in order: the records' seq and last result, the errors of items
     that did not run (refused values, ids not held here, engine refusals), forwarding after a hand-over."""
-    rows = out.rows
-    engine_errors = dict(rows.errors)
-    seqs, ids_out, results = out.seqs, out.ids, rows.results
+    results, seqs = out.rows.results, out.seqs
     publishing = out.publish_each or out.gather
-    for i in range(out.settled, upto):
+    first = out.settled
+    out.settled = upto
+    if not publishing and None not in results[first:upto]:
+        # the usual run: every item resolved and nothing to publish; a mover's seq counts its resolved moves
+        for held, resolved in zip(recs[first:upto], cast("list[MoveResult]", results[first:upto])):
+            assert held is not None
+            held.seq += 1
+            held.last = resolved
+            seqs.append(held.seq)
+        return
+    engine_errors: dict[int, Exception] | None = None
+    for i in range(first, upto):
         r = results[i]
-        mid = ids[i]
         if r is not None:
             rec = recs[i]
             assert rec is not None
             seq = rec.seq = rec.seq + 1
             rec.last = r
             seqs.append(seq)
-            ids_out.append(mid)
-            if r.collide_objects:
-                out.any_collide = True
             if publishing:
-                _published(core, out, mid, seq, r)
+                _published(core, out, ids[i], seq, r)
             continue
         seqs.append(0)
-        err = req.bad.get(i)
-        if err is None:
-            exc = engine_errors.get(i)
-            if exc is not None:
-                err = to_protocol_error(exc, f"columns.{_MAIN_COLUMN[req.kind]}[{i}]")
-                if err.kind == ErrorKind.INTERNAL:
-                    log.error("engine failed on move of %X", mid, exc_info=exc)
-            elif forward and (fwd := core.forwarded_to(mid)) is not None:
-                # keep the mover's order: everything sent here after the hand-over follows it
-                core.bus.forward_columns(fwd, _one_row_message(req, i))
-                out.forwarded += 1
-                continue
-            else:
-                err = _not_held(core, mid, i)
-        out.errors.append((i, mid, err))
-    out.settled = upto
+        if engine_errors is None:
+            engine_errors = dict(out.rows.errors)
+        _unresolved(core, req, out, ids[i], i, engine_errors, forward)
+
+
+def _unresolved(core: ServiceCore, req: ColumnRequest, out: ColumnResults, mid: int, i: int,
+                engine_errors: dict[int, Exception], forward: bool) -> None:
+    """Item i did not run: its error (a refused value, the engine's refusal, a mover not held here), or,
+    for a push whose mover was handed over meanwhile, the item forwarded to the new owner."""
+    err = req.bad.get(i)
+    if err is None:
+        exc = engine_errors.get(i)
+        if exc is not None:
+            err = to_protocol_error(exc, f"columns.{_MAIN_COLUMN[req.kind]}[{i}]")
+            if err.kind == ErrorKind.INTERNAL:
+                log.error("engine failed on move of %X", mid, exc_info=exc)
+        elif forward and (fwd := core.forwarded_to(mid)) is not None:
+            # keep the mover's order: everything sent here after the hand-over follows it
+            core.bus.forward_columns(fwd, _one_row_message(req, i))
+            out.forwarded += 1
+            return
+        else:
+            err = _not_held(core, mid, i)
+    out.errors.append((i, mid, err))
 
 
 def _not_held(core: ServiceCore, mover_id: int, i: int) -> ProtocolError:
@@ -288,8 +300,10 @@ def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
     """The reply's columns from the engine's rows (rows of failed items hold the missing values)."""
     rows = out.rows
     n = len(rows.ints) // INTS_PER_ROW
-    reals = np.array(rows.reals, dtype="<f8").reshape(n, REALS_PER_ROW)
-    ints = np.array(rows.ints, dtype=np.int64).reshape(n, INTS_PER_ROW)
+    # struct reads a list of Python numbers several times faster than np.array, which first works out a
+    # dtype and shape from every element
+    reals = np.frombuffer(struct.pack(f"<{len(rows.reals)}d", *rows.reals), dtype="<f8").reshape(n, REALS_PER_ROW)
+    ints = np.frombuffer(struct.pack(f"<{len(rows.ints)}q", *rows.ints), dtype="<i8").reshape(n, INTS_PER_ROW)
     status, transient = ints[:, 1], ints[:, 2]
     flags = _STATUS_FLAGS[status] | _TRANSIENT_FLAGS[transient]
     resolved = (status & Status.RESOLVED) != 0
@@ -320,14 +334,14 @@ def reply_message(out: ColumnResults) -> bytes:
     return pack({"n": out.n, "columns": cols, "errors": _error_entries(out)})
 
 
-def publication_message(out: ColumnResults) -> bytes:
+def publication_message(out: ColumnResults, req: ColumnRequest) -> bytes:
     """`{"v": 1, "n", "columns"}` on P/state_columns: the rows of the items that resolved, with `id`."""
     arrays = _arrays(out)
     keep = (arrays["flags"] & Flag.RESOLVED) != 0
-    cols = {PUBLICATION_ID.name: np.array(out.ids, dtype="<u8").tobytes()}
+    cols = {PUBLICATION_ID.name: np.ascontiguousarray(req.arrays["id"][keep], dtype="<u8").tobytes()}
     cols.update(pack_columns(REPLY_COLUMNS, {k: a[keep] for k, a in arrays.items()}))
     cols["collide_ids"] = _collide_bytes(out.collide_ids)
-    return pack({"n": len(out.ids), "columns": cols})
+    return pack({"n": int(keep.sum()), "columns": cols})
 
 
 def push_columns(core: ServiceCore, req: ColumnRequest, received: float) -> None:
