@@ -157,15 +157,49 @@ def request_arrays(ids: Any, offsets: Any = None, targets: Any = None, motions: 
     return kind, arrays
 
 
-def _scatter(out: BatchResults, idx: Array, cols: dict[str, Array], collide: list[tuple[int, Array]]) -> None:
+def _scatter(out: BatchResults, idx: Array, cols: dict[str, Array]) -> None:
+    """One landblock's reply rows into their places in `out`."""
     for col in REPLY_COLUMNS:
         getattr(out, col.name)[idx] = cols[col.name]
+
+
+def _keep_collisions(idx: Array, cols: dict[str, Array], collide: list[tuple[int, Array]]) -> None:
+    """A reply's collided ids, kept by the batch index of their item (the batch's are put in order at the end)."""
     counts = cols["collide_count"].astype(np.int64)
     if counts.any():
         ids = cols["collide_ids"]
         ends = np.cumsum(counts).tolist()
         for j in np.flatnonzero(counts).tolist():
             collide.append((int(idx[j]), ids[ends[j] - int(counts[j]):ends[j]]))
+
+
+def _whole(cols: dict[str, Array]) -> BatchResults:
+    """The results of a batch answered by one reply, every item in it in order: its columns as they
+    came, copied (the reply's buffers are read-only)."""
+    made: BatchResults = cast(Any, BatchResults)(**{col.name: cols[col.name].copy() for col in REPLY_COLUMNS},
+                                                 collide_ids=cols["collide_ids"].copy())
+    return made
+
+
+def _groups(client: Client, pending: Sequence[int], id_list: list[int], out_errors: dict[int, AcphysError]
+            ) -> dict[int, list[int]]:
+    """The items of `pending` by the landblock each mover was last seen in (asking where unknown); an
+    item whose mover cannot be found gets its error in `out_errors`."""
+    where = client._where
+    seen = [where.get(id_list[i]) for i in pending]
+    first = seen[0] if seen else None
+    if first is not None and seen.count(first) == len(seen):  # the usual batch: one landblock, all known
+        return {first: list(pending)}
+    groups: dict[int, list[int]] = {}
+    for i, lb in zip(pending, seen):
+        if lb is None:
+            try:
+                lb = client.landblock_of(id_list[i])
+            except AcphysError as e:
+                out_errors[i] = e
+                continue
+        groups.setdefault(lb, []).append(i)
+    return groups
 
 
 def _read_reply(reply: dict[str, Any], m: int) -> tuple[dict[str, Array], list[Any]]:
@@ -207,37 +241,36 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                                   velocities=velocities)
     id_list: list[int] = arrays["id"].tolist()
     n = len(id_list)
-    out = BatchResults.empty(n)
+    out: BatchResults | None = None  # made when the replies do not simply give it (see `_whole`)
+    errors: dict[int, AcphysError] = {}
     collide: list[tuple[int, Array]] = []
     pending: Sequence[int] = range(n)
     for attempt in range(_MAX_REDIRECTS + 1):
-        groups: dict[int, list[int]] = {}
-        for i in pending:
-            try:
-                lb = client.landblock_of(id_list[i])
-            except AcphysError as e:
-                out.errors[i] = e
-                continue
-            groups.setdefault(lb, []).append(i)
         retry: list[int] = []
-        for lb, members in groups.items():
+        for lb, members in _groups(client, pending, id_list, errors).items():
+            whole = len(members) == n  # every item in this one request, in order: sent and taken as they are
             idx = np.array(members, dtype=np.intp)
-            body: dict[str, Any] = {"kind": kind, "columns": pack_columns(REQUEST_COLUMNS,
-                                                                           {k: a[idx] for k, a in arrays.items()})}
+            body: dict[str, Any] = {"kind": kind, "columns": pack_columns(
+                REQUEST_COLUMNS, arrays if whole else {k: a[idx] for k, a in arrays.items()})}
             if publish is not None:
                 body["publish"] = publish
             try:
-                cols, errors = _read_reply(client._request(client.keys.move(lb), body, timeout), len(members))
+                cols, reply_errors = _read_reply(client._request(client.keys.move(lb), body, timeout), len(members))
             except AcphysError as e:
                 for i in members:
-                    out.errors[i] = e
+                    errors[i] = e
                 continue
-            _scatter(out, idx, cols, collide)
-            where = client._where
+            if whole:
+                out = _whole(cols)
+            else:
+                if out is None:
+                    out = BatchResults.empty(n)
+                _scatter(out, idx, cols)
+            _keep_collisions(idx, cols, collide)
             resolved = (cols["flags"] & Flag.RESOLVED) != 0
-            for row, cell in zip(np.flatnonzero(resolved).tolist(), cols["cell"][resolved].tolist()):
-                where[id_list[members[row]]] = (cell >> 16) & 0xFFFF
-            for entry in errors:
+            moved_ids = arrays["id"][idx[resolved]] if not whole else arrays["id"][resolved]
+            client._where.update(zip(moved_ids.tolist(), ((cols["cell"][resolved] >> 16) & 0xFFFF).tolist()))
+            for entry in reply_errors:
                 j = entry.get("index") if isinstance(entry, dict) else None
                 if type(j) is not int or not 0 <= j < len(members):
                     continue
@@ -246,13 +279,16 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                 target = err_map.get("landblock") if isinstance(err_map, dict) else None
                 if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
                         and attempt < _MAX_REDIRECTS:
-                    where[id_list[i]] = target
+                    client._where[id_list[i]] = target
                     retry.append(i)
                     continue
-                out.errors[i] = _reindexed(ServiceError.from_wire(err_map), j, i)
+                errors[i] = _reindexed(ServiceError.from_wire(err_map), j, i)
         if not retry:
             break
-        pending = sorted(retry)
+        pending = sorted(retry)  # their rows, failed in the reply above, are written over
+    if out is None:
+        out = BatchResults.empty(n)
+    out.errors = errors
     if collide:
         collide.sort(key=lambda t: t[0])
         out.collide_ids = np.concatenate([a for _, a in collide])
