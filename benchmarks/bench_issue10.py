@@ -44,6 +44,10 @@ ISSUE_FORMS = {
     "columns": "Client.move_batch: the column batch, results as numpy arrays",
 }
 
+#: the bound beside the service: a bare Zenoh queryable whose only work per request is the engine's batch
+BARE_FORM = "engine behind a bare queryable"
+BARE_KEY = "acphys-bench/issue10/bare"
+
 
 def issue_spots(world: Any) -> list[tuple[Any, Any, int]]:
     """(position on the ground, its contact plane, cell) of every mover: a 10 x 10 grid 8 m apart."""
@@ -67,7 +71,6 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
     from engine import load_scene
     from engine.geometry import Vec3
     from engine.world.batch import OFFSET, BatchRows, run_batch
-    from engine.world.mover import Mover
 
     from .scenes import PLAYER
 
@@ -81,11 +84,7 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
                 world.move(mid, world.mover(mid).position.moved(offset))
         return 2 * len(ids)
 
-    share = len(ids) // ISSUE_PROCESSES
-    batches = []
-    for k in range(ISSUE_PROCESSES):  # as the clients send them: each mover of a share out, then back
-        movers: list[Mover | None] = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
-        batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
+    batches = _share_batches(world, ids)  # as the clients send them
 
     def batched() -> int:
         for movers, vectors in batches:
@@ -108,6 +107,104 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
     return row
 
 
+def _share_batches(world: Any, ids: list[int]) -> list[tuple[list[Any], list[float]]]:
+    """Each client process's batch as run_batch takes it: every mover of its share out, then back."""
+    share = len(ids) // ISSUE_PROCESSES
+    batches = []
+    for k in range(ISSUE_PROCESSES):
+        movers = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
+        batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
+    return batches
+
+
+def _column_request_bytes(ids: list[int]) -> bytes:
+    """A column request moving each of `ids` +0.25 m then -0.25 m, as Client.move_batch packs it."""
+    import numpy as np
+
+    from service.columns import REQUEST_COLUMNS, pack_columns
+    from service.frames import pack
+
+    offsets = np.zeros((2 * len(ids), 3))
+    offsets[:len(ids), 0], offsets[len(ids):, 0] = ISSUE_STEP, -ISSUE_STEP
+    return pack({"kind": "offset", "columns": pack_columns(REQUEST_COLUMNS, {
+        "id": np.array(ids + ids, dtype=np.uint64), "offset": offsets})})
+
+
+def _column_reply_size(n: int) -> int:
+    """The bytes of a column reply of n items with no errors and no collisions."""
+    import numpy as np
+
+    from service.columns import REPLY_COLUMNS, pack_columns
+    from service.frames import pack
+
+    cols = pack_columns(REPLY_COLUMNS, {c.name: np.zeros((n,) if c.width == 1 else (n, c.width)) for c in REPLY_COLUMNS})
+    cols["collide_ids"] = b""
+    return len(pack({"n": n, "columns": cols, "errors": []}))
+
+
+def issue_bare_main(endpoint: str) -> None:
+    """The bound of any service on this bus: a bare Zenoh queryable that, for each request on
+    `BARE_KEY/<client index>`, runs that client's batch through run_batch (nothing decoded, checked or
+    encoded) and answers with as many bytes as the service's column reply; until SIGINT/SIGTERM."""
+    import signal
+    import threading
+
+    import zenoh
+
+    from engine import load_scene
+    from engine.world.batch import OFFSET, BatchRows, run_batch
+    from service.zconfig import make_config
+
+    from .scenes import PLAYER
+
+    world = load_scene(str(demo_scene()))
+    batches = _share_batches(world, [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in issue_spots(world)])
+    reply = bytes(_column_reply_size(len(batches[0][0])))
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    session = zenoh.open(make_config(listen=[endpoint]))
+
+    def answer(query: Any) -> None:
+        movers, vectors = batches[int(str(query.key_expr).rsplit("/", 1)[1])]
+        run_batch(world.landscape, movers, OFFSET, vectors, BatchRows())
+        query.reply(query.key_expr, reply)
+
+    queryable = session.declare_queryable(f"{BARE_KEY}/*", answer)
+    print("bare queryable ready", flush=True)
+    stop.wait()
+    queryable.undeclare()
+    session.close()
+
+
+def _bare_worker(endpoint: str, index: int, start_at: float, seconds: float) -> dict[str, Any]:
+    """Raw gets of this process's column request to the bare queryable, the replies read as bytes only."""
+    import zenoh
+
+    from service.zconfig import make_config
+
+    share = ISSUE_MOVERS // ISSUE_PROCESSES
+    payload = _column_request_bytes(list(range(index * share + 1, (index + 1) * share + 1)))
+    session = zenoh.open(make_config(connect=[endpoint]))
+    try:
+        key = zenoh.KeyExpr(f"{BARE_KEY}/{index}")
+        time.sleep(max(0.0, start_at - time.time()))
+        cpu0 = time.process_time()
+        end = time.monotonic() + seconds
+        moves = errors = 0
+        while time.monotonic() < end:
+            answered = False
+            for reply in session.get(key, payload=payload, timeout=30.0):
+                answered = reply.ok is not None and len(reply.ok.payload.to_bytes()) > 0
+            errors += 0 if answered else 2 * share
+            moves += 2 * share
+        elapsed = seconds + (time.monotonic() - end)
+        cpu = time.process_time() - cpu0
+    finally:
+        session.close()
+    return {"index": index, "moves": moves, "errors": errors, "seconds": elapsed, "cpu_seconds": cpu}
+
+
 def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:
     """Register this process's share of the grid, then send batches of 100 (each mover +0.25 m then -0.25 m)
     in `form` until `seconds` have passed; print a JSON report."""
@@ -118,6 +215,9 @@ def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float
 
     from .scenes import PLAYER
 
+    if form == BARE_FORM:
+        print("RESULT " + json.dumps(_bare_worker(endpoint, index, start_at, seconds)), flush=True)
+        return
     share = ISSUE_MOVERS // ISSUE_PROCESSES
     spots = issue_spots(load_scene(str(demo_scene())))[index * share:(index + 1) * share]
     with Client([endpoint], timeout=30.0) as c:
@@ -211,8 +311,12 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
     endpoint = f"tcp/127.0.0.1:{port}"
     service = Child([sys.executable, "-m", "service", "--scene", str(demo_scene()), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
+    bare_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    bare = Child([sys.executable, "-m", "benchmarks.bench_issue10", "issue-bare", bare_endpoint], "bare queryable ready",
+                 engine_root)
     engines: list[dict[str, Any]] = []
     per_form: dict[str, list[dict[str, Any]]] = {form: [] for form in ISSUE_FORMS}
+    bounds: list[dict[str, Any]] = []
     try:
         for _ in range(rounds):
             engine = _issue_engine_once(seconds, engine_root)
@@ -229,11 +333,18 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
                     f"{row['cpu_ratio_to_engine']:.2f} in CPU per move (target >= 0.8); the engine inside the service "
                     f"{inside or float('nan'):.1f} µs/move")
                 per_form[form].append(row)
+            row = issue_service_rate(bare_endpoint, bare, BARE_FORM, seconds)
+            row["ratio_to_engine"] = row["moves_per_s"] / engine["moves_per_s"]
+            row["cpu_ratio_to_engine"] = engine["cpu_us_per_move"] / row["service_cpu_us_per_move"]
+            log(f"service (issue 10): {BARE_FORM} / engine in process = {row['ratio_to_engine']:.2f} in moves/s")
+            bounds.append(row)
     finally:
         service.stop()
+        bare.stop()
     engine_row = _median_row([{k: v for k, v in e.items() if k != "run_batch"} for e in engines])
     engine_row["run_batch"] = _median_row([e["run_batch"] for e in engines])
     return {"engine": engine_row, "service": [_median_row(rows) for rows in per_form.values()],
+            "bare": _median_row(bounds),
             "movers": ISSUE_MOVERS, "spacing_m": ISSUE_SPACING, "step_m": ISSUE_STEP, "forms": ISSUE_FORMS,
             "rounds": rounds, "seconds_each": seconds}
 
@@ -241,6 +352,8 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
 if __name__ == "__main__":
     if sys.argv[1] == "issue-worker":
         issue_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
+    elif sys.argv[1] == "issue-bare":
+        issue_bare_main(sys.argv[2])
     elif sys.argv[1] == "issue-engine":
         print("ENGINE " + json.dumps(issue_engine_rate(float(sys.argv[2]))), flush=True)
     elif sys.argv[1] == "issue":

@@ -183,6 +183,18 @@ def _run_batch_note(eng: dict[str, Any]) -> str:
             f"them) {rb['moves_per_s']:,.0f} moves/s, {rb['cpu_us_per_move']:.1f} µs of CPU per move")
 
 
+def _bare_note(bare: dict[str, Any] | None, cols: dict[str, Any]) -> str:
+    """What the engine behind a bare queryable says of the bus (issue 10's bound row)."""
+    if not bare:
+        return ""
+    return (f" The same engine behind a bare Zenoh queryable, with nothing else per request, carried "
+            f"{bare['moves_per_s']:,.0f} moves/s ({bare['ratio_to_engine']:.2f} of the engine in process) at "
+            f"{bare['service_cpu_us_per_move']:.1f} µs of CPU per move: the bus can carry the engine's rate; the "
+            f"service's own work per request ({cols['service_cpu_us_per_move'] - bare['service_cpu_us_per_move']:.1f} "
+            "µs per move more than the bound, on the thread that runs the engine) is what keeps the column form "
+            f"at {cols['ratio_to_engine']:.2f}.")
+
+
 def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
     """Issue 10's workload through the map and the column batch, beside World.move in process."""
     if not data or "engine" not in data:
@@ -203,16 +215,24 @@ def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
            "| batch form | moves/s | service CPU µs per move | the engine inside the service, µs per move | "
            "service CPU beyond its engine, µs per move | client CPU µs per move | moves/s / engine's | "
            "engine's CPU per move / service's | errors |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in data["service"]:
+    bare = data.get("bare")
+    for r in [*data["service"], *([bare] if bare else [])]:
         inside, beyond = r.get("engine_in_service_us"), r.get("service_beyond_engine_us")
         out.append(f"| {r['form']} | {r['moves_per_s']:,.0f} | {r['service_cpu_us_per_move']:.1f} | "
                    f"{'-' if inside is None else f'{inside:.1f}'} | {'-' if beyond is None else f'{beyond:.1f}'} | "
                    f"{r['client_cpu_us_per_move']:.1f} | {r['ratio_to_engine']:.2f} | {r['cpu_ratio_to_engine']:.2f} | "
                    f"{r['errors']} |")
     per_round = [f"{r['form']} " + ", ".join(f"{x['ratio_to_engine']:.2f}" for x in r["rounds"])
-                 for r in data["service"] if len(r.get("rounds") or []) > 1]
+                 for r in [*data["service"], *([bare] if bare else [])] if len(r.get("rounds") or []) > 1]
     if per_round:
         out += ["", "Each round's moves/s ratio: " + "; ".join(per_round) + "."]
+    if bare:
+        out += ["", (f"The last row is a bound, not a form: \"{bare['form']}\" is a bare Zenoh queryable in a process "
+                     "of its own that, for each request, runs the sending client's batch through `run_batch` on the "
+                     "same movers and answers with as many bytes as the service's column reply, nothing decoded, "
+                     "checked or encoded; the two client processes send the column request's bytes with raw Zenoh "
+                     "gets and read the reply's bytes only. It is what this bus carries when the engine is the only "
+                     "work per request, on the same machine in the same rounds.")]
     return out
 
 
@@ -354,5 +374,5 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                 f"arrays). In a process of its own the same engine took {eng['cpu_us_per_move']:.1f} µs per move: "
                 "inside the service it shares this machine's two cores with the two client processes and "
                 "Zenoh's threads. 0.8 of the engine's rate asks the whole service for at most "
-                f"{need:.1f} µs per move.")
+                f"{need:.1f} µs per move." + _bare_note(issue.get("bare"), cols))
     return out

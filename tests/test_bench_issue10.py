@@ -1,0 +1,29 @@
+"""Issue 10's benchmark: the bound beside the service sends and answers what the service would."""
+
+from __future__ import annotations
+
+import msgpack
+import numpy as np
+
+from benchmarks.bench_issue10 import ISSUE_STEP, _column_reply_size, _column_request_bytes
+from engine.world.batch import BatchRows, append_missing
+from service.column_moves import ColumnResults, reply_message
+from service.column_request import parse_column_request
+
+
+def test_the_bound_replies_with_as_many_bytes_as_the_service() -> None:
+    for n in (1, 100, 300):  # bin lengths on both sides of msgpack's 255- and 65535-byte header steps
+        rows = BatchRows()
+        for _ in range(n):
+            append_missing(rows)
+        out = ColumnResults(n, rows, seqs=[0] * n)
+        assert _column_reply_size(n) == len(reply_message(out)), n
+
+
+def test_the_bound_is_sent_the_request_a_client_sends() -> None:
+    ids = [5, 6, 7]
+    req = parse_column_request(msgpack.unpackb(_column_request_bytes(ids)))
+    assert req.kind == "offset" and req.n == 6 and not req.bad
+    assert req.arrays["id"].tolist() == [5, 6, 7, 5, 6, 7]
+    expected = np.array([[ISSUE_STEP, 0, 0]] * 3 + [[-ISSUE_STEP, 0, 0]] * 3)
+    assert np.array_equal(req.arrays["offset"], expected)
