@@ -48,7 +48,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Final
 
 from .. import limits
-from ..constants import BLOCK_LENGTH
+from ..constants import BLOCK_LENGTH, EPSILON
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere
 from ..geometry.landdefs import adjust_to_outside, get_block_offset
@@ -272,6 +272,9 @@ def _to_contact(world: World, t: Transition, stop: Position, end: Position, radi
 
 def _ray_checked(world: World, start: Position, end: Position, radius: float, target_id: int, cache: dict[int, ObjCell | None] | None,
                  pass_creatures: bool = False) -> RayHit:
+    if start.get_offset(end).length() <= EPSILON:
+        # a point, not a segment: swept as none (a first step of a few ulps can fail where none is taken)
+        end = start
     t, ok, home = _sweep(world, start, end, radius, target_id, cache, pass_creatures)
     path = t.sphere_path
     ci = t.collision_info
