@@ -2,9 +2,10 @@
 
 100 player movers one every 8 m on the demo world, walking +-0.25 m and back, sent by two client
 processes in batches of 100 through the map batch and the column batch; beside it World.move and the
-engine's batch entry point (run_batch) on the same movers in a process of their own. Run by
-`python3 -m benchmarks --only service` (benchmarks/bench_service.py); its children are this module's
-`issue-engine` and `issue-worker` roles.
+engine's batch entry point (run_batch) on the same movers in a process of their own, and the bound of
+any service on this bus: the engine behind a bare Zenoh queryable. Run by `python3 -m benchmarks --only
+service` (benchmarks/bench_service.py); its children are this module's `issue-engine`, `issue-worker`
+and `issue-bare` roles.
 """
 
 from __future__ import annotations

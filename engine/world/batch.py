@@ -9,8 +9,9 @@ so a mover named twice moves twice, the second time from where the first
 left it; the answers are the same bit for bit.
 
 The results come back as rows of two flat lists (struct of arrays), so that
-a numpy caller turns a whole batch into arrays with one `np.array` call each
-and no per-move object is read in interpreted code:
+a caller turns a whole batch into arrays with one call each (`np.array`, or
+`struct.pack` and `np.frombuffer`, which read a list of floats several times
+faster) and no per-move object is read in interpreted code:
 
 - `reals`, REALS_PER_ROW floats a row: origin (3), orientation w x y z (4),
   contact plane normal and d (4), collision normal (3), sliding normal (3);
