@@ -127,9 +127,15 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
         rows.append(row)
         log(f"instructions: {name:9s} {row['per_call']:9.0f} per engine call (n={row['calls']})"
             + (f"; against {row['against_per_call']:9.0f}: {row['ratio']:.2f}" if against is not None else ""))
+    from .instructions_service import count_column_path
+
+    column_path = [count_column_path(_python_of(root), root) for root in roots]
+    for root, counted_path in zip(roots, column_path):
+        log(f"instructions: issue 10's column path ({root.name}) {counted_path['per_move']:9.0f} per move, "
+            f"run_batch {counted_path['run_batch_per_move']:9.0f}, the rest {counted_path['rest_per_move']:9.0f}")
     return {"rows": rows, "against": str(against) if against is not None else None,
             "against_commit": common.short_commit(roots[1]) if against is not None else None,
-            "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None}
+            "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None, "column_path": column_path}
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
@@ -153,4 +159,22 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     else:
         out += ["| trace | engine calls | instructions per call |", "|---|---:|---:|"]
         out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} |" for r in data["rows"]]
+    return out + _column_path_lines(data.get("column_path"), data.get("against_commit"))
+
+
+def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
+    """The service's column path on issue 10's workload (benchmarks/instructions_service.py)."""
+    if not counts:
+        return [""]
+    rounds = counts[0]["rounds"]
+    out = ["", ("Issue 10's column path in the service, instructions per move (benchmarks/instructions_service.py): "
+                "the service core on the demo world with a stand-in bus handles the two client processes' column "
+                "requests for the 100 movers (decode, checks, `run_columns`, `reply_message`: the query callback's "
+                f"work but Zenoh's receive and reply), counted as the difference of a {rounds[0]}-round and a "
+                f"{rounds[1]}-round run; \"run_batch\" counts only inside the engine's batch entry point, and the rest "
+                "is the service's own work per move (with the freeing of the batch's results)."), "",
+           "| build | whole path | run_batch | the rest |", "|---|---:|---:|---:|"]
+    names = ["this checkout", f"commit {against_commit}"]
+    for name, c in zip(names, counts):
+        out.append(f"| {name} | {c['per_move']:,.0f} | {c['run_batch_per_move']:,.0f} | {c['rest_per_move']:,.0f} |")
     return out + [""]

@@ -41,3 +41,27 @@ def test_one_build_counted_twice_agrees_with_itself() -> None:
     b = bi._count(common.ROOT, "flat", 40)
     assert a["calls"] == b["calls"] > 0
     assert a["instructions"] == b["instructions"] > 1000 * a["calls"]
+
+
+def test_per_move_is_the_difference_of_the_two_runs_over_their_moves() -> None:
+    from benchmarks.instructions_service import per_move
+
+    # 4 and 14 rounds of 200 moves: the 2,000 moves between them took 9,000,000 - 1,000,000 instructions
+    assert per_move(1_000_000, 9_000_000, (4, 14), 200) == 4_000.0
+
+
+def test_the_section_gives_the_column_path_beside_the_traces() -> None:
+    data = {"rows": [{"name": "flat", "calls": 10, "instructions": 1000, "per_call": 100.0}],
+            "column_path": [{"per_move": 52_000.0, "run_batch_per_move": 39_000.0, "rest_per_move": 13_000.0,
+                             "rounds": [4, 14], "moves_per_round": 200}]}
+    lines = bi.section(data, "Measured by ...")
+    assert "| this checkout | 52,000 | 39,000 | 13,000 |" in lines
+
+
+@pytest.mark.skipif(bi.unavailable() is not None, reason=str(bi.unavailable()))
+def test_the_column_path_count_is_the_engine_and_more() -> None:
+    from benchmarks.instructions_service import count_column_path
+
+    c = count_column_path(bi._python_of(common.ROOT))
+    assert 0 < c["run_batch_per_move"] < c["per_move"]
+    assert c["rest_per_move"] == c["per_move"] - c["run_batch_per_move"]
