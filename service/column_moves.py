@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import logging
 import struct
+from itertools import repeat
+from operator import is_not
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
 from typing import TYPE_CHECKING, Any, cast
@@ -219,7 +221,8 @@ def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: lis
     publishing = out.publish_each or out.gather
     first = out.settled
     out.settled = upto
-    if not publishing and None not in results[first:upto]:
+    # (`is not`, not `None in`: that would call MoveResult's dataclass __eq__ once per item)
+    if not publishing and all(map(is_not, results[first:upto], repeat(None))):
         # the usual run: every item resolved and nothing to publish; a mover's seq counts its resolved moves
         for held, resolved in zip(recs[first:upto], cast("list[MoveResult]", results[first:upto])):
             assert held is not None
