@@ -71,24 +71,32 @@ def _python_of(root: Path) -> str:
     return str(venv) if venv.exists() else sys.executable
 
 
-def _count(root: Path, name: str, max_moves: int) -> dict[str, Any]:
-    """One trace replayed under callgrind with `root`'s engine: engine calls and instructions inside them."""
+def run_counted(python: str, root: Path, script: str, args: list[str], options: list[str],
+                env: dict[str, str] | None = None) -> tuple[dict[str, Any], int]:
+    """`python -c script root args...` under callgrind with `options`, in `root`: the child's `RESULT {json}`
+    and the instructions counted. The hash seed is fixed, so a run counts the same every time."""
     with tempfile.TemporaryDirectory(prefix="acphys-callgrind-") as tmp:
         out = Path(tmp) / "callgrind.out"
-        cmd = ["valgrind", "--tool=callgrind", "--collect-atstart=no",
-               *(f"--toggle-collect={s}" for s in ENTRY_SYMBOLS), f"--callgrind-out-file={out}",
-               _python_of(root), "-c", _CHILD, str(root), str(common.ROOT), name, str(max_moves)]
-        env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONHASHSEED="0")  # the same count every run
-        env.pop("PYTHONPATH", None)
-        p = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
+        cmd = ["valgrind", "--tool=callgrind", *options, f"--callgrind-out-file={out}", python, "-c", script,
+               str(root), *args]
+        child_env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONHASHSEED="0", **(env or {}))
+        child_env.pop("PYTHONPATH", None)
+        p = subprocess.run(cmd, cwd=root, env=child_env, capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
         lines = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")]
         if p.returncode != 0 or not lines or not out.exists():
-            raise RuntimeError(f"callgrind replay of {name} with {root} failed ({p.returncode}): {p.stderr[-800:]}")
+            raise RuntimeError(f"callgrind run of {args} with {root} failed ({p.returncode}): {p.stderr[-800:]}")
         result: dict[str, Any] = json.loads(lines[-1][7:])
-        if not result["compiled"]:
-            raise RuntimeError(f"{root}: its engine is not compiled ({result['engine']}); counts of interpreted "
-                               "code would say nothing about the compiled build")
-        result["instructions"] = totals_of(out.read_text())
+        return result, totals_of(out.read_text())
+
+
+def _count(root: Path, name: str, max_moves: int) -> dict[str, Any]:
+    """One trace replayed under callgrind with `root`'s engine: engine calls and instructions inside them."""
+    result, counted = run_counted(_python_of(root), root, _CHILD, [str(common.ROOT), name, str(max_moves)],
+                                  ["--collect-atstart=no", *(f"--toggle-collect={s}" for s in ENTRY_SYMBOLS)])
+    if not result["compiled"]:
+        raise RuntimeError(f"{root}: its engine is not compiled ({result['engine']}); counts of interpreted "
+                           "code would say nothing about the compiled build")
+    result["instructions"] = counted
     return result
 
 

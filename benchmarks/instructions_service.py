@@ -14,10 +14,7 @@ Part of `python3 -m benchmarks --only instructions` (benchmarks/bench_instructio
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -80,24 +77,14 @@ def per_move(low: int, high: int, rounds: tuple[int, int] = ROUNDS, moves_per_ro
 
 
 def _run(python: str, root: Path, rounds: int, engine_only: bool) -> int:
-    from .bench_instructions import totals_of
+    from .bench_instructions import run_counted
 
-    with tempfile.TemporaryDirectory(prefix="acphys-callgrind-") as tmp:
-        out = Path(tmp) / "callgrind.out"
-        toggle = ["--collect-atstart=no", f"--toggle-collect={RUN_BATCH_SYMBOL}"] if engine_only else []
-        cmd = ["valgrind", "--tool=callgrind", *toggle, f"--callgrind-out-file={out}", python, "-c", _CHILD,
-               str(root), str(common.ROOT), str(rounds)]
-        env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONHASHSEED="0", OPENBLAS_NUM_THREADS="1")
-        env.pop("PYTHONPATH", None)
-        p = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, timeout=1800)
-        lines = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")]
-        if p.returncode != 0 or not lines or not out.exists():
-            raise RuntimeError(f"callgrind count of the column path with {root} failed ({p.returncode}): "
-                               f"{p.stderr[-800:]}")
-        moves = json.loads(lines[-1][7:])["moves"]
-        if moves != rounds * MOVES_PER_ROUND:
-            raise RuntimeError(f"the column path resolved {moves} of {rounds * MOVES_PER_ROUND} moves")
-        return totals_of(out.read_text())
+    toggle = ["--collect-atstart=no", f"--toggle-collect={RUN_BATCH_SYMBOL}"] if engine_only else []
+    result, counted = run_counted(python, root, _CHILD, [str(common.ROOT), str(rounds)], toggle,
+                                  {"OPENBLAS_NUM_THREADS": "1"})
+    if result["moves"] != rounds * MOVES_PER_ROUND:
+        raise RuntimeError(f"the column path resolved {result['moves']} of {rounds * MOVES_PER_ROUND} moves")
+    return counted
 
 
 def count_column_path(python: str, root: Path | None = None) -> dict[str, Any]:

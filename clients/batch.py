@@ -268,7 +268,7 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                 _scatter(out, idx, cols)
             _keep_collisions(idx, cols, collide)
             resolved = (cols["flags"] & Flag.RESOLVED) != 0
-            moved_ids = arrays["id"][idx[resolved]] if not whole else arrays["id"][resolved]
+            moved_ids = arrays["id"][idx[resolved]]
             client._where.update(zip(moved_ids.tolist(), ((cols["cell"][resolved] >> 16) & 0xFFFF).tolist()))
             for entry in reply_errors:
                 j = entry.get("index") if isinstance(entry, dict) else None
