@@ -194,8 +194,10 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
     prev, prev_seq = rec.last, rec.seq
     rec.seq, rec.last = prev_seq + 1, result
     lb = (result.position.cell_id >> 16) & 0xFFFF
+    # published "each": by the new owner, whose next States follow it on the same session
+    state = pack_state(rec.id, rec.seq, result, core.collide_ids(result)) if out.publish_each else None
     try:
-        core.hand_over(rec, prev, prev_seq, lb)
+        core.hand_over(rec, prev, prev_seq, lb, state)
     except ProtocolError as e:
         out.rows.results[i] = None
         out.errors.append((i, rec.id, e))
@@ -204,7 +206,8 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
     else:
         append_row(out.rows, result)
         out.seqs.append(rec.seq)
-        _published(core, out, rec.id, rec.seq, result)
+        if out.gather:
+            out.packed.append(pack_state(rec.id, rec.seq, result, core.collide_ids(result)))
     out.settled = i + 1
     back = core.movers.get(rec.id)  # None after a hand-over; a new record after a failed one
     mover = None if back is None else core.world.movers[back.engine_id]

@@ -256,8 +256,9 @@ class ServiceCore:
         packed = pack_state(rec.id, rec.seq, result, self._collide_ids(result), item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
-            self._hand_over(rec, prev, prev_seq, lb)
-        if publish:
+            # the new owner publishes this State: its next ones follow it on the same session
+            self._hand_over(rec, prev, prev_seq, lb, packed if publish else None)
+        elif publish:
             self.bus.publish_state(rec.id, packed)
         return packed, engine
 
@@ -352,24 +353,26 @@ class ServiceCore:
     def collide_ids(self, r: MoveResult) -> list[int]:
         return self._collide_ids(r)
 
-    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int) -> None:
-        self._hand_over(rec, prev, prev_seq, lb)
+    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None) -> None:
+        self._hand_over(rec, prev, prev_seq, lb, state)
 
     def moves_done(self, latency: list[float], engine: list[float]) -> None:
         self._done(latency, engine)
 
     # -- hand-over (scale-out) ----------------------------------------------------
-    def _handover_payload(self, rec: MoverRecord) -> dict[str, Any]:
-        """The Hand-over map (service/messages.py, HANDOVER) of the mover as it stands."""
+    def _handover_payload(self, rec: MoverRecord, state: bytes | None = None) -> dict[str, Any]:
+        """The Hand-over map (service/messages.py, HANDOVER) of the mover as it stands, with the packed
+        State the new owner is to publish, if any."""
         r = rec.last
         return _encode_handover(HandoverRequest(
             rec.id, rec.seq, spec_with_contact(rec.spec, r), r.position, r.contact_plane, r.contact_plane_cell,
-            r.sliding_normal, r.water_contact, self.instance))
+            r.sliding_normal, r.water_contact, self.instance, state))
 
-    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int) -> None:
-        """Pass the mover to `lb`'s owner, or put it back where it was and refuse the move."""
+    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None) -> None:
+        """Pass the mover to `lb`'s owner (which publishes `state`, the crossing move's State, when given),
+        or put it back where it was and refuse the move."""
         try:
-            self.bus.handover(lb, self._handover_payload(rec))
+            self.bus.handover(lb, self._handover_payload(rec, state))
         except ProtocolError as e:
             self.stats.bump("handovers", "failed")
             self._drop(rec)
@@ -400,6 +403,8 @@ class ServiceCore:
                         req.sliding_normal, req.water_contact)
         self.stats.bump("handovers", "in")
         log.info("took mover %X from %s in %s", req.id, req.source, lb_hex(lb))
+        if req.state is not None and self.bus.states_watched():
+            self.bus.publish_state(req.id, req.state)
         return {"id": rec.id, "accepted": True}
 
     # -- durability (service/state_file.py) -----------------------------------------

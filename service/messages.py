@@ -288,12 +288,27 @@ class HandoverRequest:
     sliding_normal: Vec3 | None
     water_contact: bool
     source: str
+    #: the State of the move that crossed, packed, for the new owner to publish (so that the mover's
+    #: States keep their order: the next ones come from the new owner too); None: nothing to publish
+    state: bytes | None = None
+
+
+#: at most this many bytes of a hand-over's packed State (a State with 256 collided ids fits in 3 KiB)
+MAX_HANDOVER_STATE = 16384
+
+
+def _state_bytes(value: Any, path: str) -> None:
+    if not isinstance(value, bytes):
+        raise ProtocolError(ErrorKind.WRONG_TYPE, f"{path}: expected bin (a packed State)", path)
+    if len(value) > MAX_HANDOVER_STATE:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{path}: {len(value)} bytes, more than {MAX_HANDOVER_STATE}", path)
 
 
 def _handover(mover_id: int, seq: int, spec: MoverSpec, position: Position, plane: Plane | None,
-              plane_cell: int | None, sliding: Vec3 | None, water: bool, source: str | None) -> HandoverRequest:
+              plane_cell: int | None, sliding: Vec3 | None, water: bool, source: str | None,
+              state: bytes | None) -> HandoverRequest:
     cell = None if plane is None else position.cell_id if plane_cell is None else plane_cell
-    return HandoverRequest(mover_id, seq, spec, position, plane, cell, sliding, water, source or "?")
+    return HandoverRequest(mover_id, seq, spec, position, plane, cell, sliding, water, source or "?", state)
 
 
 #: instance to instance: a Register with the mover's id and seq, and the sender
@@ -302,6 +317,7 @@ HANDOVER = Map("Handover", (
     Field("seq", UInt(64), required=True),
     *_REGISTER_FIELDS,
     Field("from", Str(), omit=True, src="{}.source"),
+    Field("state", Value("bin"), omit=True, check=_state_bytes),
 ), _handover, checks=(_start_limits,))
 
 UPDATE = Map("Update", (

@@ -160,10 +160,10 @@ def test_register_table_and_the_forms_built_on_it() -> None:
     # "a Register map with `id` required, plus `seq` (uint64 ...) and `from` (string ...)"
     handover = " ".join(_section("### Hand-over (between instances)").split())
     assert "a [Register](#register) map with `id` required" in handover
-    for name in ("seq", "from"):
+    for name in ("seq", "from", "state"):
         doc_type = re.search(rf"`{name}` \((\w+)", handover).group(1)  # type: ignore[union-attr]
         assert doc_type == HANDOVER.by_name[name].doc_type
-    assert {f.name for f in HANDOVER.fields} == {f.name for f in REGISTER.fields} | {"seq", "from"}
+    assert {f.name for f in HANDOVER.fields} == {f.name for f in REGISTER.fields} | {"seq", "from", "state"}
     assert HANDOVER.required_names == REGISTER.required_names | {"id", "seq"}
 
 
@@ -217,6 +217,20 @@ def test_handover_written_reads_back() -> None:
     sent = HandoverRequest(9, 4, _spec(), pos, None, None, None, False, "zid")
     back = HANDOVER.read(msgpack.unpackb(msgpack.packb(HANDOVER.encode_fn()(sent)), raw=False), "")
     assert (back.id, back.seq, back.spec, back.source, back.contact_plane) == (9, 4, sent.spec, "zid", None)
+    assert back.state is None  # no State to publish: the field is left out
+
+
+def test_handover_state_reads_back_and_is_bounded() -> None:
+    from service.messages import MAX_HANDOVER_STATE
+
+    pos = Position.at(0xA9B40001, Vec3(10.0, 12.0, 50.0))
+    sent = HandoverRequest(9, 4, _spec(), pos, None, None, None, False, "zid", b"\x81\xa2id\x09")
+    wire = msgpack.unpackb(msgpack.packb(HANDOVER.encode_fn()(sent)), raw=False)
+    assert HANDOVER.read(wire, "").state == b"\x81\xa2id\x09"
+    for bad, kind in (("not bytes", "wrong_type"), (b"x" * (MAX_HANDOVER_STATE + 1), "bad_value")):
+        with pytest.raises(ProtocolError) as e:
+            HANDOVER.read({**wire, "state": bad}, "")
+        assert (e.value.kind, e.value.path) == (kind, "state")
 
 
 @pytest.mark.parametrize("value,kind,path", [
