@@ -12,7 +12,6 @@ move. Runs on the engine thread, with the engine lock held, as the map form.
 from __future__ import annotations
 
 import logging
-import struct
 from itertools import repeat
 from operator import is_not
 from dataclasses import dataclass, field
@@ -89,8 +88,6 @@ _TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FL
 _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
-#: where a row's count of collided objects is among its integers (engine.world.batch.append_row)
-_COLLIDE_COUNT = 6
 
 
 @dataclass(slots=True)
@@ -164,7 +161,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     _settle(core, req, out, recs, ids, forward, req.n)
     if out.errors:
         out.errors.sort(key=lambda e: e[0])
-    if any(rows.ints[_COLLIDE_COUNT::INTS_PER_ROW]):  # a row collided: its engine ids become wire ids
+    if rows.collide_ids:  # a row collided: its engine ids become wire ids
         _translate_collisions(core, out)
     # each move's latency: from the request's arrival to its result (a C loop, not a comprehension)
     core.moves_done(list(map((since - started).__add__, rows.finished_at)), rows.engine_seconds)
@@ -305,11 +302,9 @@ def _one_row_message(req: ColumnRequest, i: int) -> bytes:
 def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
     """The reply's columns from the engine's rows (rows of failed items hold the missing values)."""
     rows = out.rows
-    n = len(rows.ints) // INTS_PER_ROW
-    # struct reads a list of Python numbers several times faster than np.array, which first works out a
-    # dtype and shape from every element
-    reals = np.frombuffer(struct.pack(f"<{len(rows.reals)}d", *rows.reals), dtype="<f8").reshape(n, REALS_PER_ROW)
-    ints = np.frombuffer(struct.pack(f"<{len(rows.ints)}q", *rows.ints), dtype="<i8").reshape(n, INTS_PER_ROW)
+    n = rows.count
+    reals = np.frombuffer(rows.reals_le(), dtype="<f8").reshape(n, REALS_PER_ROW)
+    ints = np.frombuffer(rows.ints_le(), dtype="<i8").reshape(n, INTS_PER_ROW)
     status, transient = ints[:, 1], ints[:, 2]
     flags = _STATUS_FLAGS[status] | _TRANSIENT_FLAGS[transient]
     resolved = (status & Status.RESOLVED) != 0

@@ -81,11 +81,19 @@ def _expected_row(r: Any) -> tuple[list[float], list[int]]:
     return [o.x, o.y, o.z, q.w, q.x, q.y, q.z, *plane, *cn, *sn], ints
 
 
+def _unpacked(rows: BatchRows) -> tuple[list[float], list[int]]:
+    """The rows' buffers read back as little-endian float64s and int64s."""
+    reals, ints = rows.reals_le(), rows.ints_le()
+    return list(struct.unpack(f"<{len(reals) // 8}d", reals)), list(struct.unpack(f"<{len(ints) // 8}q", ints))
+
+
 def _assert_rows_equal(rows: BatchRows, expected: list[Any]) -> None:
-    assert len(rows.ints) == INTS_PER_ROW * len(expected) and len(rows.reals) == REALS_PER_ROW * len(expected)
+    all_reals, all_ints = _unpacked(rows)
+    assert rows.count == len(expected)
+    assert len(all_ints) == INTS_PER_ROW * len(expected) and len(all_reals) == REALS_PER_ROW * len(expected)
     for k, r in enumerate(expected):
-        reals = rows.reals[k * REALS_PER_ROW:(k + 1) * REALS_PER_ROW]
-        ints = rows.ints[k * INTS_PER_ROW:(k + 1) * INTS_PER_ROW]
+        reals = all_reals[k * REALS_PER_ROW:(k + 1) * REALS_PER_ROW]
+        ints = all_ints[k * INTS_PER_ROW:(k + 1) * INTS_PER_ROW]
         if r is None:
             assert all(math.isnan(x) for x in reals) and ints == [0] * INTS_PER_ROW, k
             continue
@@ -187,7 +195,7 @@ def test_stop_if_stops_after_the_item_that_leaves_and_goes_on_from_the_next() ->
     assert stopped == 3  # mover 2 walks from x = 190 to 193 m: into AAB4
     result = rows.results[3]
     assert result is not None and result.position.cell_id >> 16 == 0xAAB4
-    assert len(rows.ints) == 3 * INTS_PER_ROW  # the leaving item has a result but no row yet
+    assert rows.count == 3 and len(rows.ints_le()) == 8 * 3 * INTS_PER_ROW  # the leaving item: a result, no row yet
     assert run_batch(world.landscape, movers, OFFSET, vectors, rows, start=4, stop_if=leaves) == 6
     assert len(rows.results) == 7
     assert run_batch(world.landscape, movers, OFFSET, vectors, rows, start=7, stop_if=leaves) == 8
@@ -197,4 +205,4 @@ def test_an_empty_batch_runs_nothing() -> None:
     world = _world()
     rows = BatchRows()
     assert run_batch(world.landscape, [], OFFSET, [], rows) == 0
-    assert rows.reals == [] and rows.ints == [] and rows.results == []
+    assert rows.reals_le() == b"" and rows.ints_le() == b"" and rows.count == 0 and rows.results == []

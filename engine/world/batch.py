@@ -8,15 +8,17 @@ World.move / World.step call it stands for (engine.world.moves), in order,
 so a mover named twice moves twice, the second time from where the first
 left it; the answers are the same bit for bit.
 
-The results come back as rows of two flat lists (struct of arrays), so that
-a caller turns a whole batch into arrays with one call each (`np.array`, or
-`struct.pack` and `np.frombuffer`, which read a list of floats several times
-faster) and no per-move object is read in interpreted code:
+The results come back as rows of two packed buffers (struct of arrays),
+little-endian and written as each move ends, so that a caller turns a whole
+batch into arrays with one call each (`np.frombuffer(rows.reals_le(), "<f8")`)
+and no per-move object is read in interpreted code. The buffers are
+librt.strings BytesWriters: compiled, a value goes into the buffer straight
+from the result's unboxed double, with no Python float or list made for it.
 
-- `reals`, REALS_PER_ROW floats a row: origin (3), orientation w x y z (4),
+- `reals`, REALS_PER_ROW float64s a row: origin (3), orientation w x y z (4),
   contact plane normal and d (4), collision normal (3), sliding normal (3);
   NaN where the result has no such value;
-- `ints`, INTS_PER_ROW integers a row: cell id, Status bits, the
+- `ints`, INTS_PER_ROW int64s a row: cell id, Status bits, the
   transient-state bits (engine.world.transient.TS), the transition state's
   index in TRANSITION_STATES, frames_stationary_fall, contact_plane_cell,
   and how many collided-object ids the row adds to `collide_ids`.
@@ -28,9 +30,12 @@ holds NaN and zeros with Status.RESOLVED clear.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable
 from time import perf_counter
 from typing import Final
+
+from librt.strings import BytesWriter, write_f64_le, write_i64_le
 
 from ..cells.landscape import Landscape
 from ..geometry import Position, Quat, Vec3
@@ -65,12 +70,11 @@ INTS_PER_ROW: Final = 7
 TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 
-# The runs written for missing values, made once: compiled, each NaN written from a constant is boxed
-# into a new float object (and each run into a new tuple) at every use.
-_NO_VECTOR: Final[list[float]] = [math.nan] * 3
-_NO_PLANE: Final[list[float]] = [math.nan] * 4
-_NO_REALS: Final[list[float]] = [math.nan] * REALS_PER_ROW
-_NO_INTS: Final[list[int]] = [0] * INTS_PER_ROW
+# The runs written for missing values, packed once
+_NO_VECTOR: Final = struct.pack("<3d", *[math.nan] * 3)
+_NO_PLANE: Final = struct.pack("<4d", *[math.nan] * 4)
+_NO_REALS: Final = struct.pack(f"<{REALS_PER_ROW}d", *[math.nan] * REALS_PER_ROW)
+_NO_INTS: Final = bytes(8 * INTS_PER_ROW)
 
 
 class Status:
@@ -92,8 +96,12 @@ class BatchRows:
     """The rows of a batch so far, and what each item left behind."""
 
     def __init__(self) -> None:
-        self.reals: list[float] = []
-        self.ints: list[int] = []
+        #: REALS_PER_ROW little-endian float64s a row (see the module's docstring)
+        self.reals = BytesWriter()
+        #: INTS_PER_ROW little-endian int64s a row
+        self.ints = BytesWriter()
+        #: rows written so far
+        self.count = 0
         self.collide_ids: list[int] = []
         #: each item's MoveResult, None for items that did not run (in item order)
         self.results: list[MoveResult | None] = []
@@ -102,6 +110,14 @@ class BatchRows:
         #: per item that ran: seconds in the engine, and perf_counter() when it finished
         self.engine_seconds: list[float] = []
         self.finished_at: list[float] = []
+
+    def reals_le(self) -> bytes:
+        """The real rows so far, `count` x REALS_PER_ROW float64s, little-endian."""
+        return self.reals.getvalue()
+
+    def ints_le(self) -> bytes:
+        """The integer rows so far, `count` x INTS_PER_ROW int64s, little-endian."""
+        return self.ints.getvalue()
 
 
 def append_row(rows: BatchRows, r: MoveResult) -> None:
@@ -120,18 +136,30 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
     if r.water_contact:
         status |= Status.WATER_CONTACT
     reals = rows.reals
-    reals.extend((o.x, o.y, o.z, q.w, q.x, q.y, q.z))
+    _write_vector(reals, o)
+    write_f64_le(reals, q.w)
+    write_f64_le(reals, q.x)
+    write_f64_le(reals, q.y)
+    write_f64_le(reals, q.z)
     cp = r.contact_plane
     if cp is None:
-        reals.extend(_NO_PLANE)
+        reals.write(_NO_PLANE)
     else:
         status |= Status.HAS_CONTACT_PLANE
-        n = cp.normal
-        reals.extend((n.x, n.y, n.z, cp.d))
-    if _append_vector(reals, r.collision_normal):
+        _write_vector(reals, cp.normal)
+        write_f64_le(reals, cp.d)
+    cn = r.collision_normal
+    if cn is None:
+        reals.write(_NO_VECTOR)
+    else:
         status |= Status.HAS_COLLISION_NORMAL
-    if _append_vector(reals, r.sliding_normal):
+        _write_vector(reals, cn)
+    sn = r.sliding_normal
+    if sn is None:
+        reals.write(_NO_VECTOR)
+    else:
         status |= Status.HAS_SLIDING_NORMAL
+        _write_vector(reals, sn)
     cpc = r.contact_plane_cell
     plane_cell = 0
     if cpc is not None:
@@ -143,25 +171,30 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
         status |= Status.HAS_FRAMES_STATIONARY_FALL
         stationary_fall = fsf
     collide = r.collide_objects
-    rows.ints.extend((pos.cell_id, status, _transient_bits(r.transient_state),
-                      _STATE_INDEX[r.transition_state], stationary_fall, plane_cell, len(collide)))
+    ints = rows.ints
+    write_i64_le(ints, pos.cell_id)
+    write_i64_le(ints, status)
+    write_i64_le(ints, _transient_bits(r.transient_state))
+    write_i64_le(ints, _STATE_INDEX[r.transition_state])
+    write_i64_le(ints, stationary_fall)
+    write_i64_le(ints, plane_cell)
+    write_i64_le(ints, len(collide))
+    rows.count += 1
     if collide:
         rows.collide_ids.extend(collide)
 
 
-def _append_vector(reals: list[float], v: Vec3 | None) -> bool:
-    """Append v's components (NaN for none); whether there was one."""
-    if v is None:
-        reals.extend(_NO_VECTOR)
-        return False
-    reals.extend((v.x, v.y, v.z))
-    return True
+def _write_vector(reals: BytesWriter, v: Vec3) -> None:
+    write_f64_le(reals, v.x)
+    write_f64_le(reals, v.y)
+    write_f64_le(reals, v.z)
 
 
 def append_missing(rows: BatchRows) -> None:
     """Add an empty row (an item that did not run)."""
-    rows.reals.extend(_NO_REALS)
-    rows.ints.extend(_NO_INTS)
+    rows.reals.write(_NO_REALS)
+    rows.ints.write(_NO_INTS)
+    rows.count += 1
 
 
 _TRANSIENT_BIT: Final = {name: bit for name, bit in NAMED_BITS}
