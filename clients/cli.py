@@ -18,28 +18,12 @@ from typing import Any
 
 from service.main import add_serve_arguments, serve
 from service.router import add_router_arguments, run_router
-from service.wire import DEFAULT_PREFIX
 
+from .connection import add_connection_arguments, connect_client
 from .landblock_cmd import add_landblock_commands
 from .query_cmd import add_query_commands
 
 __all__ = ["main", "build_parser"]
-
-
-def _conn_args(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("connection")
-    g.add_argument("--connect", metavar="ENDPOINT", action="append",
-                   help="service endpoint (repeatable; default tcp/127.0.0.1:7447, shared by every user of the machine)")
-    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file instead of --connect")
-    g.add_argument("--prefix", default=DEFAULT_PREFIX,
-                   help="key expression prefix (default %(default)s; a service's own prefix keeps it apart from others)")
-    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer (default %(default)s)")
-
-
-def _client(args: argparse.Namespace) -> Any:
-    from .client import Client
-
-    return Client(args.connect, config_file=args.zenoh_config, prefix=args.prefix, timeout=args.timeout)
 
 
 def _hex(text: str) -> int:
@@ -58,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=run_router)
 
     m = sub.add_parser("move", help="send one move and print the result")
-    _conn_args(m)
+    add_connection_arguments(m)
     who = m.add_mutually_exclusive_group(required=True)
     who.add_argument("--id", type=_hex, help="move this registered mover (hex id)")
     who.add_argument("--start", nargs=4, metavar=("CELL", "X", "Y", "Z"),
@@ -74,22 +58,22 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--json", action="store_true", help="print the State map as JSON")
 
     d = sub.add_parser("demo", help="walk a mover over the demo world; print a table and save a map")
-    _conn_args(d)
+    add_connection_arguments(d)
     d.add_argument("--embedded", action="store_true", help="always start an embedded service")
     d.add_argument("--out", default="acphys-demo.png", help="PNG map to write (default %(default)s)")
     d.add_argument("--quiet", action="store_true", help="no progress display")
 
     v = sub.add_parser("view", help="serve a live map of the service's movers to a web browser (loopback by default)")
-    _conn_args(v)
+    add_connection_arguments(v)
     from .view_server import add_view_arguments
 
     add_view_arguments(v)
 
     st = sub.add_parser("stats", help="print every instance's health and statistics")
-    _conn_args(st)
+    add_connection_arguments(st)
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
     add_landblock_commands(sub)
-    add_query_commands(sub, _conn_args)
+    add_query_commands(sub, add_connection_arguments)
     return p
 
 
@@ -163,7 +147,7 @@ def _cmd_move(args: argparse.Namespace) -> int:
     from .ground import drop_to_ground
     from .types import Move
 
-    with _client(args) as c:
+    with connect_client(args) as c:
         temp = args.id is None
         if temp:
             cell = _hex(args.start[0])
@@ -218,18 +202,18 @@ def _print_instance(c: Any, args: argparse.Namespace, lb: int) -> None:
         owners = owner_of(c.landblocks(timeout=min(args.timeout, 2.0)), lb)
     except Exception:  # only a courtesy line: the move itself succeeded
         owners = []
-    print_service(owners, args.connect, args.prefix, args.zenoh_config)
+    print_service(owners, args.connect, c.keys.prefix, args.zenoh_config)
 
 
 def _cmd_stats(args: argparse.Namespace) -> int:
     from .which_service import print_service
 
-    with _client(args) as c:
+    with connect_client(args) as c:
         stats = c.stats()
     if not stats:
         print("acphys stats: no service instance answered", file=sys.stderr)
         return 1
-    print_service([s.instance for s in stats], args.connect, args.prefix, args.zenoh_config)
+    print_service([s.instance for s in stats], args.connect, c.keys.prefix, args.zenoh_config)
     if args.json:
         print(json.dumps([s.data for s in stats], indent=2, default=str))
         return 0

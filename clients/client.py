@@ -24,7 +24,7 @@ from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec
 from service.codec import encode_mover_spec
 from service.messages import REGISTER, RegisterRequest
-from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind, Keys
+from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind, Keys, user_prefix
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
 from .batch import BatchResults, move_batch
@@ -84,15 +84,22 @@ class Client(SpatialQueries):
         prefix: str = DEFAULT_PREFIX,
         timeout: float = 5.0,
         session: zenoh.Session | None = None,
+        user: str | None = None,
+        password: str | None = None,
     ) -> None:
-        """Connect to `connect` endpoints (default tcp/127.0.0.1:7447) or as a zenoh config file says."""
-        self.keys = Keys(prefix)
+        """Connect to `connect` endpoints (default tcp/127.0.0.1:7447) or as a zenoh config file says.
+
+        `user` and `password`: log in to a service run with accounts (`acphys serve --users`); the client then
+        speaks under `prefix/u/user`, where that user's movers are (docs/protocol.md, "Accounts")."""
+        self.user = user
+        self.keys = Keys(user_prefix(prefix, user) if user is not None else prefix)
         self.timeout = timeout
         self._own_session = session is None
         if session is None:
             if config_file is None and not connect:
                 connect = [DEFAULT_ENDPOINT]
-            session = zenoh.open(make_config(config_file=config_file, connect=list(connect or [])))
+            session = zenoh.open(make_config(config_file=config_file, connect=list(connect or []),
+                                             user=user, password=password))
         self.session = session
         self._where: dict[int, int] = {}
         # fire-and-forget keeps one route per mover: the old owner forwards after a hand-over,

@@ -10,6 +10,7 @@ from contextlib import ExitStack
 from tqdm import tqdm
 
 from .client import Client
+from .connection import connect_client
 from .demo_map import height_grid
 from .demo_walk import DT, LEGS, SPEED, START, walk_demo
 from .demo_world import DEMO_LANDBLOCKS, demo_scene_path, global_to_cell
@@ -33,14 +34,13 @@ def _estimated_steps() -> int:
 def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
     """A client of a running service that holds the demo world, or of an embedded one."""
     if not args.embedded:
-        c = stack.enter_context(Client(args.connect, config_file=args.zenoh_config, prefix=args.prefix,
-                                        timeout=args.timeout))
+        c = stack.enter_context(connect_client(args))
         if c.health(timeout=1.0):
             try:
                 for lb in DEMO_LANDBLOCKS:
                     c.load_landblock(lb)
                 print("using the running service", file=sys.stderr)
-                print_service([h.instance for h in c.health(timeout=1.0)], args.connect, args.prefix,
+                print_service([h.instance for h in c.health(timeout=1.0)], args.connect, c.keys.prefix,
                               args.zenoh_config)
                 return c
             except AcphysError as e:

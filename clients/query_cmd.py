@@ -75,12 +75,12 @@ def _rows(op: str, a: Any) -> list[tuple[str, str]]:
 
 def _run(op: str, ask: Callable[[Any, argparse.Namespace], Any]) -> Callable[[argparse.Namespace], int]:
     def run(args: argparse.Namespace) -> int:
-        from .cli import _client
+        from .connection import connect_client
 
         import sys
 
         try:
-            with _client(args) as c:
+            with connect_client(args) as c:
                 answer = ask(c, args)
         except argparse.ArgumentTypeError as e:
             print(f"acphys {op}: {e}", file=sys.stderr)

@@ -142,7 +142,7 @@ def run_view(args: argparse.Namespace) -> int:
         return 2
     from service.world_source import open_world
 
-    from .client import Client
+    from .connection import connect_client
     from .demo_world import demo_scene_path
     from .which_service import describe_service
 
@@ -152,7 +152,7 @@ def run_view(args: argparse.Namespace) -> int:
     except Exception as e:
         print(f"acphys view: cannot open the world for the terrain: {e}", file=sys.stderr)
         return 2
-    with Client(args.connect, config_file=args.zenoh_config, prefix=args.prefix, timeout=args.timeout) as client:
+    with connect_client(args) as client:
         board = MoverBoard(client.session, args.prefix)
         board.start()
         lbs = _Landblocks(client)

@@ -11,6 +11,7 @@ import logging
 import random
 from time import monotonic, perf_counter
 from dataclasses import dataclass, replace
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import msgpack
@@ -131,11 +132,23 @@ class ServiceCore:
         self.loaded: tuple[int, ...] = ()
         self.engine_cache: dict[str, Any] = {}
         self._cache_read_at = 0.0
-        self._refresh()
+        #: with accounts (service/accounts.py), told after this core read its snapshots, so the other users'
+        #: cores over the same world read theirs; and how many of their movers are in a landblock (an unload
+        #: must wait for theirs too)
+        self.world_changed: Callable[[ServiceCore], None] | None = None
+        self.foreign_movers_in: Callable[[int], int] | None = None
+        self.refresh()
         # the core runs on one thread at a time (the engine thread, or a callback holding the engine lock)
         self._packer = msgpack.Packer(use_bin_type=True)
 
-    def _refresh(self) -> None:
+    def refresh(self) -> None:
+        """Read again the snapshots other threads answer from; with accounts, the other users' cores too
+        (they share the world: `world_changed`)."""
+        self.read_snapshots()
+        if self.world_changed is not None:
+            self.world_changed(self)
+
+    def read_snapshots(self) -> None:
         self.loaded = tuple(sorted(self.world.loaded_landblocks()))
         self.engine_cache = self.cache_stats()
         self._cache_read_at = monotonic()
@@ -201,7 +214,7 @@ class ServiceCore:
         rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
                         sliding_normal=req.sliding_normal, water_contact=bool(req.water_contact))
         state = self._state(rec)
-        self._refresh()  # a dat world loads the start landblock on demand
+        self.refresh()  # a dat world loads the start landblock on demand
         self.bus.publish_state(rec.id, self._packer.pack(state))
         return {"state": state}
 
@@ -265,7 +278,7 @@ class ServiceCore:
     def _done(self, latency: list[float], engine: list[float]) -> None:
         self.stats.moves_done(latency, engine)
         if monotonic() - self._cache_read_at > 1.0:
-            self._refresh()
+            self.refresh()
 
     def _publishing(self, batch_mode: bool) -> tuple[bool, bool]:
         """(publish each State on its mover's key, collect them for one P/states message), asked once per
@@ -288,7 +301,7 @@ class ServiceCore:
         now = monotonic()
         self.stats.move_done(now - received, engine)
         if now - self._cache_read_at > 1.0:
-            self._refresh()
+            self.refresh()
         if collect:
             self.bus.publish_batch([packed])
         return packed
@@ -432,7 +445,7 @@ class ServiceCore:
         rec.spec = spec
         if velocity is not None:
             self.world.mover(rec.engine_id).set_velocity(velocity)
-        self._refresh()
+        self.refresh()
 
     # -- landblocks -----------------------------------------------------------
     def load(self, lb: int) -> dict[str, Any]:
@@ -448,24 +461,28 @@ class ServiceCore:
                 log.exception("loading landblock %s failed", lb_hex(lb))
             msg = to_protocol_error(e).message
             raise ProtocolError(ErrorKind.LANDBLOCK_UNAVAILABLE, f"landblock {lb_hex(lb)} cannot be loaded: {msg}") from None
-        self._refresh()
+        self.refresh()
         return {"landblock": lb, "loaded": True, "already": False}
 
     def unload(self, lb: int) -> dict[str, Any]:
         if lb not in set(self.world.loaded_landblocks()):
             raise ProtocolError(ErrorKind.LANDBLOCK_NOT_LOADED, f"landblock {lb_hex(lb)} is not loaded")
         inside = [r.id for r in self.movers.values() if r.last.position.landblock == lb]
-        if inside:
+        foreign = self.foreign_movers_in(lb) if self.foreign_movers_in is not None else 0
+        if inside or foreign:
             shown = ", ".join(f"{i:X}" for i in inside[:10])
+            # other users' movers are counted, never named (service/accounts.py)
+            others = f"{'; and ' if inside else ''}{foreign} mover(s) of other users" if foreign else ""
             raise ProtocolError(
-                ErrorKind.LANDBLOCK_IN_USE, f"landblock {lb_hex(lb)} holds {len(inside)} mover(s): {shown}", None,
+                ErrorKind.LANDBLOCK_IN_USE,
+                f"landblock {lb_hex(lb)} holds {f'{len(inside)} mover(s): {shown}' if inside else ''}{others}", None,
                 movers=inside[:100],
             )
         try:
             self.world.unload_landblock(lb)
         except Exception as e:
             raise to_protocol_error(e) from None
-        self._refresh()
+        self.refresh()
         return {"landblock": lb, "loaded": False}
 
     def cache_stats(self) -> dict[str, Any]:

@@ -13,13 +13,15 @@ import logging
 import signal
 import sys
 import threading
+from dataclasses import replace
 from typing import Any
 
+from .accounts import Accounts, add_accounts_arguments, apply_accounts
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
 from .ownership import Ownership
-from .wire import DEFAULT_PREFIX
+from .wire import DEFAULT_PREFIX, user_prefix
 from .zconfig import DEFAULT_ENDPOINT, make_config
 
 __all__ = ["add_serve_arguments", "serve", "main"]
@@ -52,7 +54,19 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--worker-info", metavar="PREFIX", help=argparse.SUPPRESS)
     p.add_argument("--worker-parent", type=int, metavar="PID", help=argparse.SUPPRESS)
     add_security_arguments(p)
+    add_accounts_arguments(p)
     add_state_arguments(p)
+
+
+def _accounts_conflict(args: argparse.Namespace, workers: int) -> str | None:
+    """The option `--users` cannot go with yet (docs/protocol.md, "Accounts"), if one is given."""
+    if workers > 1:
+        return "--workers"
+    if getattr(args, "cluster", None):
+        return "--cluster"
+    if getattr(args, "state", None):
+        return "--state"
+    return None
 
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
@@ -65,6 +79,11 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     except argparse.ArgumentTypeError as e:
         print(f"acphys serve: {e}", file=sys.stderr)
         return 2
+    if getattr(args, "users", None):
+        conflict = _accounts_conflict(args, workers)
+        if conflict:
+            print(f"acphys serve: --users does not go with {conflict} yet", file=sys.stderr)
+            return 2
     if workers > 1 and world is None:
         return serve_workers(args, workers)
     worker_info = getattr(args, "worker_info", None)
@@ -89,7 +108,12 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             multicast=args.multicast_scouting,
         )
         ownership = Ownership.parse(args.own)
-        cluster = security_setup(config, args)
+        accounts = Accounts.load(args.users) if getattr(args, "users", None) else None
+        if accounts is None:
+            cluster = security_setup(config, args)
+        else:
+            cluster = None
+            apply_accounts(config, args.prefix, accounts)
         persistence = Persistence.from_args(args)
     except Exception as e:
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
@@ -108,25 +132,38 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    node = ServiceNode(world, config, options)
+    # with accounts, one tenant per user over the one world (service/accounts.py); the first is the host
+    prefixes = [user_prefix(args.prefix, u) for u in accounts.users] if accounts is not None else [args.prefix]
+    node = ServiceNode(world, config, replace(options, prefix=prefixes[0]))
+    tenants = [ServiceNode(world, config, replace(options, prefix=p), shared_with=node) for p in prefixes[1:]]
     try:
         node.start(restore=persistence.restorer(node))
+        for tenant in tenants:
+            tenant.start()
     except Exception as e:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
-        node.shutdown()
+        _shutdown(node, tenants)
         return 2
     detach = attach_worker(node) if worker_info else None
-    print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}",
-          flush=True)
+    users = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
+    print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}"
+          f"{users}", flush=True)
     while not stop.wait(persistence.tick):
         persistence.maybe_save(node)
     if detach is not None:
         detach()
-    node.shutdown()
+    _shutdown(node, tenants)
     if not persistence.save(node):
         return 1  # the movers could not be written: say so rather than exit as if they were
     log.info("stopped")
     return 0
+
+
+def _shutdown(node: ServiceNode, tenants: list[ServiceNode]) -> None:
+    """Tenants first: they borrow the host's session, which its own shutdown closes."""
+    for tenant in tenants:
+        tenant.shutdown()
+    node.shutdown()
 
 
 def main(argv: list[str] | None = None) -> int:

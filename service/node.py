@@ -102,19 +102,28 @@ class NodeOptions:
 class ServiceNode:
     """Open with `start()`, stop with `shutdown()` (finishes queued work first)."""
 
-    def __init__(self, world: Any, config: zenoh.Config, options: NodeOptions | None = None) -> None:
+    def __init__(self, world: Any, config: zenoh.Config, options: NodeOptions | None = None, *,
+                 shared_with: ServiceNode | None = None) -> None:
+        """`shared_with`: a node this one is a tenant of (service/accounts.py): it serves its own prefix and
+        movers over the same world, through that node's session, engine thread, queue and engine lock, so
+        requests to both run one at a time in arrival order. Start the host first, shut it down last."""
         self.options = options or NodeOptions()
         self.keys = self.options.keys
         self.config = config
         self.world = world
         self.stats = ServiceStats()
-        self.queue = JobQueue(self.options.queue_capacity)
+        self._host = shared_with
+        #: every node of this world (the host's list, shared): a landblock load or unload concerns them all
+        self.tenants: list[ServiceNode] = shared_with.tenants if shared_with is not None else []
+        self.tenants.append(self)
+        self.queue: JobQueue = shared_with.queue if shared_with is not None else JobQueue(self.options.queue_capacity)
         self.session: zenoh.Session | None = None
         self.core: ServiceCore | None = None
         self._declared: list[Any] = []
         self._thread: threading.Thread | None = None
         self._draining = False
-        self._engine_lock = threading.Lock()  # held while the core runs (engine thread or a callback)
+        # held while the core runs (engine thread or a callback)
+        self._engine_lock: threading.Lock = shared_with._engine_lock if shared_with is not None else threading.Lock()
         self._inline = self.options.inline and self.options.ownership.everything
         self._key_lbs: dict[str, int | None] = {}  # request keys already checked by `_key_lb`: their landblock
         self.bus: ZenohBus | None = None  # what the core puts on the bus (service/publication.py)
@@ -124,16 +133,24 @@ class ServiceNode:
     def start(self, restore: Callable[[ServiceCore], None] | None = None) -> None:
         """Open the session and declare the keys; `restore` (e.g. movers from a state file) runs on the new
         core before any key is declared, so no request sees the instance half restored."""
-        self.session = zenoh.open(self.config)
+        if self._host is None:
+            self.session = zenoh.open(self.config)
+        else:
+            self.session = self._host.session
+            if self.session is None:
+                raise RuntimeError("start the host node before its tenants")
         instance = str(self.session.zid())
         o = self.options
         self.bus = ZenohBus(self.session, self.keys, self, publish_states=o.publish_states,
                             skip_unwatched_states=o.skip_unwatched_states, handover_timeout=o.handover_timeout)
         self.core = ServiceCore(self.world, self.bus, ownership=o.ownership, instance=instance, stats=self.stats)
+        self.core.foreign_movers_in = self._foreign_movers_in
+        self.core.world_changed = self._tenants_read_snapshots
         if restore is not None:
             restore(self.core)
-        self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
-        self._thread.start()
+        if self._host is None:
+            self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
+            self._thread.start()
         s = self.session
         for part in self.options.ownership.key_parts():
             for op in LB_QUERY_OPS:
@@ -147,7 +164,7 @@ class ServiceNode:
         self._declared.append(s.declare_queryable(info.health, self._callback(self._on_health)))
         self._declared.append(s.declare_queryable(info.stats, self._callback(self._on_stats)))
         self._declared.append(s.declare_queryable(info.landblocks, self._callback(self._on_landblocks)))
-        if self.options.tune_heap:
+        if self.options.tune_heap and self._host is None:
             heap.tune()
             heap.settle()
         log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
@@ -165,8 +182,9 @@ class ServiceNode:
         self._draining = True
         self.queue.close()  # from here on a request is refused with `shutting_down`
         deadline = time.monotonic() + timeout
-        if self._thread is not None:
-            self._thread.join(timeout)
+        thread = self._thread if self._host is None else self._host._thread
+        if thread is not None:
+            thread.join(timeout)
         if self._engine_lock.acquire(timeout=max(0.0, deadline - time.monotonic())):
             self._engine_lock.release()  # a request running in a callback has finished
         while time.monotonic() < deadline and time.monotonic() - self._last_arrival < self.options.drain_quiet:
@@ -179,9 +197,9 @@ class ServiceNode:
         self._declared.clear()
         if self.bus is not None:
             self.bus.close()
-        if self.session is not None:
-            self.session.close()
-            self.session = None
+        if self.session is not None and self._host is None:
+            self.session.close()  # a tenant's session is its host's, closed by it
+        self.session = None
 
     def _callback(self, fn: Callable[[Any], None]) -> Any:
         """`fn` as a Zenoh callback that first stamps `_last_arrival` (what shutdown waits on)."""
@@ -244,6 +262,17 @@ class ServiceNode:
         if self.options.tune_heap and not answer.get("already"):
             heap.settle()
         return answer
+
+    def _tenants_read_snapshots(self, changed: ServiceCore) -> None:
+        """The other tenants' cores read the shared world's snapshots again (the engine lock held)."""
+        for node in self.tenants:
+            if node.core is not None and node.core is not changed:
+                node.core.read_snapshots()
+
+    def _foreign_movers_in(self, lb: int) -> int:
+        """Movers of the other tenants in landblock `lb` (the engine lock held)."""
+        return sum(1 for node in self.tenants if node is not self and node.core is not None
+                   for r in node.core.movers.values() if r.last.position.landblock == lb)
 
     # -- replies ----------------------------------------------------------------
     def _reply_ok(self, query: zenoh.Query, content: dict[str, Any] | bytes) -> None:

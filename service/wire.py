@@ -7,6 +7,7 @@ imports: the client library and the service both read this module.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 __all__ = [
@@ -21,6 +22,9 @@ __all__ = [
     "parse_lb_hex",
     "obj_hex",
     "parse_obj_hex",
+    "USER_NAME",
+    "check_user_name",
+    "user_prefix",
 ]
 
 #: The value of the "v" field of every message this code sends and accepts.
@@ -89,6 +93,23 @@ def obj_hex(mover_id: int) -> str:
 
 def parse_obj_hex(text: str) -> int:
     return int(text, 16)
+
+
+#: A user name of a service run with accounts (`acphys serve --users`): it becomes a key chunk, so no
+#: wildcard, separator or verbatim (`@`) character.
+USER_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+
+
+def check_user_name(name: str) -> str:
+    """`name` when it can be a user of accounts mode, else ValueError saying what a name may hold."""
+    if not USER_NAME.fullmatch(name):
+        raise ValueError(f"user name {name!r}: 1 to 64 of A-Z a-z 0-9 _ . -, starting with a letter or digit")
+    return name
+
+
+def user_prefix(prefix: str, user: str) -> str:
+    """Where a user's keys live on a service run with accounts: `P/u/<user>` (docs/protocol.md, "Accounts")."""
+    return f"{prefix}/u/{check_user_name(user)}"
 
 
 @dataclass(frozen=True, slots=True)

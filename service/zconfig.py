@@ -44,8 +44,11 @@ def make_config(
     connect: list[str] | None = None,
     mode: str | None = None,
     multicast: bool | None = None,
+    user: str | None = None,
+    password: str | None = None,
 ) -> zenoh.Config:
-    """A zenoh.Config; arguments left None keep the file's (or our default) value."""
+    """A zenoh.Config; arguments left None keep the file's (or our default) value. `user` and `password`
+    log the session in to a service run with accounts (Zenoh's usrpwd authentication, service/accounts.py)."""
     if config_file:
         cfg = zenoh.Config.from_file(config_file)
         if not _file_sets_shm(config_file):
@@ -68,4 +71,8 @@ def make_config(
         cfg.insert_json5("connect/endpoints", json.dumps(connect))
     if multicast is not None:
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(multicast))
+    if user is not None:
+        if password is None:
+            raise ValueError(f"user {user!r} needs a password")
+        cfg.insert_json5("transport/auth/usrpwd", json.dumps({"user": user, "password": password}))
     return cfg

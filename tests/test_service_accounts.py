@@ -1,0 +1,240 @@
+"""Accounts (`acphys serve --users FILE`): each user reaches its own movers only, by Zenoh's own
+authentication (usrpwd) and access control (service/accounts.py).
+
+One service with two users, alice and bob, over the demo world. Bob's own client and a raw Zenoh
+session logged in as bob try every way into alice's movers: her ids on his keys, her keys, wildcards,
+her push key, her state keys; none reaches her movers, and her next move's seq shows nothing moved
+them. Sessions without the right password reach nothing at all. The movers still share one world:
+bob's mover cannot walk through alice's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import msgpack
+import pytest
+import zenoh
+
+from clients import Client, ServiceError
+from clients.demo_world import global_to_cell
+from engine.geometry import Position
+from service.accounts import Accounts, AccountsError
+from service.zconfig import make_config
+from service_support import ROOT, ServiceProcess, child_env, demo_world, human, start_on_ground, wait_until
+
+USERS = {"alice": "wonder-land-7", "bob": "builder-42"}
+RADIUS = 0.48  # human()'s spheres (tests/service_support.py)
+
+
+@pytest.fixture(scope="module")
+def users_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("accounts") / "users.txt"
+    path.write_text("".join(f"{u}:{p}\n" for u, p in USERS.items()), encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def service(users_file: Path) -> Iterator[ServiceProcess]:
+    with ServiceProcess(extra=["--users", str(users_file)]) as svc:
+        yield svc
+
+
+def _client(svc: ServiceProcess, user: str, password: str | None = None) -> Client:
+    return Client([svc.endpoint], user=user, password=password or USERS[user], timeout=5.0)
+
+
+def _session(svc: ServiceProcess, user: str | None, password: str | None = None) -> zenoh.Session:
+    if user is None:
+        return zenoh.open(make_config(connect=[svc.endpoint]))
+    return zenoh.open(make_config(connect=[svc.endpoint], user=user, password=password or USERS[user]))
+
+
+def _replies(session: zenoh.Session, key: str, content: dict[str, Any], timeout: float = 2.0) -> list[Any]:
+    return list(session.get(key, payload=msgpack.packb({"v": 1, **content}), timeout=timeout))
+
+
+def _ground(gx: float, gy: float = 100.0) -> Position:
+    cell, x, y = global_to_cell(gx, gy)
+    return start_on_ground(demo_world(), cell, x, y)
+
+
+def test_a_users_ids_are_its_own(service: ServiceProcess) -> None:
+    with _client(service, "alice") as alice, _client(service, "bob") as bob:
+        mine = alice.register(human(), _ground(30.0), mover_id=0x700)
+        alice.move(0x700, offset=(0.25, 0.0, 0.0))
+        bob.locate(0x700, mine.landblock)
+        for attempt in (lambda: bob.get(0x700), lambda: bob.move(0x700, offset=(5.0, 0.0, 0.0)),
+                        lambda: bob.remove(0x700)):
+            with pytest.raises(ServiceError) as e:
+                attempt()
+            assert e.value.kind == "unknown_mover"
+        # the same id is free in bob's space: a mover of his own, elsewhere
+        his = bob.register(human(), _ground(60.0), mover_id=0x700)
+        assert his.id == 0x700 and his.seq == 0
+        bob.move(0x700, offset=(0.5, 0.0, 0.0))
+        bob.remove(0x700)
+        state, _ = alice.get(0x700)
+        assert state.seq == 1  # her one move; nothing of bob's touched it
+        assert [i.data["movers"] for i in alice.health()] == [1]
+        assert [i.data["movers"] for i in bob.health()] == [0]
+        alice.remove(0x700)
+
+
+def test_another_users_keys_answer_nothing(service: ServiceProcess) -> None:
+    with _client(service, "alice") as alice:
+        mine = alice.register(human(), _ground(35.0), mover_id=0x701)
+        lb = f"{mine.landblock:04X}"
+        bob = _session(service, "bob")
+        try:
+            for key in (f"acphys/u/alice/lb/{lb}/get", f"acphys/u/alice/lb/{lb}/remove", "acphys/u/alice/lb/*/get",
+                        f"acphys/u/*/lb/{lb}/get", f"acphys/lb/{lb}/get", "acphys/**", "**"):
+                assert _replies(bob, key, {"id": 0x701}) == [], key
+            # his own space answers him, so the silence above is the access control, not a dead link
+            answers = _replies(bob, f"acphys/u/bob/lb/{lb}/get", {"id": 0x701})
+            assert len(answers) == 1 and answers[0].err is not None
+            assert msgpack.unpackb(answers[0].err.payload.to_bytes())["error"]["kind"] == "unknown_mover"
+            # fire-and-forget into her push key, directly and by wildcard
+            push = {"v": 1, "move": {"id": 0x701, "offset": [3.0, 0.0, 0.0]}}
+            for key in (f"acphys/u/alice/lb/{lb}/push", "acphys/u/*/lb/*/push", f"acphys/lb/{lb}/push"):
+                bob.put(key, msgpack.packb(push))
+            # and bob's own push of her id, which the service does take (then refuses: not his mover)
+            errors: list[Any] = []
+            sub = bob.declare_subscriber("acphys/u/bob/obj/**", lambda s: errors.append(str(s.key_expr)))
+            time.sleep(0.3)
+            bob.put(f"acphys/u/bob/lb/{lb}/push", msgpack.packb(push))
+            assert wait_until(lambda: bool(errors), timeout=5.0), "bob's own push got no error"
+            sub.undeclare()
+        finally:
+            bob.close()
+        assert errors == ["acphys/u/bob/obj/701/error"]
+        assert alice.get(0x701)[0].seq == 0  # bob's puts came before this get on one link each: none moved it
+        assert alice.move(0x701, offset=(0.25, 0.0, 0.0)).seq == 1
+        alice.remove(0x701)
+
+
+def test_states_reach_their_own_user_only(service: ServiceProcess) -> None:
+    with _client(service, "alice") as alice:
+        mine = alice.register(human(), _ground(45.0), mover_id=0x702)
+        theirs: list[str] = []
+        ours: list[int] = []
+        lock = threading.Lock()
+        bob = _session(service, "bob")
+        try:
+            def spy(sample: zenoh.Sample) -> None:
+                with lock:
+                    theirs.append(str(sample.key_expr))
+
+            spies = [bob.declare_subscriber(k, spy) for k in ("**", "acphys/**", "acphys/u/alice/obj/*/state",
+                                                              "acphys/u/*/obj/**", "acphys/u/bob/**")]
+            sub = alice.subscribe(lambda st: ours.append(st.seq), mover_id=0x702)
+            time.sleep(0.5)
+            for _ in range(3):
+                alice.move(0x702, offset=(0.2, 0.0, 0.0))
+            assert wait_until(lambda: len(ours) >= 3, timeout=5.0), ours
+            time.sleep(0.3)
+            sub.close()
+            for s in spies:
+                s.undeclare()
+        finally:
+            bob.close()
+        assert ours == [1, 2, 3]
+        assert theirs == []
+        assert mine.id == 0x702
+        alice.remove(0x702)
+
+
+def test_without_the_right_password_there_is_no_service(service: ServiceProcess) -> None:
+    for user, password in (("bob", "not-his"), ("alice", USERS["bob"]), ("mallory", "anything")):
+        with Client([service.endpoint], user=user, password=password, timeout=1.0) as c:
+            assert c.health() == []
+    anonymous = _session(service, None)
+    try:
+        assert list(anonymous.get("acphys/**", timeout=1.0)) == []
+        assert list(anonymous.get("acphys/u/alice/health", timeout=1.0)) == []
+    finally:
+        anonymous.close()
+    with _client(service, "alice") as alice:  # and the right one does reach it
+        assert [i.data["status"] for i in alice.health()] == ["ok"]
+
+
+def test_users_share_one_world(service: ServiceProcess) -> None:
+    """Bob's mover walks 4 m straight at alice's: the spheres cannot pass through each other (neither is a
+    player: players pass through each other)."""
+    solid = replace(human(), state=[])
+    with _client(service, "alice") as alice, _client(service, "bob") as bob:
+        hers = alice.register(solid, _ground(80.0), mover_id=0x703)
+        his = bob.register(solid, _ground(78.0), mover_id=0x703)
+        moved = bob.move(0x703, offset=(4.0, 0.0, 0.0))
+        a, b = hers.position.origin, moved.position.origin
+        apart = math.hypot(a.x - b.x, a.y - b.y)
+        assert b.x < a.x and apart >= 2 * RADIUS - 0.02, (a, b)
+        assert moved.position.origin.x > his.position.origin.x  # it did walk up to her
+        assert not moved.result.collide_objects  # her mover is not named to him
+        with pytest.raises(ServiceError) as e:
+            bob.unload_landblock(hers.landblock)
+        assert e.value.kind == "landblock_in_use"
+        assert "other users" in str(e.value)
+        bob.remove(0x703)
+        with pytest.raises(ServiceError) as e:
+            bob.unload_landblock(hers.landblock)  # alice's mover is still there
+        assert e.value.kind == "landblock_in_use" and "1 mover(s) of other users" in str(e.value)
+        alice.remove(0x703)
+
+
+def test_the_command_line_logs_in(service: ServiceProcess, tmp_path: Path) -> None:
+    secret = tmp_path / "alice.pw"
+    secret.write_text(USERS["alice"] + "\n", encoding="utf-8")
+    base = [sys.executable, "-m", "clients.cli", "stats", "--connect", service.endpoint, "--timeout", "3", "--json"]
+    by_file = subprocess.run([*base, "--user", "alice", "--password-file", str(secret)], cwd=ROOT, env=child_env(),
+                             capture_output=True, text=True, timeout=60)
+    assert by_file.returncode == 0, by_file.stderr
+    env = {**child_env(), "ACPHYS_PASSWORD": USERS["bob"]}
+    by_env = subprocess.run([*base, "--user", "bob"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
+    assert by_env.returncode == 0, by_env.stderr
+    no_password = {k: v for k, v in child_env().items() if k != "ACPHYS_PASSWORD"}
+    missing = subprocess.run([*base, "--user", "bob"], cwd=ROOT, env=no_password, capture_output=True, text=True,
+                             timeout=60)
+    assert missing.returncode != 0 and "password" in missing.stderr
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("alice\n", "line 1: expected user:password"),
+    ("alice:pw\nbob:\n", "line 2: expected user:password"),
+    ("alice:pw\n\nal*ce:pw\n", "line 3: user name 'al*ce'"),
+    ("alice:pw\nalice:other\n", "line 2: user 'alice' given twice"),
+    ("\n\n", "no user"),
+])
+def test_a_bad_users_file_is_named_with_its_line(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "users.txt"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(AccountsError) as e:
+        Accounts.load(path)
+    assert message in str(e.value)
+
+
+def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
+    path = tmp_path / "users.txt"
+    path.write_text("alice:a:b:c\nbob.builder:x\n", encoding="utf-8")
+    assert Accounts.load(path).users == ("alice", "bob.builder")
+
+
+@pytest.mark.parametrize("extra", [["--users", "/nonexistent/users.txt"], ["--users", "USERS", "--workers", "2"],
+                                   ["--users", "USERS", "--state", "STATE"]])
+def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str]) -> None:
+    args = [a.replace("USERS", str(users_file)).replace("STATE", str(tmp_path / "s.state")) for a in extra]
+    proc = subprocess.run([sys.executable, "-m", "service", "--scene", str(ROOT / "clients/demo/demo.json"),
+                           "--listen", "tcp/127.0.0.1:1", *args], cwd=ROOT, env=child_env(), capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "--users" in proc.stderr or "users file" in proc.stderr, proc.stderr
+    assert not (tmp_path / "s.state").exists()
+
