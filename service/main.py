@@ -64,8 +64,6 @@ def _accounts_conflict(args: argparse.Namespace, workers: int) -> str | None:
         return "--workers"
     if getattr(args, "cluster", None):
         return "--cluster"
-    if getattr(args, "state", None):
-        return "--state"
     return None
 
 
@@ -114,15 +112,16 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         else:
             cluster = None
             apply_accounts(config, args.prefix, accounts)
-        persistence = Persistence.from_args(args)
+        # with accounts, one tenant per user over the one world (service/accounts.py), each with its own state
+        # file; the first tenant is the host
+        users: list[str | None] = list(accounts.users) if accounts is not None else [None]
+        persistences = [Persistence.from_args(args, user) for user in users]
     except Exception as e:
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
         return 2
     options = NodeOptions(
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
-        info_prefix=worker_info,
-        accept_handovers=cluster is not None, on_handover_in=persistence.save_locked if persistence.path else None,
-        tune_heap=True,
+        info_prefix=worker_info, accept_handovers=cluster is not None, tune_heap=True,
     )
     stop = threading.Event()
 
@@ -132,38 +131,40 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    # with accounts, one tenant per user over the one world (service/accounts.py); the first is the host
-    prefixes = [user_prefix(args.prefix, u) for u in accounts.users] if accounts is not None else [args.prefix]
-    node = ServiceNode(world, config, replace(options, prefix=prefixes[0]))
-    tenants = [ServiceNode(world, config, replace(options, prefix=p), shared_with=node) for p in prefixes[1:]]
+    nodes: list[ServiceNode] = []
+    for user, persistence in zip(users, persistences):
+        tenant = replace(options, prefix=user_prefix(args.prefix, user) if user is not None else args.prefix,
+                         on_handover_in=persistence.save_locked if persistence.path else None)
+        nodes.append(ServiceNode(world, config, tenant, shared_with=nodes[0] if nodes else None))
+    node = nodes[0]
     try:
-        node.start(restore=persistence.restorer(node))
-        for tenant in tenants:
-            tenant.start()
+        for n, persistence in zip(nodes, persistences):
+            n.start(restore=persistence.restorer(n))
     except Exception as e:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
-        _shutdown(node, tenants)
+        _shutdown(nodes)
         return 2
     detach = attach_worker(node) if worker_info else None
-    users = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
+    named = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}"
-          f"{users}", flush=True)
-    while not stop.wait(persistence.tick):
-        persistence.maybe_save(node)
+          f"{named}", flush=True)
+    while not stop.wait(persistences[0].tick):
+        for n, persistence in zip(nodes, persistences):
+            persistence.maybe_save(n)
     if detach is not None:
         detach()
-    _shutdown(node, tenants)
-    if not persistence.save(node):
-        return 1  # the movers could not be written: say so rather than exit as if they were
+    _shutdown(nodes)
+    saved = [persistence.save(n) for n, persistence in zip(nodes, persistences)]  # every file, even after a failure
+    if not all(saved):
+        return 1  # some movers could not be written: say so rather than exit as if they were
     log.info("stopped")
     return 0
 
 
-def _shutdown(node: ServiceNode, tenants: list[ServiceNode]) -> None:
-    """Tenants first: they borrow the host's session, which its own shutdown closes."""
-    for tenant in tenants:
-        tenant.shutdown()
-    node.shutdown()
+def _shutdown(nodes: list[ServiceNode]) -> None:
+    """Tenants first: they borrow the host's (the first node's) session, which its own shutdown closes."""
+    for n in reversed(nodes):
+        n.shutdown()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,7 +26,7 @@ from .frames import pack
 from .wire import Keys
 from .state_file import SavedMover, StateFileError, read_state, restore, set_aside, write_state
 
-__all__ = ["Persistence", "add_state_arguments", "held_elsewhere"]
+__all__ = ["Persistence", "add_state_arguments", "held_elsewhere", "user_state_path"]
 
 log = logging.getLogger("acphys.service")
 
@@ -54,11 +54,16 @@ class Persistence:
     _saved: list[SavedMover] | None = None  # read at start, until restored
 
     @classmethod
-    def from_args(cls, args: argparse.Namespace) -> Persistence:
+    def from_args(cls, args: argparse.Namespace, user: str | None = None) -> Persistence:
+        """`--state` as given; for a `user` of accounts (service/accounts.py), that user's own file,
+        `FILE.user-USER`."""
         interval = float(getattr(args, "state_interval", DEFAULT_INTERVAL))
         if not interval >= 0.0:
             raise ValueError(f"--state-interval must be >= 0, got {interval}")
-        p = cls(getattr(args, "state", None), interval, bool(getattr(args, "state_discard_bad", False)))
+        path = getattr(args, "state", None)
+        if path is not None and user is not None:
+            path = user_state_path(path, user)
+        p = cls(path, interval, bool(getattr(args, "state_discard_bad", False)))
         if p.path is not None:
             p._read()  # a bad file stops the start before anything is opened
         return p
@@ -148,6 +153,11 @@ class Persistence:
             self._last_save = time.monotonic()
         self._handovers_saved = handovers
         return True
+
+
+def user_state_path(path: str, user: str) -> str:
+    """Where a user's movers are kept when accounts share one `--state FILE`."""
+    return f"{path}.user-{user}"
 
 
 def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:

@@ -228,13 +228,34 @@ def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("extra", [["--users", "/nonexistent/users.txt"], ["--users", "USERS", "--workers", "2"],
-                                   ["--users", "USERS", "--state", "STATE"]])
+                                   ["--users", "USERS", "--cluster", "CLUSTER"]])
 def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str]) -> None:
-    args = [a.replace("USERS", str(users_file)).replace("STATE", str(tmp_path / "s.state")) for a in extra]
+    args = [a.replace("USERS", str(users_file)).replace("CLUSTER", str(tmp_path / "cluster.json")) for a in extra]
     proc = subprocess.run([sys.executable, "-m", "service", "--scene", str(ROOT / "clients/demo/demo.json"),
                            "--listen", "tcp/127.0.0.1:1", *args], cwd=ROOT, env=child_env(), capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 2
     assert "--users" in proc.stderr or "users file" in proc.stderr, proc.stderr
-    assert not (tmp_path / "s.state").exists()
+
+
+def test_each_users_movers_come_back_after_a_restart(users_file: Path, tmp_path: Path) -> None:
+    """`--state FILE` keeps each user's movers in `FILE.user-USER`; a restart gives each user its own back,
+    though both used the same id."""
+    state = tmp_path / "movers.state"
+    extra = ["--users", str(users_file), "--state", str(state), "--state-interval", "0"]
+    with ServiceProcess(extra=extra) as svc:
+        with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
+            alice.register(human(), _ground(30.0), mover_id=0x77)
+            hers = alice.move(0x77, offset=(0.25, 0.0, 0.0))
+            his = bob.register(human(), _ground(70.0), mover_id=0x77)
+        assert svc.stop() == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["movers.state.user-alice", "movers.state.user-bob"]
+    with ServiceProcess(extra=extra) as svc:
+        with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
+            alice.locate(0x77, hers.landblock)
+            bob.locate(0x77, his.landblock)
+            back_hers, back_his = alice.get(0x77)[0], bob.get(0x77)[0]
+    assert (back_hers.seq, back_hers.position.origin) == (1, hers.position.origin)
+    assert (back_his.seq, back_his.position.origin) == (0, his.position.origin)
+    assert back_hers.position.origin != back_his.position.origin
 
