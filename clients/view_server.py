@@ -153,14 +153,14 @@ def run_view(args: argparse.Namespace) -> int:
         print(f"acphys view: cannot open the world for the terrain: {e}", file=sys.stderr)
         return 2
     with connect_client(args) as client:
-        board = MoverBoard(client.session, args.prefix)
+        board = MoverBoard(client.session, client.keys.prefix)
         board.start()
         lbs = _Landblocks(client)
         instances = [h.instance for h in client.health(timeout=min(args.timeout, 2.0))]
-        print(describe_service(instances, args.connect, args.prefix, args.zenoh_config), file=sys.stderr)
+        print(describe_service(instances, args.connect, client.keys.prefix, args.zenoh_config), file=sys.stderr)
         if not instances:
             print("acphys view: no service answers yet; movers appear when one publishes states", file=sys.stderr)
-        info = {"prefix": args.prefix, "connect": args.connect or ["tcp/127.0.0.1:7447"],
+        info = {"prefix": client.keys.prefix, "connect": args.connect or ["tcp/127.0.0.1:7447"],
                 "world": args.dat_dir or scene, "instances": instances}
         app = build_app(board, TerrainSource(world), lbs, info)
         config = uvicorn.Config(app, host=args.host, port=args.port, log_level="warning", lifespan="off")

@@ -10,11 +10,15 @@ authentication reads). Then:
   prefix, served by a tenant of its own (its own movers, ids, States,
   statistics) over the one shared world, so movers of all users still
   collide with each other;
-- Zenoh's access control, default deny, lets a user's session send
-  queries, puts and subscriptions on `P/u/<user>/**` only, and lets the
+- Zenoh's access control, default deny, lets a user's session ask for
+  its own operations only (`P/u/<user>/lb/*/<op>` but the hand-over, and
+  the per-instance keys), subscribe within `P/u/<user>/**`, and lets the
   service send it replies, States and declarations on that space only.
   Another user's keys are unreachable: their queryables are never declared
   to it, and what it sends there is dropped on arrival.
+- Behind `serve --workers` the router checks the logins and carries the
+  access control; the workers log in to it as WORKER_USER over their TLS
+  links, with a password made at start.
 
 The user is never read from a message: a queryable cannot learn who
 authenticated, and a message's source information is whatever the sender
@@ -26,21 +30,32 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import secrets
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import zenoh
 
-from .wire import check_user_name, user_prefix
+from .wire import LB_QUERY_OPS, check_user_name, user_prefix
 
-__all__ = ["Accounts", "AccountsError", "accounts_access_control", "apply_accounts", "add_accounts_arguments"]
+__all__ = [
+    "Accounts", "AccountsError", "WORKER_USER", "accounts_access_control", "apply_accounts", "worker_logins",
+    "read_login", "add_accounts_arguments",
+]
 
-#: What a user's session may send the service, on its own space only.
-_USER_INGRESS = ["query", "put", "delete", "declare_subscriber"]
+#: The operations a user's session may ask for, each on its own key in the user's space: every per-landblock
+#: operation but the hand-over (instance to instance), the push, and the per-instance keys. A query on any
+#: other key of the space, a wildcard over the operation (`lb/XXYY/*`) included, is dropped.
+_CLIENT_LB_OPS = tuple(op for op in LB_QUERY_OPS if op != "handover")
+_CLIENT_INSTANCE_KEYS = ("health", "stats", "landblocks")
 #: What the service may send a user's session, on that user's space only (its queryables and subscribers
 #: must be declared to the session for Zenoh to route the session's requests to them at all).
 _USER_EGRESS = ["reply", "put", "delete", "declare_queryable", "declare_subscriber"]
+#: The user name the processes of `serve --workers` log in to its router with (service/workers.py): a name
+#: no users file may hold (`check_user_name` refuses the `@`).
+WORKER_USER = "@worker"
 
 
 class AccountsError(ValueError):
@@ -79,30 +94,46 @@ class Accounts:
         return cls(path.resolve(), tuple(users))
 
 
-def accounts_access_control(prefix: str, users: tuple[str, ...]) -> dict[str, Any]:
-    """The `access_control` block: default deny; each user's session reaches its own space only."""
+def accounts_access_control(prefix: str, users: tuple[str, ...], *, workers: bool = False) -> dict[str, Any]:
+    """The `access_control` block: default deny; each user's session reaches its own space only. `workers`:
+    the sessions of WORKER_USER on TLS links (a `--workers` router's engine processes) may do anything."""
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
     for user in users:
-        space = [f"{user_prefix(prefix, user)}/**"]
-        rules.append({"id": f"user-{user}-in", "permission": "allow", "flows": ["ingress"],
-                      "messages": _USER_INGRESS, "key_exprs": space})
+        space = user_prefix(prefix, user)
+        asks = [f"{space}/lb/*/{op}" for op in (*_CLIENT_LB_OPS, "push")]
+        asks += [f"{space}/{key}" for key in _CLIENT_INSTANCE_KEYS]
+        rules.append({"id": f"user-{user}-ask", "permission": "allow", "flows": ["ingress"],
+                      "messages": ["query", "put", "delete"], "key_exprs": asks})
+        # a subscription receives only what the egress rule lets through: any in its own space will do
+        rules.append({"id": f"user-{user}-listen", "permission": "allow", "flows": ["ingress"],
+                      "messages": ["declare_subscriber"], "key_exprs": [f"{space}/**"]})
         rules.append({"id": f"user-{user}-out", "permission": "allow", "flows": ["egress"],
-                      "messages": _USER_EGRESS, "key_exprs": space})
+                      "messages": _USER_EGRESS, "key_exprs": [f"{space}/**"]})
         subjects.append({"id": f"user-{user}", "usernames": [user]})
         policies.append({"id": f"user-{user}", "subjects": [f"user-{user}"],
-                         "rules": [f"user-{user}-in", f"user-{user}-out"]})
+                         "rules": [f"user-{user}-ask", f"user-{user}-listen", f"user-{user}-out"]})
+    if workers:
+        rules.append({"id": "workers", "permission": "allow", "flows": ["ingress", "egress"],
+                      "messages": ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
+                                   "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
+                      # `@workers` is a verbatim chunk, which `**` does not match (service/workers.py)
+                      "key_exprs": ["**", f"{prefix}/@workers/**"]})
+        subjects.append({"id": "workers", "usernames": [WORKER_USER], "link_protocols": ["tls"]})
+        policies.append({"id": "workers", "subjects": ["workers"], "rules": ["workers"]})
     return {"enabled": True, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies}
 
 
-def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts) -> None:
-    """Require a user of `accounts` on every link of `cfg`'s session and put the users' access control in it.
+def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts, *, dictionary: Path | None = None,
+                   workers: bool = False) -> None:
+    """Require a user of `accounts` on every link of `cfg`'s session and put the users' access control in it
+    (`dictionary`: another file to check the logins against, `workers`: see `accounts_access_control`).
 
-    An `access_control` block that a `--zenoh-config` file enables keeps its rules, subjects and policies;
-    the default stays deny."""
-    cfg.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(accounts.path)))
-    ours = accounts_access_control(prefix, accounts.users)
+    An `access_control` block that the config already enables (a `--zenoh-config` file's, the cluster rules of
+    service/security.py) keeps its rules, subjects and policies; the default becomes deny."""
+    cfg.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(dictionary or accounts.path)))
+    ours = accounts_access_control(prefix, accounts.users, workers=workers)
     theirs = json.loads(cfg.get_json("access_control") or "null")
     if isinstance(theirs, dict) and theirs.get("enabled"):
         for part in ("rules", "subjects", "policies"):
@@ -110,7 +141,32 @@ def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts) -> None:
     cfg.insert_json5("access_control", json.dumps(ours))
 
 
+def worker_logins(accounts: Accounts, directory: Path) -> tuple[Path, Path]:
+    """For a `--workers` router: (its dictionary, the users' lines and WORKER_USER's with a fresh random
+    password; the workers' login file, `WORKER_USER:password`), both written in `directory`, readable by
+    this user only."""
+    password = secrets.token_hex(24)
+    dictionary, login = directory / "logins.txt", directory / "worker-login.txt"
+    for path, text in ((dictionary, accounts.path.read_text(encoding="utf-8").rstrip("\n") + "\n"),
+                       (login, "")):
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(f"{text}{WORKER_USER}:{password}\n")
+    return dictionary, login
+
+
+def read_login(path: str | Path) -> tuple[str, str]:
+    """(user, password) of a login file: one `user:password` line."""
+    line = Path(path).read_text(encoding="utf-8").splitlines()[0]
+    user, sep, password = line.partition(":")
+    if not sep or not user or not password:
+        raise AccountsError(f"login file {path}: expected user:password")
+    return user, password
+
+
 def add_accounts_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--users", metavar="FILE",
                    help="Zenoh user:password file: every client must log in as one of its users, and reaches "
                         "its own movers only, under PREFIX/u/USER (docs/protocol.md, 'Accounts')")
+    # set by `--workers` on the processes it starts (service/workers.py): how they log in to its router
+    p.add_argument("--worker-login", metavar="FILE", help=argparse.SUPPRESS)

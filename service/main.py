@@ -16,7 +16,7 @@ import threading
 from dataclasses import replace
 from typing import Any
 
-from .accounts import Accounts, add_accounts_arguments, apply_accounts
+from .accounts import Accounts, add_accounts_arguments, apply_accounts, read_login
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
@@ -58,11 +58,10 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     add_state_arguments(p)
 
 
-def _accounts_conflict(args: argparse.Namespace, workers: int) -> str | None:
-    """The option `--users` cannot go with yet (docs/protocol.md, "Accounts"), if one is given."""
-    if workers > 1:
-        return "--workers"
-    if getattr(args, "cluster", None):
+def _accounts_conflict(args: argparse.Namespace) -> str | None:
+    """The option `--users` cannot go with yet (docs/protocol.md, "Accounts"), if one is given (a worker of
+    `--workers --users` is given its parent's own cluster file: that one goes)."""
+    if getattr(args, "cluster", None) and not getattr(args, "worker_login", None):
         return "--cluster"
     return None
 
@@ -78,7 +77,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: {e}", file=sys.stderr)
         return 2
     if getattr(args, "users", None):
-        conflict = _accounts_conflict(args, workers)
+        conflict = _accounts_conflict(args)
         if conflict:
             print(f"acphys serve: --users does not go with {conflict} yet", file=sys.stderr)
             return 2
@@ -101,13 +100,15 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
     try:
+        # a worker of `--workers --users` logs in to its parent's router, which checks every user's login
+        login = read_login(args.worker_login) if getattr(args, "worker_login", None) else None
         config = make_config(
             config_file=args.zenoh_config, listen=listen, connect=args.connect, mode=args.mode,
-            multicast=args.multicast_scouting,
+            multicast=args.multicast_scouting, user=login[0] if login else None, password=login[1] if login else None,
         )
         ownership = Ownership.parse(args.own)
         accounts = Accounts.load(args.users) if getattr(args, "users", None) else None
-        if accounts is None:
+        if accounts is None or login is not None:
             cluster = security_setup(config, args)
         else:
             cluster = None
@@ -133,8 +134,9 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     nodes: list[ServiceNode] = []
     for user, persistence in zip(users, persistences):
+        info = f"{worker_info}/u/{user}" if worker_info and user is not None else worker_info
         tenant = replace(options, prefix=user_prefix(args.prefix, user) if user is not None else args.prefix,
-                         on_handover_in=persistence.save_locked if persistence.path else None)
+                         info_prefix=info, on_handover_in=persistence.save_locked if persistence.path else None)
         nodes.append(ServiceNode(world, config, tenant, shared_with=nodes[0] if nodes else None))
     node = nodes[0]
     try:
@@ -144,15 +146,15 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         _shutdown(nodes)
         return 2
-    detach = attach_worker(node) if worker_info else None
+    detach = [attach_worker(n) for n in nodes] if worker_info else []
     named = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}"
           f"{named}", flush=True)
     while not stop.wait(persistences[0].tick):
         for n, persistence in zip(nodes, persistences):
             persistence.maybe_save(n)
-    if detach is not None:
-        detach()
+    for undo in detach:
+        undo()
     _shutdown(nodes)
     saved = [persistence.save(n) for n, persistence in zip(nodes, persistences)]  # every file, even after a failure
     if not all(saved):

@@ -21,10 +21,12 @@ import logging
 import signal
 import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 import zenoh
 
+from .accounts import Accounts, apply_accounts
 from .security import ClusterConfig, apply_security
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
@@ -36,9 +38,12 @@ log = logging.getLogger("acphys.router")
 
 def router_config(listen: list[str] | None, connect: list[str] | None = None, config_file: str | None = None,
                   multicast: bool | None = None, *, prefix: str = DEFAULT_PREFIX,
-                  cluster: ClusterConfig | None = None) -> zenoh.Config:
+                  cluster: ClusterConfig | None = None,
+                  logins: tuple[Accounts, Path] | None = None) -> zenoh.Config:
     """A zenoh.Config for a router: the service's defaults (loopback, no multicast) in router mode, with
-    the access-control rules of `prefix` and, given a cluster, its TLS links.
+    the access-control rules of `prefix` and, given a cluster, its TLS links. `logins`: the users of a
+    `serve --workers --users` service and the dictionary its router checks logins against (the users' and
+    the workers', service/accounts.py).
 
     A router that is the only way between its clients must not be bypassed: peers that reach it
     are not told to connect to each other (gossip off), so every message takes Zenoh's routes through it.
@@ -47,6 +52,9 @@ def router_config(listen: list[str] | None, connect: list[str] | None = None, co
     if not config_file:
         cfg.insert_json5("scouting/gossip/enabled", json.dumps(False))
     apply_security(cfg, prefix, cluster)
+    if logins is not None:
+        accounts, dictionary = logins
+        apply_accounts(cfg, prefix, accounts, dictionary=dictionary, workers=True)
     return cfg
 
 

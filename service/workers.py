@@ -22,6 +22,13 @@ no wildcard such as `P/**` reaches it), and the parent answers the public
 (service/aggregate.py). It watches the workers: one that dies is logged and
 Health says `degraded`. SIGINT/SIGTERM to the parent stops every worker
 (each finishes its queue), then the router.
+
+With `--users` (service/accounts.py) the router checks every login and
+carries the users' access control; each worker logs in to it as the
+internal user WORKER_USER (a password made at start, in the private
+directory beside the certificates) and runs one tenant per user, whose
+private keys are `P/@workers/<parent id>/<index>/u/<user>/...`; the parent
+answers each user's `P/u/<user>/health`, `stats` and `landblocks`.
 """
 
 from __future__ import annotations
@@ -49,6 +56,7 @@ from collections.abc import Callable
 import msgpack
 import zenoh
 
+from .accounts import Accounts, worker_logins
 from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
 from .errors import ProtocolError
 from .frames import pack
@@ -59,7 +67,7 @@ from .certificates import INSTANCE_CN, make_certificates
 from .router import router_config
 from .security import ClusterConfig
 from .stats import ServiceStats
-from .wire import ErrorKind, Keys
+from .wire import ErrorKind, Keys, user_prefix
 from .zconfig import DEFAULT_ENDPOINT
 
 __all__ = ["worker_count", "serve_workers", "attach_worker", "die_with_parent", "WorkerSupervisor"]
@@ -190,6 +198,11 @@ class WorkerSupervisor:
         self._cluster_dir: Path | None = None  # the throwaway certificates and the workers' cluster file
         self._worker_cluster: Path | None = None
         self.listen: list[str] | None = None
+        #: `--users` (service/accounts.py): the users, and the router's dictionary and the workers' login file
+        self.accounts: Accounts | None = None
+        self._logins: tuple[Path, Path] | None = None
+        #: the face's request counters, per key space (a user's, or None: the public prefix)
+        self._face_stats: dict[str | None, ServiceStats] = {}
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> list[Ownership]:
@@ -212,6 +225,8 @@ class WorkerSupervisor:
                  "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
                  "--log-level", a.log_level,
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
+        if self.accounts is not None and self._logins is not None:
+            argv += ["--users", str(self.accounts.path), "--worker-login", str(self._logins[1])]
         if getattr(a, "state", None):
             # each worker keeps its own movers: one file per worker of this split (the same --workers and
             # world give the same split, so a restart finds each mover in the file of its landblock's worker)
@@ -234,6 +249,8 @@ class WorkerSupervisor:
             ca, cert, key = given.ca.resolve(), given.cert.resolve(), given.key.resolve()
         else:
             ca, cert, key = d / "ca.pem", d / f"{INSTANCE_CN}.pem", d / f"{INSTANCE_CN}-key.pem"
+        if self.accounts is not None and self._logins is None:
+            self._logins = worker_logins(self.accounts, d)
         self._worker_cluster = d / "worker.json"
         self._worker_cluster.write_text(json.dumps({"ca": str(ca), "cert": str(cert), "key": str(key),
                                                     "connect": [private]}))
@@ -245,6 +262,7 @@ class WorkerSupervisor:
         """Open the router, start the workers, wait until each serves through the router, answer the face."""
         parts = self.plan()
         a = self.args
+        self.accounts = Accounts.load(a.users) if getattr(a, "users", None) else None
         if a.zenoh_config and not a.listen:
             # the workers' private endpoint is added to the listen list, which then replaces the file's
             raise ValueError("--workers with --zenoh-config needs --listen too (the workers' private endpoint joins it)")
@@ -252,9 +270,11 @@ class WorkerSupervisor:
         for attempt in range(5):  # the free port may be taken between finding and binding it
             self._private_endpoint = f"tls/127.0.0.1:{_free_loopback_port()}"
             try:
+                cluster = self._cluster(self._private_endpoint)
+                logins = (self.accounts, self._logins[0]) if self.accounts is not None and self._logins else None
                 self.session = zenoh.open(router_config(list(self.listen), a.connect, a.zenoh_config,
                                                         a.multicast_scouting, prefix=a.prefix,
-                                                        cluster=self._cluster(self._private_endpoint)))
+                                                        cluster=cluster, logins=logins))
                 break
             except Exception:
                 if attempt == 4:
@@ -280,13 +300,19 @@ class WorkerSupervisor:
                                        + "".join(w.output))
         self._wait_routed(deadline)
         s = self.session
-        # indirect: each answer waits on a query to the workers, which must not hold up Zenoh's own threads
-        self._declared = [
-            s.declare_queryable(key, zenoh.handlers.Callback(self._answer(op, build), indirect=True))
-            for key, op, build in ((self.keys.health, "health", lambda: HEALTH.written(self._health())),
-                                   (self.keys.stats, "stats", lambda: STATS.written(self._stats())),
-                                   (self.keys.landblocks, "landblocks", lambda: LANDBLOCK_LIST.written(self._landblocks())))
-        ]
+        # one face per key space: the public prefix, or with accounts each user's (answered from that user's
+        # tenants in the workers). Indirect: each answer waits on a query to the workers, which must not hold
+        # up Zenoh's own threads
+        for user in self._spaces():
+            keys = Keys(user_prefix(a.prefix, user)) if user is not None else self.keys
+            self._face_stats[user] = ServiceStats()
+            self._declared += [
+                s.declare_queryable(key, zenoh.handlers.Callback(self._answer(op, build, user), indirect=True))
+                for key, op, build in (
+                    (keys.health, "health", lambda u=user: HEALTH.written(self._health(u))),
+                    (keys.stats, "stats", lambda u=user: STATS.written(self._stats(u))),
+                    (keys.landblocks, "landblocks", lambda u=user: LANDBLOCK_LIST.written(self._landblocks(u))))
+            ]
         for w in self.workers:
             log.info("worker %d: pid %d, instance %s, owns %s", w.index, w.proc.pid if w.proc else -1, w.instance,
                      w.ownership.to_text())
@@ -307,7 +333,7 @@ class WorkerSupervisor:
         """Until every worker answers its private health through the router (its keys are declared there)."""
         want = {w.index for w in self.workers}
         while True:
-            got = set(self._ask("health"))
+            got = set(self._ask("health", self._spaces()[0]))
             if want <= got:
                 return
             if time.monotonic() > deadline:
@@ -356,8 +382,13 @@ class WorkerSupervisor:
         return 0 if clean else 1
 
     # -- the service's face -----------------------------------------------------------------------
-    def _ask(self, what: str) -> dict[int, dict[str, Any]]:
-        """Every worker's answer on its private `what` key, by worker index (those that answered)."""
+    def _spaces(self) -> list[str | None]:
+        """The key spaces the workers serve: each user's with accounts, else the public prefix (None)."""
+        return list(self.accounts.users) if self.accounts is not None else [None]
+
+    def _ask(self, what: str, user: str | None = None) -> dict[int, dict[str, Any]]:
+        """Every worker's answer on its private `what` key (of `user`'s tenant, with accounts), by worker index
+        (those that answered)."""
         session = self.session
         if session is None:
             return {}
@@ -365,7 +396,8 @@ class WorkerSupervisor:
         by_instance = {w.instance: w.index for w in self.workers}
         prefix = private_prefix(self.keys.prefix, self.instance)
         try:
-            replies = session.get(f"{prefix}/*/{what}", target=zenoh.QueryTarget.ALL,
+            key = f"{prefix}/*/u/{user}/{what}" if user is not None else f"{prefix}/*/{what}"
+            replies = session.get(key, target=zenoh.QueryTarget.ALL,
                                   consolidation=zenoh.ConsolidationMode.NONE,
                                   timeout=HEALTH_TIMEOUT if what == "health" else INFO_TIMEOUT)
             for r in replies:
@@ -386,28 +418,31 @@ class WorkerSupervisor:
     def _views(self) -> list[WorkerView]:
         return [w.view() for w in self.workers]
 
-    def _health(self) -> dict[str, Any]:
-        return merge_health(self._base(), self._ask("health"), self._views(), self.draining)
+    def _health(self, user: str | None = None) -> dict[str, Any]:
+        return merge_health(self._base(), self._ask("health", user), self._views(), self.draining)
 
-    def _stats(self) -> dict[str, Any]:
-        replies, samples = self._ask("stats"), self._ask("samples")
-        snap = self.stats.snapshot()
+    def _stats(self, user: str | None = None) -> dict[str, Any]:
+        replies, samples = self._ask("stats", user), self._ask("samples", user)
+        snap = self._face_stats.get(user, self.stats).snapshot()
         parent = {"requests": snap["requests"], "errors": snap["errors"]}
         return merge_stats(self._base(), parent, replies, samples, self._views(), self.draining)
 
-    def _landblocks(self) -> dict[str, Any]:
+    def _landblocks(self, user: str | None = None) -> dict[str, Any]:
         own = Ownership.parse(self.args.own)
-        return merge_landblocks({"instance": self.instance, "owned": own.to_wire()}, self._ask("landblocks"),
+        return merge_landblocks({"instance": self.instance, "owned": own.to_wire()}, self._ask("landblocks", user),
                                 self._views())
 
-    def _answer(self, op: str, build: Callable[[], dict[str, Any]]) -> Callable[[zenoh.Query], None]:
+    def _answer(self, op: str, build: Callable[[], dict[str, Any]],
+                user: str | None = None) -> Callable[[zenoh.Query], None]:
+        stats = self._face_stats.get(user, self.stats)
+
         def handler(query: zenoh.Query) -> None:
-            self.stats.request(op)
+            stats.request(op)
             try:  # the payload is not read, as a single instance does not read it
                 query.reply(query.key_expr, pack(build()))
             except Exception as e:  # never let it reach zenoh's thread
                 log.exception("answering %s failed", op)
-                self.stats.error(ErrorKind.INTERNAL)
+                stats.error(ErrorKind.INTERNAL)
                 query.reply_err(pack({"error": ProtocolError(ErrorKind.INTERNAL, f"internal error: {e}").to_wire()}))
             finally:
                 query.drop()
@@ -437,8 +472,9 @@ def serve_workers(args: argparse.Namespace, count: int) -> int:
         print(f"acphys serve: cannot start the workers: {e}", file=sys.stderr)
         sup.shutdown()
         return 2
+    named = f"; users {', '.join(sup.accounts.users)} under {args.prefix}/u/USER" if sup.accounts is not None else ""
     print(f"acphys service ready: instance {sup.instance}, listening on {', '.join(sup.listen or ['(config file)'])}, "
-          f"{len(sup.workers)} workers", flush=True)
+          f"{len(sup.workers)} workers{named}", flush=True)
     while not stop.wait(0.2):
         sup.watch()
     code = sup.shutdown()

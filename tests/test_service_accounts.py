@@ -227,8 +227,8 @@ def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
     assert Accounts.load(path).users == ("alice", "bob.builder")
 
 
-@pytest.mark.parametrize("extra", [["--users", "/nonexistent/users.txt"], ["--users", "USERS", "--workers", "2"],
-                                   ["--users", "USERS", "--cluster", "CLUSTER"]])
+@pytest.mark.parametrize("extra", [["--users", "/nonexistent/users.txt"], ["--users", "USERS", "--cluster", "CLUSTER"],
+                                   ["--users", "USERS", "--workers", "2", "--cluster", "CLUSTER"]])
 def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str]) -> None:
     args = [a.replace("USERS", str(users_file)).replace("CLUSTER", str(tmp_path / "cluster.json")) for a in extra]
     proc = subprocess.run([sys.executable, "-m", "service", "--scene", str(ROOT / "clients/demo/demo.json"),
@@ -259,3 +259,41 @@ def test_each_users_movers_come_back_after_a_restart(users_file: Path, tmp_path:
     assert (back_his.seq, back_his.position.origin) == (0, his.position.origin)
     assert back_hers.position.origin != back_his.position.origin
 
+
+
+def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
+    """`--workers 2 --users`: alice's mover walks from the west worker's landblock into the east one's (a
+    hand-over between the workers, in her space); bob reaches it on neither, cannot hand a mover over
+    himself, and each user's Health counts that user's movers over both workers."""
+    with ServiceProcess(extra=["--users", str(users_file), "--workers", "2"]) as svc:
+        with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
+            start = alice.register(human(), _ground(186.0), mover_id=0x705)
+            seen: list[int] = []
+            sub = alice.subscribe(lambda st: seen.append(st.seq), mover_id=0x705)
+            time.sleep(0.5)
+            states = [alice.move(0x705, offset=(1.0, 0.0, 0.0)) for _ in range(12)]
+            assert [s.seq for s in states] == list(range(1, 13))
+            assert start.landblock == 0xA9B4 and states[-1].landblock == 0xAAB4
+            assert wait_until(lambda: len(seen) >= 12, timeout=5.0), seen
+            sub.close()
+            assert seen == list(range(1, 13))
+            assert [i.data["workers"] for i in alice.health()] == [2]
+            assert [i.data["movers"] for i in alice.health()] == [1]
+            assert [i.data["movers"] for i in bob.health()] == [0]
+            for lb in (0xA9B4, 0xAAB4):
+                bob.locate(0x705, lb)
+                with pytest.raises(ServiceError) as e:
+                    bob.get(0x705)
+                assert e.value.kind in ("unknown_mover", "wrong_landblock")
+            raw = _session(svc, "bob")
+            try:
+                forged = {"id": 0x51, "seq": 1, "from": "bob", "mover": {"spheres": [[0, 0, 0.48, 0.48]]},
+                          "position": {"cell": (0xAAB4 << 16) | 1, "origin": [10.0, 10.0, 60.0],
+                                       "orientation": [1.0, 0.0, 0.0, 0.0]}}
+                for key in ("acphys/u/bob/lb/AAB4/handover", "acphys/u/bob/lb/AAB4/*", "acphys/u/alice/lb/AAB4/get"):
+                    assert _replies(raw, key, forged) == [], key
+            finally:
+                raw.close()
+            with pytest.raises(ServiceError):
+                bob.find(0x51, timeout=2.0)
+            assert alice.get(0x705)[0].seq == 12
