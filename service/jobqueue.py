@@ -1,10 +1,14 @@
-"""The engine thread's inbox: a bounded lane for requests, a priority lane.
+"""The engine thread's inbox: bounded lanes for requests, a priority lane.
 
-Requests from the bus go to the bounded lane and are refused when it is
+Requests from the bus go to a bounded lane and are refused when it is
 full (the caller replies `busy`): the queue never grows without bound.
-The priority lane carries the service's own work (hand-over arrivals and
-replies) which must not be refused and may be taken while the engine
-thread waits on a hand-over.
+Each tenant of a service with accounts (service/accounts.py) has a lane of
+its own, with the whole capacity, and the engine thread takes the lanes'
+requests in turn: one user's flood fills that user's lane only, and waits
+its turn behind the others' requests instead of ahead of them. Within a
+lane requests run in arrival order. The priority lane carries the
+service's own work (hand-over arrivals and replies) which must not be
+refused and may be taken while the engine thread waits on a hand-over.
 """
 
 from __future__ import annotations
@@ -23,8 +27,9 @@ class JobQueue:
     def __init__(self, capacity: int) -> None:
         if capacity < 1:
             raise ValueError("capacity must be at least 1")
-        self.capacity = capacity
-        self._normal: deque[Job] = deque()
+        self.capacity = capacity  # of each lane
+        self._lanes: list[deque[Job]] = [deque()]  # lane 0 is there from the start
+        self._turn = 0  # the lane `get` looks at first
         self._priority: deque[Job] = deque()
         self._cond = threading.Condition()
         self._closed = False
@@ -32,14 +37,26 @@ class JobQueue:
 
     def __len__(self) -> int:
         with self._cond:
-            return len(self._normal) + len(self._priority)
+            return sum(len(lane) for lane in self._lanes) + len(self._priority)
 
-    def offer(self, job: Job) -> bool:
-        """Queue a request; False (nothing queued) when full or closed."""
+    def new_lane(self) -> int:
+        """Another bounded lane (a tenant's); its number, for `offer` and `depth`."""
         with self._cond:
-            if self._closed or len(self._normal) >= self.capacity:
+            self._lanes.append(deque())
+            return len(self._lanes) - 1
+
+    def depth(self, lane: int) -> int:
+        """Requests waiting in one lane."""
+        with self._cond:
+            return len(self._lanes[lane])
+
+    def offer(self, job: Job, lane: int = 0) -> bool:
+        """Queue a request in `lane`; False (nothing queued) when that lane is full or the queue closed."""
+        with self._cond:
+            queue = self._lanes[lane]
+            if self._closed or len(queue) >= self.capacity:
                 return False
-            self._normal.append(job)
+            queue.append(job)
             self._unfinished += 1
             self._cond.notify()
             return True
@@ -88,8 +105,16 @@ class JobQueue:
             while True:
                 if self._priority:
                     return self._priority.popleft()
-                if self._normal:
-                    return self._normal.popleft()
+                lanes = self._lanes
+                if len(lanes) == 1:  # no tenants: the one lane, without the turn's arithmetic
+                    if lanes[0]:
+                        return lanes[0].popleft()
+                else:
+                    for k in range(len(lanes)):  # the lanes in turn, from the one after the last served
+                        i = (self._turn + k) % len(lanes)
+                        if lanes[i]:
+                            self._turn = (i + 1) % len(lanes)
+                            return lanes[i].popleft()
                 if self._closed:
                     return None
                 remaining = None if deadline is None else deadline - time.monotonic()

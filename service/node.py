@@ -117,6 +117,8 @@ class ServiceNode:
         self.tenants: list[ServiceNode] = shared_with.tenants if shared_with is not None else []
         self.tenants.append(self)
         self.queue: JobQueue = shared_with.queue if shared_with is not None else JobQueue(self.options.queue_capacity)
+        #: this node's lane of the queue: a tenant's requests wait in a lane of their own (service/jobqueue.py)
+        self._lane = self.queue.new_lane() if shared_with is not None else 0
         self.session: zenoh.Session | None = None
         self.core: ServiceCore | None = None
         self._declared: list[Any] = []
@@ -255,7 +257,7 @@ class ServiceNode:
                 self._engine_lock.release()
             if run_now:
                 return True
-        return self.queue.offer(job)
+        return self.queue.offer(job, self._lane)
 
     def _world_changed(self, answer: dict[str, Any]) -> dict[str, Any]:
         """After a landblock load or unload (the engine lock held): the heap settled again, when tuned."""
@@ -543,7 +545,7 @@ class ServiceNode:
             "status": "draining" if self._draining else "ok",
             **capabilities(),
             "uptime_s": time.monotonic() - self.stats.started,
-            "queue_depth": len(self.queue),
+            "queue_depth": self.queue.depth(self._lane),
             "queue_capacity": self.queue.capacity,
             "movers": len(core.movers) if core else 0,
             "workers": 1,
@@ -560,7 +562,7 @@ class ServiceNode:
             **snap,
             "loaded_landblocks": list(core.loaded) if core else [],
             "movers": len(core.movers) if core else 0,
-            "queue_depth": len(self.queue),
+            "queue_depth": self.queue.depth(self._lane),
             "queue_capacity": self.queue.capacity,
             "workers": 1,
         }))

@@ -152,6 +152,56 @@ def test_states_reach_their_own_user_only(service: ServiceProcess) -> None:
         alice.remove(0x702)
 
 
+def test_one_users_flood_leaves_the_others_served(users_file: Path) -> None:
+    """With a queue of 4 per user, alice floods her push key with batches (of over 128 moves: always queued,
+    never run in the callback) far faster than the engine runs them, so that they are refused (`busy`, on
+    her movers' error keys); bob's moves sent meanwhile wait in his own lane, behind at most one of hers,
+    and none is refused. (With one lane for both, his are refused too.)"""
+    with ServiceProcess(extra=["--users", str(users_file), "--queue", "4"]) as svc:
+        with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
+            ids = [alice.register(human(), _ground(20.0 + 2.0 * k), mover_id=0x800 + k).id for k in range(8)]
+            bob.register(human(), _ground(100.0), mover_id=0x900)
+            raw = _session(svc, "alice")
+            refused: list[str] = []
+            try:
+                sub = raw.declare_subscriber("acphys/u/alice/obj/*/error", lambda s: refused.append(
+                    msgpack.unpackb(s.payload.to_bytes())["error"]["kind"]))
+                pub = raw.declare_publisher("acphys/u/alice/lb/A9B4/push",
+                                            congestion_control=zenoh.CongestionControl.BLOCK)
+                batch = msgpack.packb({"v": 1, "moves": [{"id": ids[k % len(ids)], "offset": [0.01, 0.0, 0.0]}
+                                                         for k in range(200)]})
+                time.sleep(0.3)
+                done = threading.Event()
+
+                def flood() -> None:
+                    for _ in range(20_000):  # until bob is done (bounded)
+                        if done.is_set():
+                            return
+                        pub.put(batch)
+                        time.sleep(0.001)
+
+                flooder = threading.Thread(target=flood)
+                flooder.start()
+                bob_kinds: list[str] = []
+                seqs: list[int] = []
+                try:
+                    assert wait_until(lambda: "busy" in refused, timeout=30.0), refused[:5]
+                    for _ in range(10):
+                        try:
+                            seqs.append(bob.move(0x900, offset=(0.05, 0.0, 0.0), timeout=30.0).seq)
+                        except ServiceError as e:
+                            bob_kinds.append(e.kind)
+                finally:
+                    done.set()
+                    flooder.join(60)
+                sub.undeclare()
+                pub.undeclare()
+            finally:
+                raw.close()
+            assert bob_kinds == []
+            assert seqs == list(range(1, 11))
+
+
 def test_without_the_right_password_there_is_no_service(service: ServiceProcess) -> None:
     for user, password in (("bob", "not-his"), ("alice", USERS["bob"]), ("mallory", "anything")):
         with Client([service.endpoint], user=user, password=password, timeout=1.0) as c:

@@ -40,6 +40,24 @@ def test_job_queue_bounds_requests_but_not_priority_work() -> None:
     assert q.get() is None and ran[-1] == "d"
 
 
+def test_job_queue_lanes_are_bounded_apart_and_served_in_turn() -> None:
+    q = JobQueue(3)
+    other = q.new_lane()
+    ran: list[str] = []
+    for name in ("a1", "a2", "a3"):
+        assert q.offer(lambda n=name: ran.append(n))
+    assert not q.offer(lambda: ran.append("a4"))  # lane 0 is full ...
+    assert q.offer(lambda: ran.append("b1"), other)  # ... the other lane is not
+    assert q.offer(lambda: ran.append("b2"), other)
+    assert (q.depth(0), q.depth(other), len(q)) == (3, 2, 5)
+    while (job := q.get(timeout=0.01)) is not None:
+        job()
+        q.task_done()
+    # in turn, each lane in its own order
+    assert ran == ["a1", "b1", "a2", "b2", "a3"]
+    assert q.idle
+
+
 def test_latency_percentiles() -> None:
     w = LatencyWindow(size=1000)
     for k in range(1, 101):
