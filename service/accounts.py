@@ -16,9 +16,11 @@ authentication reads). Then:
   service send it replies, States and declarations on that space only.
   Another user's keys are unreachable: their queryables are never declared
   to it, and what it sends there is dropped on arrival.
-- Behind `serve --workers` the router checks the logins and carries the
-  access control; the workers log in to it as WORKER_USER over their TLS
-  links, with a password made at start.
+- The instances of a cluster (`--cluster`, whose file then names a
+  `password` file) log in to each other as INSTANCE_USER over their TLS
+  links; behind `serve --workers` the router checks the logins and carries
+  the access control, and the workers log in to it the same way, with a
+  password made at start.
 
 The user is never read from a message: a queryable cannot learn who
 authenticated, and a message's source information is whatever the sender
@@ -32,6 +34,9 @@ import argparse
 import json
 import os
 import secrets
+import shutil
+import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,8 +46,8 @@ import zenoh
 from .wire import LB_QUERY_OPS, check_user_name, user_prefix
 
 __all__ = [
-    "Accounts", "AccountsError", "WORKER_USER", "accounts_access_control", "apply_accounts", "worker_logins",
-    "read_login", "add_accounts_arguments",
+    "Accounts", "AccountsError", "INSTANCE_USER", "accounts_access_control", "apply_accounts",
+    "new_instance_password", "add_accounts_arguments",
 ]
 
 #: The operations a user's session may ask for, each on its own key in the user's space: every per-landblock
@@ -53,9 +58,10 @@ _CLIENT_INSTANCE_KEYS = ("health", "stats", "landblocks")
 #: What the service may send a user's session, on that user's space only (its queryables and subscribers
 #: must be declared to the session for Zenoh to route the session's requests to them at all).
 _USER_EGRESS = ["reply", "put", "delete", "declare_queryable", "declare_subscriber"]
-#: The user name the processes of `serve --workers` log in to its router with (service/workers.py): a name
-#: no users file may hold (`check_user_name` refuses the `@`).
-WORKER_USER = "@worker"
+#: The user name the instances of a cluster log in to each other with, and the processes of `serve
+#: --workers` to its router (service/workers.py): a name no users file may hold (`check_user_name` refuses
+#: the `@`).
+INSTANCE_USER = "@instance"
 
 
 class AccountsError(ValueError):
@@ -94,9 +100,10 @@ class Accounts:
         return cls(path.resolve(), tuple(users))
 
 
-def accounts_access_control(prefix: str, users: tuple[str, ...], *, workers: bool = False) -> dict[str, Any]:
-    """The `access_control` block: default deny; each user's session reaches its own space only. `workers`:
-    the sessions of WORKER_USER on TLS links (a `--workers` router's engine processes) may do anything."""
+def accounts_access_control(prefix: str, users: tuple[str, ...], *, instances: bool = False) -> dict[str, Any]:
+    """The `access_control` block: default deny; each user's session reaches its own space only. `instances`:
+    the sessions on TLS links (the other instances of a cluster, a `--workers` router's engine processes,
+    which log in as INSTANCE_USER) may do anything."""
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
@@ -114,59 +121,63 @@ def accounts_access_control(prefix: str, users: tuple[str, ...], *, workers: boo
         subjects.append({"id": f"user-{user}", "usernames": [user]})
         policies.append({"id": f"user-{user}", "subjects": [f"user-{user}"],
                          "rules": [f"user-{user}-ask", f"user-{user}-listen", f"user-{user}-out"]})
-    if workers:
-        rules.append({"id": "workers", "permission": "allow", "flows": ["ingress", "egress"],
+    if instances:
+        rules.append({"id": "instances", "permission": "allow", "flows": ["ingress", "egress"],
                       "messages": ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
                                    "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
                       # `@workers` is a verbatim chunk, which `**` does not match (service/workers.py)
                       "key_exprs": ["**", f"{prefix}/@workers/**"]})
-        subjects.append({"id": "workers", "usernames": [WORKER_USER], "link_protocols": ["tls"]})
-        policies.append({"id": "workers", "subjects": ["workers"], "rules": ["workers"]})
+        # any TLS link: its mutual TLS proved an instance of the cluster (service/security.py). Not the user
+        # name as well: only the side that connects logs in, so the other side would not know the link's user
+        subjects.append({"id": "instances", "link_protocols": ["tls"]})
+        policies.append({"id": "instances", "subjects": ["instances"], "rules": ["instances"]})
     return {"enabled": True, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies}
 
 
-def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts, *, dictionary: Path | None = None,
-                   workers: bool = False) -> None:
-    """Require a user of `accounts` on every link of `cfg`'s session and put the users' access control in it
-    (`dictionary`: another file to check the logins against, `workers`: see `accounts_access_control`).
+def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts, *,
+                   instance_password: str | None = None) -> Callable[[], None]:
+    """Require a user of `accounts` on every link of `cfg`'s session and put the users' access control in it.
 
-    An `access_control` block that the config already enables (a `--zenoh-config` file's, the cluster rules of
-    service/security.py) keeps its rules, subjects and policies; the default becomes deny."""
-    cfg.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(dictionary or accounts.path)))
-    ours = accounts_access_control(prefix, accounts.users, workers=workers)
+    `instance_password`: this session is an instance of a cluster (or a `--workers` router or worker), whose
+    instances log in to each other as INSTANCE_USER with it; they may do anything on their TLS links. The
+    logins are then checked against a copy of the users file with INSTANCE_USER's line added, in a private
+    temporary directory: call what this returns once the session is open (Zenoh reads the file at open) to
+    remove it. An `access_control` block that the config already enables (a `--zenoh-config` file's, the
+    cluster rules of service/security.py) keeps its rules, subjects and policies; the default becomes deny."""
+    dictionary, forget = accounts.path, _nothing
+    if instance_password is not None:
+        directory = Path(tempfile.mkdtemp(prefix="acphys-logins-"))  # mode 0700
+        dictionary = directory / "logins.txt"
+        fd = os.open(dictionary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(accounts.path.read_text(encoding="utf-8").rstrip("\n") + "\n")
+            f.write(f"{INSTANCE_USER}:{instance_password}\n")
+
+        def forget() -> None:
+            shutil.rmtree(directory, ignore_errors=True)
+
+        cfg.insert_json5("transport/auth/usrpwd/user", json.dumps(INSTANCE_USER))
+        cfg.insert_json5("transport/auth/usrpwd/password", json.dumps(instance_password))
+    cfg.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(dictionary)))
+    ours = accounts_access_control(prefix, accounts.users, instances=instance_password is not None)
     theirs = json.loads(cfg.get_json("access_control") or "null")
     if isinstance(theirs, dict) and theirs.get("enabled"):
         for part in ("rules", "subjects", "policies"):
             ours[part] = list(theirs.get(part) or []) + ours[part]
     cfg.insert_json5("access_control", json.dumps(ours))
+    return forget
 
 
-def worker_logins(accounts: Accounts, directory: Path) -> tuple[Path, Path]:
-    """For a `--workers` router: (its dictionary, the users' lines and WORKER_USER's with a fresh random
-    password; the workers' login file, `WORKER_USER:password`), both written in `directory`, readable by
-    this user only."""
-    password = secrets.token_hex(24)
-    dictionary, login = directory / "logins.txt", directory / "worker-login.txt"
-    for path, text in ((dictionary, accounts.path.read_text(encoding="utf-8").rstrip("\n") + "\n"),
-                       (login, "")):
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(f"{text}{WORKER_USER}:{password}\n")
-    return dictionary, login
+def _nothing() -> None:
+    pass
 
 
-def read_login(path: str | Path) -> tuple[str, str]:
-    """(user, password) of a login file: one `user:password` line."""
-    line = Path(path).read_text(encoding="utf-8").splitlines()[0]
-    user, sep, password = line.partition(":")
-    if not sep or not user or not password:
-        raise AccountsError(f"login file {path}: expected user:password")
-    return user, password
+def new_instance_password() -> str:
+    """A password for the instances of one `serve --workers` (made at each start, never shown)."""
+    return secrets.token_hex(24)
 
 
 def add_accounts_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--users", metavar="FILE",
                    help="Zenoh user:password file: every client must log in as one of its users, and reaches "
                         "its own movers only, under PREFIX/u/USER (docs/protocol.md, 'Accounts')")
-    # set by `--workers` on the processes it starts (service/workers.py): how they log in to its router
-    p.add_argument("--worker-login", metavar="FILE", help=argparse.SUPPRESS)

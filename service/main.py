@@ -13,10 +13,11 @@ import logging
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from .accounts import Accounts, add_accounts_arguments, apply_accounts, read_login
+from .accounts import Accounts, add_accounts_arguments, apply_accounts
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
@@ -58,12 +59,8 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     add_state_arguments(p)
 
 
-def _accounts_conflict(args: argparse.Namespace) -> str | None:
-    """The option `--users` cannot go with yet (docs/protocol.md, "Accounts"), if one is given (a worker of
-    `--workers --users` is given its parent's own cluster file: that one goes)."""
-    if getattr(args, "cluster", None) and not getattr(args, "worker_login", None):
-        return "--cluster"
-    return None
+def _no_logins_file() -> None:
+    """Without accounts in a cluster there is no temporary logins file to remove (service/accounts.py)."""
 
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
@@ -76,11 +73,6 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     except argparse.ArgumentTypeError as e:
         print(f"acphys serve: {e}", file=sys.stderr)
         return 2
-    if getattr(args, "users", None):
-        conflict = _accounts_conflict(args)
-        if conflict:
-            print(f"acphys serve: --users does not go with {conflict} yet", file=sys.stderr)
-            return 2
     if workers > 1 and world is None:
         return serve_workers(args, workers)
     worker_info = getattr(args, "worker_info", None)
@@ -99,25 +91,25 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         listen = []  # a worker only connects to its parent's router
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
+    forget_logins: Callable[[], None] = _no_logins_file
     try:
-        # a worker of `--workers --users` logs in to its parent's router, which checks every user's login
-        login = read_login(args.worker_login) if getattr(args, "worker_login", None) else None
         config = make_config(
             config_file=args.zenoh_config, listen=listen, connect=args.connect, mode=args.mode,
-            multicast=args.multicast_scouting, user=login[0] if login else None, password=login[1] if login else None,
+            multicast=args.multicast_scouting,
         )
         ownership = Ownership.parse(args.own)
         accounts = Accounts.load(args.users) if getattr(args, "users", None) else None
-        if accounts is None or login is not None:
-            cluster = security_setup(config, args)
-        else:
-            cluster = None
-            apply_accounts(config, args.prefix, accounts)
+        cluster = security_setup(config, args)
+        if accounts is not None:
+            # the instances of a cluster (a `--workers` worker too) log in to each other with its password
+            password = cluster.instance_password() if cluster is not None else None
+            forget_logins = apply_accounts(config, args.prefix, accounts, instance_password=password)
         # with accounts, one tenant per user over the one world (service/accounts.py), each with its own state
         # file; the first tenant is the host
         users: list[str | None] = list(accounts.users) if accounts is not None else [None]
         persistences = [Persistence.from_args(args, user) for user in users]
     except Exception as e:
+        forget_logins()
         print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
         return 2
     options = NodeOptions(
@@ -146,6 +138,8 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         print(f"acphys serve: cannot start: {e}", file=sys.stderr)
         _shutdown(nodes)
         return 2
+    finally:
+        forget_logins()  # the session has read its copy of the logins (or is not to be)
     detach = [attach_worker(n) for n in nodes] if worker_info else []
     named = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}"

@@ -21,7 +21,7 @@ import logging
 import signal
 import sys
 import threading
-from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import zenoh
@@ -38,12 +38,12 @@ log = logging.getLogger("acphys.router")
 
 def router_config(listen: list[str] | None, connect: list[str] | None = None, config_file: str | None = None,
                   multicast: bool | None = None, *, prefix: str = DEFAULT_PREFIX,
-                  cluster: ClusterConfig | None = None,
-                  logins: tuple[Accounts, Path] | None = None) -> zenoh.Config:
+                  cluster: ClusterConfig | None = None, accounts: Accounts | None = None,
+                  instance_password: str | None = None) -> tuple[zenoh.Config, Callable[[], None]]:
     """A zenoh.Config for a router: the service's defaults (loopback, no multicast) in router mode, with
-    the access-control rules of `prefix` and, given a cluster, its TLS links. `logins`: the users of a
-    `serve --workers --users` service and the dictionary its router checks logins against (the users' and
-    the workers', service/accounts.py).
+    the access-control rules of `prefix` and, given a cluster, its TLS links; and what to call once the
+    session is open. With `accounts` (service/accounts.py) it checks the users' logins and keeps each user
+    to its own keys, the instances logging in with `instance_password` (the cluster file's, unless given).
 
     A router that is the only way between its clients must not be bypassed: peers that reach it
     are not told to connect to each other (gossip off), so every message takes Zenoh's routes through it.
@@ -52,10 +52,13 @@ def router_config(listen: list[str] | None, connect: list[str] | None = None, co
     if not config_file:
         cfg.insert_json5("scouting/gossip/enabled", json.dumps(False))
     apply_security(cfg, prefix, cluster)
-    if logins is not None:
-        accounts, dictionary = logins
-        apply_accounts(cfg, prefix, accounts, dictionary=dictionary, workers=True)
-    return cfg
+    if accounts is None:
+        return cfg, lambda: None
+    if instance_password is None:
+        if cluster is None:
+            raise ValueError("a router with --users needs --cluster (its instances log in with the cluster's password)")
+        instance_password = cluster.instance_password()
+    return cfg, apply_accounts(cfg, prefix, accounts, instance_password=instance_password)
 
 
 def add_router_arguments(p: argparse.ArgumentParser) -> None:
@@ -67,6 +70,9 @@ def add_router_arguments(p: argparse.ArgumentParser) -> None:
                    help="cluster file (as `acphys serve --cluster`): instances reach the router over mutual TLS on its "
                         "`listen` endpoints; without one the router relays no hand-over")
     p.add_argument("--prefix", default=DEFAULT_PREFIX, help="the service's key prefix (default %(default)s)")
+    p.add_argument("--users", metavar="FILE",
+                   help="the instances' users file (as `acphys serve --users`): clients log in here and reach their "
+                        "own keys only; needs --cluster with a 'password' file")
     p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
 
 
@@ -86,7 +92,13 @@ def run_router(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     try:
         cluster = ClusterConfig.load(args.cluster) if args.cluster else None
-        session = zenoh.open(router_config(listen, args.connect, args.zenoh_config, prefix=args.prefix, cluster=cluster))
+        accounts = Accounts.load(args.users) if args.users else None
+        cfg, forget_logins = router_config(listen, args.connect, args.zenoh_config, prefix=args.prefix,
+                                           cluster=cluster, accounts=accounts)
+        try:
+            session = zenoh.open(cfg)
+        finally:
+            forget_logins()
     except Exception as e:
         print(f"acphys router: cannot start: {e}", file=sys.stderr)
         return 2

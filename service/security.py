@@ -24,6 +24,8 @@ The cluster file (`acphys serve --cluster FILE`) is JSON:
 
 Relative paths are read from the file's directory. `listen` is where the
 other instances connect; `connect`, the other instances' TLS endpoints.
+With accounts (`--users`) it also names `"password"`: a file whose first
+line is the password the instances log in to each other with.
 """
 
 from __future__ import annotations
@@ -56,6 +58,22 @@ class ClusterConfig:
     key: Path  # its private key (PEM)
     listen: list[str] = field(default_factory=list)  # TLS endpoints the other instances connect to
     connect: list[str] = field(default_factory=list)  # the other instances' TLS endpoints
+    #: with accounts (service/accounts.py): a file whose first line is the password the cluster's instances
+    #: log in to each other with (as INSTANCE_USER)
+    password: Path | None = None
+
+    def instance_password(self) -> str:
+        """The instances' password (ClusterConfigError without one, or when it cannot be read)."""
+        if self.password is None:
+            raise ClusterConfigError("the cluster file names no 'password' file, which --users needs (the instances "
+                                     "log in to each other)")
+        try:
+            lines = self.password.read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError) as e:
+            raise ClusterConfigError(f"password file {self.password}: {e}") from None
+        if not lines or not lines[0]:
+            raise ClusterConfigError(f"password file {self.password}: the first line is empty")
+        return lines[0]
 
     @classmethod
     def load(cls, path: str | Path) -> ClusterConfig:
@@ -86,14 +104,16 @@ class ClusterConfig:
                 raise ClusterConfigError(f"cluster file {path}: {name} endpoints must be tls/...: {bad}")
             return list(value)
 
-        cfg = cls(file("ca"), file("cert"), file("key"), endpoints("listen"), endpoints("connect"))
+        cfg = cls(file("ca"), file("cert"), file("key"), endpoints("listen"), endpoints("connect"),
+                  file("password") if "password" in raw else None)
         if not cfg.listen and not cfg.connect:
             raise ClusterConfigError(f"cluster file {path}: give 'listen' or 'connect' TLS endpoints (or both)")
         return cfg
 
 
 def access_control(prefix: str) -> dict[str, Any]:
-    """The `access_control` block: what sessions on plain links may not do under `prefix`."""
+    """The `access_control` block: what sessions on plain links may not do under `prefix` (with accounts,
+    service/accounts.py adds its own rules and makes the default deny)."""
     return {
         "enabled": True,
         "default_permission": "allow",

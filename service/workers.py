@@ -25,8 +25,8 @@ Health says `degraded`. SIGINT/SIGTERM to the parent stops every worker
 
 With `--users` (service/accounts.py) the router checks every login and
 carries the users' access control; each worker logs in to it as the
-internal user WORKER_USER (a password made at start, in the private
-directory beside the certificates) and runs one tenant per user, whose
+internal user INSTANCE_USER (a password made at start, in the private
+directory beside the certificates, named by the workers' cluster file) and runs one tenant per user, whose
 private keys are `P/@workers/<parent id>/<index>/u/<user>/...`; the parent
 answers each user's `P/u/<user>/health`, `stats` and `landblocks`.
 """
@@ -56,7 +56,7 @@ from collections.abc import Callable
 import msgpack
 import zenoh
 
-from .accounts import Accounts, worker_logins
+from .accounts import Accounts, new_instance_password
 from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
 from .errors import ProtocolError
 from .frames import pack
@@ -198,9 +198,9 @@ class WorkerSupervisor:
         self._cluster_dir: Path | None = None  # the throwaway certificates and the workers' cluster file
         self._worker_cluster: Path | None = None
         self.listen: list[str] | None = None
-        #: `--users` (service/accounts.py): the users, and the router's dictionary and the workers' login file
+        #: `--users` (service/accounts.py): the users, and the password the workers log in to the router with
         self.accounts: Accounts | None = None
-        self._logins: tuple[Path, Path] | None = None
+        self._instance_password: str | None = None
         #: the face's request counters, per key space (a user's, or None: the public prefix)
         self._face_stats: dict[str | None, ServiceStats] = {}
 
@@ -225,8 +225,8 @@ class WorkerSupervisor:
                  "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
                  "--log-level", a.log_level,
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
-        if self.accounts is not None and self._logins is not None:
-            argv += ["--users", str(self.accounts.path), "--worker-login", str(self._logins[1])]
+        if self.accounts is not None:
+            argv += ["--users", str(self.accounts.path)]
         if getattr(a, "state", None):
             # each worker keeps its own movers: one file per worker of this split (the same --workers and
             # world give the same split, so a restart finds each mover in the file of its landblock's worker)
@@ -249,11 +249,19 @@ class WorkerSupervisor:
             ca, cert, key = given.ca.resolve(), given.cert.resolve(), given.key.resolve()
         else:
             ca, cert, key = d / "ca.pem", d / f"{INSTANCE_CN}.pem", d / f"{INSTANCE_CN}-key.pem"
-        if self.accounts is not None and self._logins is None:
-            self._logins = worker_logins(self.accounts, d)
+        worker: dict[str, Any] = {"ca": str(ca), "cert": str(cert), "key": str(key), "connect": [private]}
+        if self.accounts is not None:
+            # the workers log in to the router with the `--cluster` file's password (other instances use it
+            # too), else one of this start's, beside the certificates
+            if self._instance_password is None:
+                self._instance_password = given.instance_password() if given is not None else new_instance_password()
+            secret = d / "instance-password.txt"
+            fd = os.open(secret, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(self._instance_password + "\n")
+            worker["password"] = str(secret)
         self._worker_cluster = d / "worker.json"
-        self._worker_cluster.write_text(json.dumps({"ca": str(ca), "cert": str(cert), "key": str(key),
-                                                    "connect": [private]}))
+        self._worker_cluster.write_text(json.dumps(worker))
         return ClusterConfig(ca, cert, key, [private, *(given.listen if given else [])],
                              list(given.connect) if given else [])
 
@@ -271,10 +279,13 @@ class WorkerSupervisor:
             self._private_endpoint = f"tls/127.0.0.1:{_free_loopback_port()}"
             try:
                 cluster = self._cluster(self._private_endpoint)
-                logins = (self.accounts, self._logins[0]) if self.accounts is not None and self._logins else None
-                self.session = zenoh.open(router_config(list(self.listen), a.connect, a.zenoh_config,
-                                                        a.multicast_scouting, prefix=a.prefix,
-                                                        cluster=cluster, logins=logins))
+                cfg, forget_logins = router_config(list(self.listen), a.connect, a.zenoh_config, a.multicast_scouting,
+                                                   prefix=a.prefix, cluster=cluster, accounts=self.accounts,
+                                                   instance_password=self._instance_password)
+                try:
+                    self.session = zenoh.open(cfg)
+                finally:
+                    forget_logins()
                 break
             except Exception:
                 if attempt == 4:

@@ -19,11 +19,17 @@ def tls_endpoint() -> str:
     return endpoint(free_port()).replace("tcp/", "tls/")
 
 
-def cluster_file(directory: Path, name: str, listen: list[str], connect: list[str], cn: str = INSTANCE_CN) -> Path:
-    """A cluster file for one instance, its certificates in `directory` (relative paths)."""
+def cluster_file(directory: Path, name: str, listen: list[str], connect: list[str], cn: str = INSTANCE_CN,
+                 password: str | None = None) -> Path:
+    """A cluster file for one instance, its certificates in `directory` (relative paths); `password`: the
+    instances' password for accounts, written to `instance-password.txt` beside it."""
     path = directory / f"cluster-{name}.json"
-    path.write_text(json.dumps({"ca": "ca.pem", "cert": f"{cn}.pem", "key": f"{cn}-key.pem",
-                                "listen": listen, "connect": connect}))
+    content: dict[str, object] = {"ca": "ca.pem", "cert": f"{cn}.pem", "key": f"{cn}-key.pem",
+                                  "listen": listen, "connect": connect}
+    if password is not None:
+        (directory / "instance-password.txt").write_text(password + "\n", encoding="utf-8")
+        content["password"] = "instance-password.txt"
+    path.write_text(json.dumps(content))
     return path
 
 

@@ -11,12 +11,14 @@ bob's mover cannot walk through alice's.
 from __future__ import annotations
 
 import math
+import signal
 from dataclasses import replace
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +31,8 @@ from clients.demo_world import global_to_cell
 from engine.geometry import Position
 from service.accounts import Accounts, AccountsError
 from service.zconfig import make_config
-from service_support import ROOT, ServiceProcess, child_env, demo_world, human, start_on_ground, wait_until
+from cluster_support import cluster_file, make_certificates, tls_endpoint
+from service_support import ROOT, ServiceProcess, child_env, demo_world, free_port, human, start_on_ground, wait_until
 
 USERS = {"alice": "wonder-land-7", "bob": "builder-42"}
 RADIUS = 0.48  # human()'s spheres (tests/service_support.py)
@@ -65,6 +68,28 @@ def _replies(session: zenoh.Session, key: str, content: dict[str, Any], timeout:
 def _ground(gx: float, gy: float = 100.0) -> Position:
     cell, x, y = global_to_cell(gx, gy)
     return start_on_ground(demo_world(), cell, x, y)
+
+
+def _walk_east_across(alice: Client, mover_id: int) -> None:
+    """Alice's mover from the west landblock A9B4 into AAB4 in 12 one-metre moves, each answered in seq order."""
+    start = alice.register(human(), _ground(186.0), mover_id=mover_id)
+    states = [alice.move(mover_id, offset=(1.0, 0.0, 0.0)) for _ in range(12)]
+    assert [s.seq for s in states] == list(range(1, 13))
+    assert start.landblock == 0xA9B4 and states[-1].landblock == 0xAAB4
+
+
+def _out_of_reach(bob: Client, mover_id: int) -> None:
+    """Bob's requests for the id, on either landblock's key of his space, find no mover."""
+    for lb in (0xA9B4, 0xAAB4):
+        bob.locate(mover_id, lb)
+        with pytest.raises(ServiceError) as e:
+            bob.get(mover_id)
+        assert e.value.kind in ("unknown_mover", "moved", "wrong_landblock")
+
+
+def _forged_handover(mover_id: int) -> dict[str, Any]:
+    return {"id": mover_id, "seq": 1, "from": "bob", "mover": {"spheres": [[0, 0, 0.48, 0.48]]},
+            "position": {"cell": (0xAAB4 << 16) | 1, "origin": [10.0, 10.0, 60.0], "orientation": [1.0, 0.0, 0.0, 0.0]}}
 
 
 def test_a_users_ids_are_its_own(service: ServiceProcess) -> None:
@@ -277,15 +302,21 @@ def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
     assert Accounts.load(path).users == ("alice", "bob.builder")
 
 
-@pytest.mark.parametrize("extra", [["--users", "/nonexistent/users.txt"], ["--users", "USERS", "--cluster", "CLUSTER"],
-                                   ["--users", "USERS", "--workers", "2", "--cluster", "CLUSTER"]])
-def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str]) -> None:
-    args = [a.replace("USERS", str(users_file)).replace("CLUSTER", str(tmp_path / "cluster.json")) for a in extra]
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--users", "/nonexistent/users.txt"], "users file /nonexistent/users.txt"),
+    (["--users", "USERS", "--cluster", "CLUSTER"], "names no 'password' file"),
+    (["--users", "USERS", "--workers", "2", "--cluster", "CLUSTER"], "names no 'password' file"),
+])
+def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str],
+                                                        message: str) -> None:
+    make_certificates(tmp_path)
+    no_password = cluster_file(tmp_path, "a", [tls_endpoint()], [])
+    args = [a.replace("USERS", str(users_file)).replace("CLUSTER", str(no_password)) for a in extra]
     proc = subprocess.run([sys.executable, "-m", "service", "--scene", str(ROOT / "clients/demo/demo.json"),
                            "--listen", "tcp/127.0.0.1:1", *args], cwd=ROOT, env=child_env(), capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 2
-    assert "--users" in proc.stderr or "users file" in proc.stderr, proc.stderr
+    assert message in proc.stderr, proc.stderr
 
 
 def test_each_users_movers_come_back_after_a_restart(users_file: Path, tmp_path: Path) -> None:
@@ -317,33 +348,113 @@ def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
     himself, and each user's Health counts that user's movers over both workers."""
     with ServiceProcess(extra=["--users", str(users_file), "--workers", "2"]) as svc:
         with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
-            start = alice.register(human(), _ground(186.0), mover_id=0x705)
             seen: list[int] = []
             sub = alice.subscribe(lambda st: seen.append(st.seq), mover_id=0x705)
             time.sleep(0.5)
-            states = [alice.move(0x705, offset=(1.0, 0.0, 0.0)) for _ in range(12)]
-            assert [s.seq for s in states] == list(range(1, 13))
-            assert start.landblock == 0xA9B4 and states[-1].landblock == 0xAAB4
-            assert wait_until(lambda: len(seen) >= 12, timeout=5.0), seen
+            _walk_east_across(alice, 0x705)
+            assert wait_until(lambda: seen[-1:] == [12], timeout=5.0), seen
             sub.close()
-            assert seen == list(range(1, 13))
+            assert seen == list(range(0, 13))  # the register's State, then every move's, in order
             assert [i.data["workers"] for i in alice.health()] == [2]
             assert [i.data["movers"] for i in alice.health()] == [1]
             assert [i.data["movers"] for i in bob.health()] == [0]
-            for lb in (0xA9B4, 0xAAB4):
-                bob.locate(0x705, lb)
-                with pytest.raises(ServiceError) as e:
-                    bob.get(0x705)
-                assert e.value.kind in ("unknown_mover", "wrong_landblock")
+            _out_of_reach(bob, 0x705)
             raw = _session(svc, "bob")
             try:
-                forged = {"id": 0x51, "seq": 1, "from": "bob", "mover": {"spheres": [[0, 0, 0.48, 0.48]]},
-                          "position": {"cell": (0xAAB4 << 16) | 1, "origin": [10.0, 10.0, 60.0],
-                                       "orientation": [1.0, 0.0, 0.0, 0.0]}}
                 for key in ("acphys/u/bob/lb/AAB4/handover", "acphys/u/bob/lb/AAB4/*", "acphys/u/alice/lb/AAB4/get"):
-                    assert _replies(raw, key, forged) == [], key
+                    assert _replies(raw, key, _forged_handover(0x51)) == [], key
             finally:
                 raw.close()
             with pytest.raises(ServiceError):
                 bob.find(0x51, timeout=2.0)
             assert alice.get(0x705)[0].seq == 12
+
+
+def test_a_cluster_keeps_each_users_movers_apart(users_file: Path, tmp_path: Path) -> None:
+    """Two instances with accounts, joined by mutual TLS and the cluster file's password: alice's mover walks
+    from instance A's landblock into B's (a hand-over in her space); bob, connected to B, reaches it on
+    neither, and B takes no hand-over from him."""
+    make_certificates(tmp_path)
+    a_tls, b_tls = tls_endpoint(), tls_endpoint()
+    a_file = cluster_file(tmp_path, "a", [a_tls], [], password="instances-only-7")
+    b_file = cluster_file(tmp_path, "b", [b_tls], [a_tls], password="instances-only-7")
+    users = ["--users", str(users_file)]
+    with ServiceProcess(own="A9B4,A9B5", extra=[*users, "--cluster", str(a_file)]) as a, \
+            ServiceProcess(own="AAB4,AAB5", extra=[*users, "--cluster", str(b_file)]) as b:
+        with _client(a, "alice") as alice, _client(b, "bob") as bob:
+            alice.wait_ready(instances=2)
+            _walk_east_across(alice, 0x706)
+            assert sorted(i.data["movers"] for i in alice.health()) == [0, 1]  # now held by B
+            _out_of_reach(bob, 0x706)
+            raw = _session(b, "bob")
+            try:
+                for key in ("acphys/u/bob/lb/AAB4/handover", "acphys/u/alice/lb/AAB4/handover",
+                            "acphys/u/alice/lb/AAB4/get"):
+                    assert _replies(raw, key, _forged_handover(0x52)) == [], key
+            finally:
+                raw.close()
+            assert alice.get(0x706)[0].seq == 12
+
+
+@contextmanager
+def _running(args: list[str], marker: str) -> Iterator[list[str]]:
+    """A process started with `args`, once it printed `marker`; its output lines. Always stopped."""
+    proc = subprocess.Popen(args, cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    output: list[str] = []
+    ready = threading.Event()
+
+    def pump() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            output.append(line)
+            if marker in line:
+                ready.set()
+
+    threading.Thread(target=pump, daemon=True).start()
+    try:
+        deadline = time.monotonic() + 60.0
+        while not ready.wait(0.05):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"{args} did not start:\n" + "".join(output))
+        yield output
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(10)
+
+
+def test_a_router_checks_the_logins_for_the_instances_behind_it(users_file: Path, tmp_path: Path) -> None:
+    """`acphys router --users --cluster`: clients log in at the router, the instances behind it (client mode,
+    TLS) log in with the cluster's password; alice's mover crosses from the west instance to the east one,
+    bob (at the same router) reaches it on neither, and a client without a login reaches nothing."""
+    make_certificates(tmp_path)
+    router_tls, router_plain = tls_endpoint(), f"tcp/127.0.0.1:{free_port()}"
+    router = cluster_file(tmp_path, "router", [router_tls], [], password="behind-the-router")
+    member = cluster_file(tmp_path, "member", [], [router_tls], password="behind-the-router")
+    users = ["--users", str(users_file)]
+
+    def instance(own: str) -> list[str]:
+        return [sys.executable, "-m", "service", "--scene", str(ROOT / "clients/demo/demo.json"), "--own", own,
+                "--mode", "client", "--listen", f"tcp/127.0.0.1:{free_port()}", "--cluster", str(member),
+                "--log-level", "WARNING", *users]
+
+    with _running([sys.executable, "-m", "clients.cli", "router", "--listen", router_plain, "--cluster", str(router),
+                   "--log-level", "WARNING", *users], "acphys router ready"), \
+            _running(instance("A9B4,A9B5"), "acphys service ready"), \
+            _running(instance("AAB4,AAB5"), "acphys service ready"):
+        with Client([router_plain], user="alice", password=USERS["alice"], timeout=10.0) as alice, \
+                Client([router_plain], user="bob", password=USERS["bob"], timeout=10.0) as bob:
+            assert len(alice.wait_ready(instances=2, timeout=30.0)) == 2
+            _walk_east_across(alice, 0x707)
+            _out_of_reach(bob, 0x707)
+            assert alice.get(0x707)[0].seq == 12
+        anonymous = zenoh.open(make_config(connect=[router_plain]))
+        try:
+            assert list(anonymous.get("acphys/**", timeout=1.0)) == []
+        finally:
+            anonymous.close()
