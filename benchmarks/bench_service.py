@@ -33,12 +33,14 @@ the end, every loop ends after a fixed count or a fixed time.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -485,7 +487,18 @@ def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
 
 
 # -- latency --------------------------------------------------------------------------------------
-def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[str, Any]:
+#: the user of the service run with accounts beside the plain one (`serve --users`, service/accounts.py)
+ACCOUNTS_USER, ACCOUNTS_PASSWORD = "bench", "bench-password"
+
+
+def accounts_users_file(directory: Path) -> Path:
+    path = directory / "users.txt"
+    path.write_text(f"{ACCOUNTS_USER}:{ACCOUNTS_PASSWORD}\n", encoding="utf-8")
+    return path
+
+
+def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
+            accounts_endpoint: str | None = None) -> dict[str, Any]:
     import msgpack
     import zenoh
 
@@ -493,11 +506,19 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     from service.zconfig import make_config
 
     # health: a bare get the service answers from its callback with no engine (its floor per request);
-    # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part)
+    # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part);
+    # accounts_move: one move to the same service run with accounts, logged in (Zenoh's authentication and
+    # access control on every message)
     samples: dict[str, list[float]] = {"echo": [], "health": [], "raw_move": [], "move": [], "batch10": [],
-                                       "batch100": []}
+                                       "batch100": [], "accounts_move": []}
     clock = time.perf_counter
-    with Client([endpoint], timeout=30.0) as c:
+    with contextlib.ExitStack() as stack:
+        c = stack.enter_context(Client([endpoint], timeout=30.0))
+        user = None
+        if accounts_endpoint is not None:
+            user = stack.enter_context(Client([accounts_endpoint], user=ACCOUNTS_USER, password=ACCOUNTS_PASSWORD,
+                                              timeout=30.0))
+            user_mid = user.register(_walker(), start_position(0)).id
         mid = c.register(_walker(), start_position(0)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         # what one move request looks like on the wire: the echo carries as many bytes
@@ -507,9 +528,11 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
         move_key, health_key, health_probe = c.keys.move(start_position(0).landblock), c.keys.health, msgpack.packb({"v": 1})
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
         try:
-            for _ in range(50):  # warm both routes
+            for _ in range(50):  # warm every route
                 list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
                 c.move(mid, offset=(0.0, 0.0, 0.0))
+                if user is not None:
+                    user.move(user_mid, offset=(0.0, 0.0, 0.0))
             sign = 1.0
             for _round in range(rounds):
                 for _ in range(block):
@@ -532,6 +555,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
                     c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
                     samples["move"].append(clock() - t0)
                     sign = -sign
+                if user is not None:
+                    for _ in range(block):
+                        t0 = clock()
+                        user.move(user_mid, offset=(0.2 * sign, 0.0, 0.0))
+                        samples["accounts_move"].append(clock() - t0)
+                        sign = -sign
                 for size, key, n in ((10, "batch10", max(1, block // 4)), (100, "batch100", max(1, block // 20))):
                     for _ in range(n):
                         ms = [Move(mid, offset=(0.2 * (1 if k % 2 else -1), 0.0, 0.0)) for k in range(size)]
@@ -542,7 +571,9 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
             echo.close()
         (stats,) = c.stats()
         c.remove(mid)
-    out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items()}
+        if user is not None:
+            user.remove(user_mid)
+    out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items() if v}
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
     out["service_engine_ms"] = stats.get("engine_ms")
@@ -550,8 +581,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int) -> dict[
     out["probe_bytes"] = len(probe)
     out["ratio_health_to_echo"] = out["health"]["median"] / out["echo"]["median"]
     out["ratio_raw_move_to_echo"] = out["raw_move"]["median"] / out["echo"]["median"]
-    for k in ("echo", "health", "raw_move", "move", "batch10", "batch100"):
-        log(f"service: round trip {k:9s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  (n={out[k]['n']})")
+    if "accounts_move" in out:
+        out["ratio_accounts_move_to_move"] = out["accounts_move"]["median"] / out["move"]["median"]
+    for k in ("echo", "health", "raw_move", "move", "accounts_move", "batch10", "batch100"):
+        if k in out:
+            log(f"service: round trip {k:13s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  "
+                f"(n={out[k]['n']})")
     log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} (health / echo {out['ratio_health_to_echo']:.2f}, "
         f"raw_move / echo {out['ratio_raw_move_to_echo']:.2f})")
     return out
@@ -567,18 +602,28 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
     endpoint, echo_endpoint = f"tcp/127.0.0.1:{port}", f"tcp/127.0.0.1:{echo_port}"
     service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
-    echo = None
+    echo = accounts = None
+    users_dir = tempfile.TemporaryDirectory(prefix="acphys-bench-users-")
     try:
         echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
-        lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100)
+        accounts_endpoint = f"tcp/127.0.0.1:{free_port()}"
+        accounts = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", accounts_endpoint,
+                          "--log-level", "WARNING", "--queue", "4096",
+                          "--users", str(accounts_users_file(Path(users_dir.name)))], "acphys service ready", engine_root)
+        lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100,
+                      accounts_endpoint=accounts_endpoint)
+        accounts.stop()
+        accounts = None
         lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
         rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched, publish)
                 for procs, batch, mode, watched, publish in THROUGHPUT_RUNS]
     finally:
         service.stop()
-        if echo is not None:
-            echo.stop()
+        for child in (echo, accounts):
+            if child is not None:
+                child.stop()
+        users_dir.cleanup()
     from .bench_issue10 import issue_workload  # it imports this module's helpers
 
     issue = issue_workload(quick, engine_root)

@@ -253,6 +253,7 @@ def service_section(svc: dict[str, Any], plot: str | None) -> list[str]:
     for k, label, per in (("echo", "bare Zenoh echo", 1),
                           ("health", "health (a bare get the service answers with no engine)", 1),
                           ("raw_move", "one move as a bare get (no client library)", 1), ("move", "one move", 1),
+                          ("accounts_move", "one move, a logged-in user of a service run with `--users`", 1),
                           ("batch10", "batch of 10 moves", 10), ("batch100", "batch of 100 moves", 100)):
         if k not in lat:  # results saved before the row was measured
             continue
@@ -262,7 +263,11 @@ def service_section(svc: dict[str, Any], plot: str | None) -> list[str]:
     eng_ms = lat.get("service_engine_ms") or {}
     out += ["", (f"One move / echo: **{lat['ratio_move_to_echo']:.2f}x** at the median "
             f"({lat['ratio_move_to_echo_p99']:.2f}x at p99). Inside the service the engine took "
-            f"{num(as_float(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."), "",
+            f"{num(as_float(eng_ms.get('p50')) * 1000, 0)} µs per move at the median (its own stats)."
+            + (f" With accounts (a second service of the same world, run with `--users`: Zenoh's authentication and "
+               f"access control on every message, the user's own tenant) one move took "
+               f"**{lat['ratio_accounts_move_to_move']:.2f}x** the plain one's round trip at the median, "
+               f"interleaved in the same run." if "ratio_accounts_move_to_move" in lat else "")), "",
             _THROUGHPUT_TEXT, "", *_throughput_table(svc["throughput"])]
     out += _issue10(svc.get("issue10_columns"), "the working tree's engine")
     if svc.get("workers"):
