@@ -47,7 +47,7 @@ from .wire import LB_QUERY_OPS, check_user_name, user_prefix
 
 __all__ = [
     "Accounts", "AccountsError", "INSTANCE_USER", "accounts_access_control", "apply_accounts",
-    "new_instance_password", "add_accounts_arguments",
+    "new_instance_password", "no_logins_file", "write_private", "add_accounts_arguments",
 ]
 
 #: The operations a user's session may ask for, each on its own key in the user's space: every per-landblock
@@ -144,14 +144,12 @@ def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts, *,
     temporary directory: call what this returns once the session is open (Zenoh reads the file at open) to
     remove it. An `access_control` block that the config already enables (a `--zenoh-config` file's, the
     cluster rules of service/security.py) keeps its rules, subjects and policies; the default becomes deny."""
-    dictionary, forget = accounts.path, _nothing
+    dictionary, forget = accounts.path, no_logins_file
     if instance_password is not None:
         directory = Path(tempfile.mkdtemp(prefix="acphys-logins-"))  # mode 0700
         dictionary = directory / "logins.txt"
-        fd = os.open(dictionary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(accounts.path.read_text(encoding="utf-8").rstrip("\n") + "\n")
-            f.write(f"{INSTANCE_USER}:{instance_password}\n")
+        write_private(dictionary, accounts.path.read_text(encoding="utf-8").rstrip("\n") + "\n"
+                      + f"{INSTANCE_USER}:{instance_password}\n")
 
         def forget() -> None:
             shutil.rmtree(directory, ignore_errors=True)
@@ -168,8 +166,15 @@ def apply_accounts(cfg: zenoh.Config, prefix: str, accounts: Accounts, *,
     return forget
 
 
-def _nothing() -> None:
-    pass
+def no_logins_file() -> None:
+    """What `apply_accounts` returns when it wrote no temporary logins file: nothing to remove."""
+
+
+def write_private(path: Path, text: str) -> None:
+    """Write `text` to `path`, readable by this user only from the moment the file exists (passwords)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text)
 
 
 def new_instance_password() -> str:

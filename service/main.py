@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from .accounts import Accounts, add_accounts_arguments, apply_accounts
+from .accounts import Accounts, add_accounts_arguments, apply_accounts, no_logins_file
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
@@ -59,10 +59,6 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     add_state_arguments(p)
 
 
-def _no_logins_file() -> None:
-    """Without accounts in a cluster there is no temporary logins file to remove (service/accounts.py)."""
-
-
 def serve(args: argparse.Namespace, world: Any = None) -> int:
     """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
@@ -91,7 +87,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         listen = []  # a worker only connects to its parent's router
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
-    forget_logins: Callable[[], None] = _no_logins_file
+    forget_logins: Callable[[], None] = no_logins_file
     try:
         config = make_config(
             config_file=args.zenoh_config, listen=listen, connect=args.connect, mode=args.mode,

@@ -26,7 +26,7 @@ from typing import Any
 
 import zenoh
 
-from .accounts import Accounts, apply_accounts
+from .accounts import Accounts, apply_accounts, no_logins_file
 from .security import ClusterConfig, apply_security
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
@@ -53,7 +53,7 @@ def router_config(listen: list[str] | None, connect: list[str] | None = None, co
         cfg.insert_json5("scouting/gossip/enabled", json.dumps(False))
     apply_security(cfg, prefix, cluster)
     if accounts is None:
-        return cfg, lambda: None
+        return cfg, no_logins_file
     if instance_password is None:
         if cluster is None:
             raise ValueError("a router with --users needs --cluster (its instances log in with the cluster's password)")

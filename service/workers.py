@@ -26,9 +26,10 @@ Health says `degraded`. SIGINT/SIGTERM to the parent stops every worker
 With `--users` (service/accounts.py) the router checks every login and
 carries the users' access control; each worker logs in to it as the
 internal user INSTANCE_USER (a password made at start, in the private
-directory beside the certificates, named by the workers' cluster file) and runs one tenant per user, whose
-private keys are `P/@workers/<parent id>/<index>/u/<user>/...`; the parent
-answers each user's `P/u/<user>/health`, `stats` and `landblocks`.
+directory beside the certificates, named by the workers' cluster file)
+and runs one tenant per user, whose private keys are
+`P/@workers/<parent id>/<index>/u/<user>/...`; the parent answers each
+user's `P/u/<user>/health`, `stats` and `landblocks`.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ from collections.abc import Callable
 import msgpack
 import zenoh
 
-from .accounts import Accounts, new_instance_password
+from .accounts import Accounts, new_instance_password, write_private
 from .aggregate import WorkerView, merge_health, merge_landblocks, merge_stats
 from .errors import ProtocolError
 from .frames import pack
@@ -256,9 +257,7 @@ class WorkerSupervisor:
             if self._instance_password is None:
                 self._instance_password = given.instance_password() if given is not None else new_instance_password()
             secret = d / "instance-password.txt"
-            fd = os.open(secret, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                f.write(self._instance_password + "\n")
+            write_private(secret, self._instance_password + "\n")
             worker["password"] = str(secret)
         self._worker_cluster = d / "worker.json"
         self._worker_cluster.write_text(json.dumps(worker))
