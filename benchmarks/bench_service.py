@@ -51,6 +51,7 @@ from .common import log, summary
 from .standins import NoEngine, StandInQuery, StandInSession
 
 ECHO_KEY = "acphys-bench/echo"
+ENGINE_ECHO_KEY = "acphys-bench/engine-echo"
 START_TIMEOUT = 30.0
 
 
@@ -147,6 +148,42 @@ def echo_main(port: int) -> None:
 
     q = session.declare_queryable(ECHO_KEY, handler)
     print("echo ready", flush=True)
+    stop.wait()
+    q.undeclare()
+    session.close()
+
+
+def engine_echo_main(port: int) -> None:
+    """Run a bare queryable that moves one mover per query, until SIGINT/SIGTERM: the least any service of
+    this engine does for one move over this bus (the one-move round trip's bound). The request is the
+    service's own one-move message, read with msgpack and nothing checked; the engine is the working
+    tree's, on the service benchmark's scene, one mover of the service's; the answer is the result's cell,
+    origin, orientation and contact bits in one msgpack array (a State says more)."""
+    import msgpack
+    import zenoh
+
+    from engine.geometry import Vec3
+    from service.world_source import open_world
+    from service.zconfig import make_config
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    world = open_world(scene=str(scene_file()))
+    engine_id = world.add_mover(_walker(), start_position(0), None, None)
+    last = [world.mover_state(engine_id).position]
+    session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
+
+    def handler(query: Any) -> None:
+        x, y, z = msgpack.unpackb(query.payload.to_bytes())["move"]["offset"]
+        r = world.move(engine_id, last[0].moved(Vec3(x, y, z)))
+        p = last[0] = r.position
+        o, q = p.frame.origin, p.frame.orientation
+        query.reply(query.key_expr, msgpack.packb([p.cell_id, o.x, o.y, o.z, q.w, q.x, q.y, q.z, r.contact,
+                                                   r.on_walkable]))
+
+    q = session.declare_queryable(ENGINE_ECHO_KEY, handler)
+    print("engine echo ready", flush=True)
     stop.wait()
     q.undeclare()
     session.close()
@@ -498,7 +535,7 @@ def accounts_users_file(directory: Path) -> Path:
 
 
 def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
-            accounts_endpoint: str | None = None) -> dict[str, Any]:
+            accounts_endpoint: str | None = None, engine_echo_endpoint: str | None = None) -> dict[str, Any]:
     import msgpack
     import zenoh
 
@@ -508,9 +545,10 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
     # health: a bare get the service answers from its callback with no engine (its floor per request);
     # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part);
     # accounts_move: one move to the same service run with accounts, logged in (Zenoh's authentication and
-    # access control on every message)
-    samples: dict[str, list[float]] = {"echo": [], "health": [], "raw_move": [], "move": [], "batch10": [],
-                                       "batch100": [], "accounts_move": []}
+    # access control on every message); engine_echo: the same bare get to a bare queryable that only runs
+    # the engine (engine_echo_main: the bound of any service's one move here)
+    samples: dict[str, list[float]] = {"echo": [], "engine_echo": [], "health": [], "raw_move": [], "move": [],
+                                       "batch10": [], "batch100": [], "accounts_move": []}
     clock = time.perf_counter
     with contextlib.ExitStack() as stack:
         c = stack.enter_context(Client([endpoint], timeout=30.0))
@@ -527,9 +565,13 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                      for d in (0.2, -0.2)]
         move_key, health_key, health_probe = c.keys.move(start_position(0).landblock), c.keys.health, msgpack.packb({"v": 1})
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
+        engine_echo = None if engine_echo_endpoint is None else stack.enter_context(
+            zenoh.open(make_config(connect=[engine_echo_endpoint])))
         try:
-            for _ in range(50):  # warm every route
+            for i in range(50):  # warm every route
                 list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
+                if engine_echo is not None:
+                    list(engine_echo.get(ENGINE_ECHO_KEY, payload=raw_moves[i % 2], timeout=10.0))
                 c.move(mid, offset=(0.0, 0.0, 0.0))
                 if user is not None:
                     user.move(user_mid, offset=(0.0, 0.0, 0.0))
@@ -540,6 +582,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                     replies = list(echo.get(ECHO_KEY, payload=probe, timeout=10.0))
                     samples["echo"].append(clock() - t0)
                     assert replies and replies[0].ok is not None
+                if engine_echo is not None:
+                    for i in range(block):
+                        t0 = clock()
+                        replies = list(engine_echo.get(ENGINE_ECHO_KEY, payload=raw_moves[i % 2], timeout=10.0))
+                        samples["engine_echo"].append(clock() - t0)
+                        assert replies and replies[0].ok is not None
                 for _ in range(block):
                     t0 = clock()
                     replies = list(c.session.get(health_key, payload=health_probe, timeout=10.0))
@@ -581,9 +629,11 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
     out["probe_bytes"] = len(probe)
     out["ratio_health_to_echo"] = out["health"]["median"] / out["echo"]["median"]
     out["ratio_raw_move_to_echo"] = out["raw_move"]["median"] / out["echo"]["median"]
+    if "engine_echo" in out:
+        out["ratio_engine_echo_to_echo"] = out["engine_echo"]["median"] / out["echo"]["median"]
     if "accounts_move" in out:
         out["ratio_accounts_move_to_move"] = out["accounts_move"]["median"] / out["move"]["median"]
-    for k in ("echo", "health", "raw_move", "move", "accounts_move", "batch10", "batch100"):
+    for k in ("echo", "engine_echo", "health", "raw_move", "move", "accounts_move", "batch10", "batch100"):
         if k in out:
             log(f"service: round trip {k:13s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  "
                 f"(n={out[k]['n']})")
@@ -602,25 +652,31 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
     endpoint, echo_endpoint = f"tcp/127.0.0.1:{port}", f"tcp/127.0.0.1:{echo_port}"
     service = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
-    echo = accounts = None
+    echo: Child | None = None
+    accounts: Child | None = None
+    engine_echo: Child | None = None
     users_dir = tempfile.TemporaryDirectory(prefix="acphys-bench-users-")
     try:
         echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
+        engine_echo_endpoint = f"tcp/127.0.0.1:{free_port()}"
+        engine_echo = Child([sys.executable, "-m", "benchmarks.bench_service", "engine-echo",
+                             engine_echo_endpoint.rsplit(":", 1)[1]], "engine echo ready", engine_root)
         accounts_endpoint = f"tcp/127.0.0.1:{free_port()}"
         accounts = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", accounts_endpoint,
                           "--log-level", "WARNING", "--queue", "4096",
                           "--users", str(accounts_users_file(Path(users_dir.name)))], "acphys service ready", engine_root)
         lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100,
-                      accounts_endpoint=accounts_endpoint)
+                      accounts_endpoint=accounts_endpoint, engine_echo_endpoint=engine_echo_endpoint)
         accounts.stop()
-        accounts = None
+        engine_echo.stop()
+        accounts = engine_echo = None
         lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
         rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched, publish)
                 for procs, batch, mode, watched, publish in THROUGHPUT_RUNS]
     finally:
         service.stop()
-        for child in (echo, accounts):
+        for child in (echo, accounts, engine_echo):
             if child is not None:
                 child.stop()
         users_dir.cleanup()
@@ -636,6 +692,8 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
 if __name__ == "__main__":
     if sys.argv[1] == "echo":
         echo_main(int(sys.argv[2]))
+    elif sys.argv[1] == "engine-echo":
+        engine_echo_main(int(sys.argv[2]))
     elif sys.argv[1] == "handling":
         handling_main(int(sys.argv[2]))
     elif sys.argv[1] == "worker":
