@@ -22,6 +22,10 @@ authentication reads). Then:
   the access control, and the workers log in to it the same way, with a
   password made at start.
 
+Load and unload change the world every user shares (and a scene file's
+landblock, once unloaded, cannot come back): only the users named with
+`--admin` may send them; the others are answered `forbidden`.
+
 The user is never read from a message: a queryable cannot learn who
 authenticated, and a message's source information is whatever the sender
 wrote. The key a request arrives on is the proof, because the access
@@ -36,7 +40,7 @@ import os
 import secrets
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -72,10 +76,13 @@ class AccountsError(ValueError):
 class Accounts:
     path: Path  # Zenoh's usrpwd dictionary file: `user:password` per line
     users: tuple[str, ...]  # the user names, in the file's order
+    #: the users who may load and unload landblocks (`--admin`)
+    admins: tuple[str, ...] = ()
 
     @classmethod
-    def load(cls, path: str | Path) -> Accounts:
-        """Read the user names of a dictionary file (Zenoh reads the passwords itself)."""
+    def load(cls, path: str | Path, admins: Sequence[str] = ()) -> Accounts:
+        """Read the user names of a dictionary file (Zenoh reads the passwords itself); `admins` must be
+        some of them."""
         path = Path(path)
         try:
             lines = path.read_text(encoding="utf-8").splitlines()
@@ -97,7 +104,25 @@ class Accounts:
             users.append(name)
         if not users:
             raise AccountsError(f"users file {path}: no user")
-        return cls(path.resolve(), tuple(users))
+        for name in admins:
+            if name not in users:
+                raise AccountsError(f"--admin {name!r}: not a user of the users file {path}")
+        return cls(path.resolve(), tuple(users), tuple(dict.fromkeys(admins)))
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> Accounts | None:
+        """`--users FILE` and `--admin USER ...` read (None without `--users`); AccountsError for `--admin`
+        without `--users`."""
+        admins = getattr(args, "admin", None) or []
+        if not getattr(args, "users", None):
+            if admins:
+                raise AccountsError("--admin needs --users (without accounts every client may load and unload)")
+            return None
+        return cls.load(args.users, admins)
+
+    def is_admin(self, user: str) -> bool:
+        """Whether `user` may load and unload landblocks."""
+        return user in self.admins
 
 
 def accounts_access_control(prefix: str, users: tuple[str, ...], *, instances: bool = False) -> dict[str, Any]:
@@ -186,3 +211,6 @@ def add_accounts_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--users", metavar="FILE",
                    help="Zenoh user:password file: every client must log in as one of its users, and reaches "
                         "its own movers only, under PREFIX/u/USER (docs/protocol.md, 'Accounts')")
+    p.add_argument("--admin", metavar="USER", action="append", default=[],
+                   help="with --users: a user who may load and unload landblocks (the world every user "
+                        "shares); repeat for several. The other users are refused with 'forbidden'")

@@ -94,7 +94,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             multicast=args.multicast_scouting,
         )
         ownership = Ownership.parse(args.own)
-        accounts = Accounts.load(args.users) if getattr(args, "users", None) else None
+        accounts = Accounts.from_args(args)
         cluster = security_setup(config, args)
         if accounts is not None:
             # the instances of a cluster (a `--workers` worker too) log in to each other with its password
@@ -124,7 +124,8 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     for user, persistence in zip(users, persistences):
         info = f"{worker_info}/u/{user}" if worker_info and user is not None else worker_info
         tenant = replace(options, prefix=user_prefix(args.prefix, user) if user is not None else args.prefix,
-                         info_prefix=info, on_handover_in=persistence.save_locked if persistence.path else None)
+                         info_prefix=info, on_handover_in=persistence.save_locked if persistence.path else None,
+                         world_admin=accounts is None or user is not None and accounts.is_admin(user))
         nodes.append(ServiceNode(world, config, tenant, shared_with=nodes[0] if nodes else None))
     node = nodes[0]
     try:

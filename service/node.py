@@ -58,6 +58,8 @@ log = logging.getLogger("acphys.service")
 
 #: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
 _LB_KEY_CACHE = 65536
+#: the operations that change the world every tenant shares (`NodeOptions.world_admin`)
+_WORLD_OPS = frozenset(("load", "unload"))
 
 
 @dataclass(slots=True)
@@ -84,6 +86,9 @@ class NodeOptions:
     #: serve `P/lb/XXYY/handover` (only in a cluster whose instances authenticate: service/security.py);
     #: off, the instance takes no hand-over at all
     accept_handovers: bool = False
+    #: answer `load` and `unload` (which change the world every tenant shares); off, they are refused with
+    #: `forbidden`: a user of `serve --users` who is not one of its `--admin` users (service/accounts.py)
+    world_admin: bool = True
     #: at shutdown, keep the keys declared until no request has arrived for this long (seconds), so every
     #: request Zenoh has already delivered gets its answer (see `shutdown`)
     drain_quiet: float = 0.5
@@ -333,11 +338,16 @@ class ServiceNode:
 
     # -- per-landblock queries -----------------------------------------------------
     def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
+        forbidden = op in _WORLD_OPS and not self.options.world_admin
+
         def handler(query: zenoh.Query) -> None:
             received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
             self.stats.request(op)
             try:
                 lb = self._key_lb(str(query.key_expr), op)
+                if forbidden:
+                    raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
+                                        "the service's --admin users may send it")
                 msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
                 if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
                     # one move (the common request): run straight to its reply, without `_work`'s closures

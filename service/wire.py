@@ -56,6 +56,7 @@ class ErrorKind:
     LANDBLOCK_NOT_LOADED = "landblock_not_loaded"
     LANDBLOCK_UNAVAILABLE = "landblock_unavailable"  # cannot be loaded from the source
     LANDBLOCK_IN_USE = "landblock_in_use"  # unload refused: movers are in it
+    FORBIDDEN = "forbidden"  # with accounts: load or unload by a user who is not an admin
     NO_OWNER = "no_owner"  # a move crossed into a landblock no instance owns
     BUSY = "busy"  # the service's queue is full: retry later
     SHUTTING_DOWN = "shutting_down"
@@ -65,7 +66,7 @@ class ErrorKind:
     ALL = (
         MALFORMED, TOO_LARGE, UNSUPPORTED_VERSION, MISSING_FIELD, WRONG_TYPE, BAD_VALUE,
         NON_FINITE, UNKNOWN_MOVER, DUPLICATE_MOVER, WRONG_LANDBLOCK, MOVED, UNKNOWN_CELL,
-        LANDBLOCK_NOT_LOADED, LANDBLOCK_UNAVAILABLE, LANDBLOCK_IN_USE, NO_OWNER, BUSY,
+        LANDBLOCK_NOT_LOADED, LANDBLOCK_UNAVAILABLE, LANDBLOCK_IN_USE, FORBIDDEN, NO_OWNER, BUSY,
         SHUTTING_DOWN, ENGINE_ERROR, INTERNAL,
     )
 

@@ -228,6 +228,8 @@ class WorkerSupervisor:
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
         if self.accounts is not None:
             argv += ["--users", str(self.accounts.path)]
+            for admin in self.accounts.admins:
+                argv += ["--admin", admin]
         if getattr(a, "state", None):
             # each worker keeps its own movers: one file per worker of this split (the same --workers and
             # world give the same split, so a restart finds each mover in the file of its landblock's worker)
@@ -269,7 +271,7 @@ class WorkerSupervisor:
         """Open the router, start the workers, wait until each serves through the router, answer the face."""
         parts = self.plan()
         a = self.args
-        self.accounts = Accounts.load(a.users) if getattr(a, "users", None) else None
+        self.accounts = Accounts.from_args(a)
         if a.zenoh_config and not a.listen:
             # the workers' private endpoint is added to the listen list, which then replaces the file's
             raise ValueError("--workers with --zenoh-config needs --listen too (the workers' private endpoint joins it)")

@@ -254,15 +254,55 @@ def test_users_share_one_world(service: ServiceProcess) -> None:
         assert b.x < a.x and apart >= 2 * RADIUS - 0.02, (a, b)
         assert moved.position.origin.x > his.position.origin.x  # it did walk up to her
         assert not moved.result.collide_objects  # her mover is not named to him
-        with pytest.raises(ServiceError) as e:
-            bob.unload_landblock(hers.landblock)
-        assert e.value.kind == "landblock_in_use"
-        assert "other users" in str(e.value)
         bob.remove(0x703)
-        with pytest.raises(ServiceError) as e:
-            bob.unload_landblock(hers.landblock)  # alice's mover is still there
-        assert e.value.kind == "landblock_in_use" and "1 mover(s) of other users" in str(e.value)
         alice.remove(0x703)
+
+
+def test_without_an_admin_nobody_changes_the_world(service: ServiceProcess) -> None:
+    """A service run with `--users` and no `--admin`: every user's load and unload is `forbidden`, even of
+    an empty landblock, and the landblock stays loaded for everyone."""
+    with _client(service, "alice") as alice, _client(service, "bob") as bob:
+        (before,) = alice.landblocks()
+        assert 0xA9B4 in before.data["loaded"]
+        for user in (alice, bob):
+            for op in (user.unload_landblock, user.load_landblock):
+                with pytest.raises(ServiceError) as e:
+                    op(0xA9B4)
+                assert e.value.kind == "forbidden" and "--admin" in str(e.value)
+        assert [i.data["loaded"] for i in bob.landblocks()] == [before.data["loaded"]]
+        assert alice.register(human(), _ground(186.0), mover_id=0x704).landblock == 0xA9B4  # still there
+        alice.remove(0x704)
+
+
+def test_an_admin_loads_and_unloads_for_everyone(users_file: Path) -> None:
+    """`--admin alice`: bob's unload is `forbidden` whatever the landblock holds; alice's is refused while
+    anyone's mover is inside (bob's counted, not named), then goes through, for every user; a scene's
+    landblock cannot be loaded again (what the role keeps other users from doing)."""
+    with ServiceProcess(extra=["--users", str(users_file), "--admin", "alice"]) as svc:
+        with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
+            lb = 0xA9B4
+            alice.register(human(), _ground(150.0), mover_id=0x706)
+            bob.register(human(), _ground(170.0), mover_id=0x707)
+            with pytest.raises(ServiceError) as e:
+                bob.unload_landblock(lb)
+            assert e.value.kind == "forbidden"
+            with pytest.raises(ServiceError) as e:
+                alice.unload_landblock(lb)
+            assert e.value.kind == "landblock_in_use"
+            assert "1 mover(s): 706" in str(e.value) and "1 mover(s) of other users" in str(e.value)
+            assert "707" not in str(e.value) and e.value.details.get("movers") == [0x706]
+            bob.remove(0x707)
+            alice.remove(0x706)
+            with pytest.raises(ServiceError) as e:
+                bob.unload_landblock(lb)  # empty now: still not his to unload
+            assert e.value.kind == "forbidden"
+            assert lb in bob.landblocks()[0].data["loaded"]
+            assert alice.load_landblock(lb) is True  # already loaded
+            alice.unload_landblock(lb)
+            assert lb not in bob.landblocks()[0].data["loaded"]
+            with pytest.raises(ServiceError) as e:
+                alice.load_landblock(lb)
+            assert e.value.kind == "landblock_unavailable"
 
 
 def test_the_command_line_logs_in(service: ServiceProcess, tmp_path: Path) -> None:
@@ -296,6 +336,13 @@ def test_a_bad_users_file_is_named_with_its_line(tmp_path: Path, text: str, mess
     assert message in str(e.value)
 
 
+def test_admins_are_users_of_the_file(users_file: Path) -> None:
+    accounts = Accounts.load(users_file, ["bob", "bob"])
+    assert accounts.admins == ("bob",)
+    assert accounts.is_admin("bob") and not accounts.is_admin("alice") and not accounts.is_admin("carol")
+    assert Accounts.load(users_file).admins == ()
+
+
 def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
     path = tmp_path / "users.txt"
     path.write_text("alice:a:b:c\nbob.builder:x\n", encoding="utf-8")
@@ -306,6 +353,9 @@ def test_users_file_passwords_may_hold_colons(tmp_path: Path) -> None:
     (["--users", "/nonexistent/users.txt"], "users file /nonexistent/users.txt"),
     (["--users", "USERS", "--cluster", "CLUSTER"], "names no 'password' file"),
     (["--users", "USERS", "--workers", "2", "--cluster", "CLUSTER"], "names no 'password' file"),
+    (["--admin", "alice"], "--admin needs --users"),
+    (["--users", "USERS", "--admin", "alice", "--admin", "carol"], "--admin 'carol': not a user"),
+    (["--users", "USERS", "--workers", "2", "--admin", "carol"], "--admin 'carol': not a user"),
 ])
 def test_serve_refuses_what_it_cannot_do_with_accounts(users_file: Path, tmp_path: Path, extra: list[str],
                                                         message: str) -> None:
@@ -345,8 +395,9 @@ def test_each_users_movers_come_back_after_a_restart(users_file: Path, tmp_path:
 def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
     """`--workers 2 --users`: alice's mover walks from the west worker's landblock into the east one's (a
     hand-over between the workers, in her space); bob reaches it on neither, cannot hand a mover over
-    himself, and each user's Health counts that user's movers over both workers."""
-    with ServiceProcess(extra=["--users", str(users_file), "--workers", "2"]) as svc:
+    himself, and each user's Health counts that user's movers over both workers; only the admin (`--admin alice`)
+    unloads a worker's landblock."""
+    with ServiceProcess(extra=["--users", str(users_file), "--workers", "2", "--admin", "alice"]) as svc:
         with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
             seen: list[int] = []
             sub = alice.subscribe(lambda st: seen.append(st.seq), mover_id=0x705)
@@ -368,6 +419,14 @@ def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
             with pytest.raises(ServiceError):
                 bob.find(0x51, timeout=2.0)
             assert alice.get(0x705)[0].seq == 12
+            # the west worker's landblock, empty now: bob may not unload it, the admin may
+            with pytest.raises(ServiceError) as e:
+                bob.unload_landblock(0xA9B4)
+            assert e.value.kind == "forbidden"
+            alice.unload_landblock(0xA9B4)
+            with pytest.raises(ServiceError) as e:
+                alice.unload_landblock(0xA9B4)  # its owner holds it no more
+            assert e.value.kind == "landblock_not_loaded"
 
 
 def test_a_cluster_keeps_each_users_movers_apart(users_file: Path, tmp_path: Path) -> None:
