@@ -37,8 +37,11 @@ def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
         c = stack.enter_context(connect_client(args))
         if c.health(timeout=1.0):
             try:
+                # only what is missing: with accounts, loading is for the service's --admin users
+                loaded = {lb for info in c.landblocks(timeout=1.0) for lb in info.data.get("loaded", [])}
                 for lb in DEMO_LANDBLOCKS:
-                    c.load_landblock(lb)
+                    if lb not in loaded:
+                        c.load_landblock(lb)
                 print("using the running service", file=sys.stderr)
                 print_service([h.instance for h in c.health(timeout=1.0)], args.connect, c.keys.prefix,
                               args.zenoh_config)

@@ -321,6 +321,24 @@ def test_the_command_line_logs_in(service: ServiceProcess, tmp_path: Path) -> No
     assert missing.returncode != 0 and "password" in missing.stderr
 
 
+def test_the_demo_walks_in_a_users_space_without_loading(service: ServiceProcess, tmp_path: Path) -> None:
+    """`acphys demo --user bob` on a service whose users may not load: the demo world is loaded already, so
+    the walk runs on the running service, in bob's space, and asks for no load."""
+    out = tmp_path / "walk.png"
+    with _client(service, "bob") as bob:
+        (before,) = bob.stats()
+    env = {**child_env(), "ACPHYS_PASSWORD": USERS["bob"]}
+    r = subprocess.run([sys.executable, "-m", "clients.cli", "demo", "--connect", service.endpoint, "--user", "bob",
+                        "--out", str(out), "--quiet"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "using the running service" in r.stderr and "embedded" not in r.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with _client(service, "bob") as bob:
+        (stats,) = bob.stats()
+    asked, asked_before = stats.data["requests"], before.data["requests"]
+    assert asked["load"] == asked_before["load"] and asked["move"] > asked_before["move"]
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("alice\n", "line 1: expected user:password"),
     ("alice:pw\nbob:\n", "line 2: expected user:password"),
