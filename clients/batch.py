@@ -186,7 +186,8 @@ def _groups(client: Client, pending: Sequence[int], id_list: list[int], out_erro
     """The items of `pending` by the landblock each mover was last seen in (asking where unknown); an
     item whose mover cannot be found gets its error in `out_errors`."""
     where = client._where
-    seen = [where.get(id_list[i]) for i in pending]
+    # the first attempt (range(n)) sends every item: their landblocks looked up in one C loop
+    seen = list(map(where.get, id_list)) if isinstance(pending, range) else [where.get(id_list[i]) for i in pending]
     first = seen[0] if seen else None
     if first is not None and seen.count(first) == len(seen):  # the usual batch: one landblock, all known
         return {first: list(pending)}
