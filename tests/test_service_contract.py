@@ -106,7 +106,7 @@ def test_stats_list_every_operation_and_error_kind_with_zero() -> None:
                       "health", "stats", "landblocks", "sight", "ray", "ground", "place"}
     documented_kinds = {"malformed", "too_large", "unsupported_version", "missing_field", "wrong_type",
                         "bad_value", "non_finite", "unknown_mover", "duplicate_mover", "wrong_landblock", "moved",
-                        "unknown_cell", "landblock_not_loaded", "landblock_unavailable", "landblock_in_use",
+                        "unknown_cell", "landblock_not_loaded", "landblock_unavailable", "landblock_in_use", "forbidden",
                         "no_owner", "busy", "shutting_down", "engine_error", "internal"}
     with ServiceProcess() as fresh:
         s = raw_session(fresh.endpoint)
