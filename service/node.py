@@ -58,7 +58,8 @@ log = logging.getLogger("acphys.service")
 
 #: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
 _LB_KEY_CACHE = 65536
-#: the operations that change the world every tenant shares (`NodeOptions.world_admin`)
+#: the operations that change the world every tenant shares (`NodeOptions.world_admin`); the only ones
+#: that may come with an empty payload
 _WORLD_OPS = frozenset(("load", "unload"))
 
 
@@ -338,7 +339,8 @@ class ServiceNode:
 
     # -- per-landblock queries -----------------------------------------------------
     def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
-        forbidden = op in _WORLD_OPS and not self.options.world_admin
+        world_op = op in _WORLD_OPS  # asked once per handler, not per request
+        forbidden = world_op and not self.options.world_admin
 
         def handler(query: zenoh.Query) -> None:
             received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
@@ -348,7 +350,7 @@ class ServiceNode:
                 if forbidden:
                     raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
                                         "the service's --admin users may send it")
-                msg = decode_envelope(self._payload(query), allow_empty=op in ("load", "unload"))
+                msg = decode_envelope(self._payload(query), allow_empty=world_op)
                 if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
                     # one move (the common request): run straight to its reply, without `_work`'s closures
                     single = self._single_move_job(query, msg, received)
