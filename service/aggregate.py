@@ -4,7 +4,11 @@
 once for the whole service: the parent asks every worker on its private
 keys and merges the answers here (plain maps in, a map out; no bus).
 Counters add up; latency percentiles are recomputed over the workers'
-samples together (a percentile of percentiles would be wrong).
+samples together (a percentile of percentiles would be wrong). The
+service's loaded landblocks are those some worker serves: loaded by the
+worker that owns it. Every worker holds a scene file's every landblock (its
+neighbours' terrain included), so a landblock its owner unloaded is still
+in the other workers' own lists, but no longer served.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .capabilities import CAPABILITY_FIELDS
+from .ownership import Ownership
 from .stats import LatencyWindow
 
 __all__ = ["WorkerView", "merge_health", "merge_stats", "merge_landblocks", "merged_window"]
@@ -28,7 +33,7 @@ class WorkerView:
     """What the parent knows of one worker process."""
 
     index: int
-    owned: Any  # Ownership.to_wire()
+    ownership: Ownership
     pid: int | None
     alive: bool
     instance: str | None = None
@@ -37,7 +42,7 @@ class WorkerView:
     def to_wire(self, answered: bool) -> dict[str, Any]:
         status = "ok" if self.alive and answered else ("unresponsive" if self.alive else "dead")
         out: dict[str, Any] = {"index": self.index, "instance": self.instance, "pid": self.pid, "status": status,
-                               "owned": self.owned}
+                               "owned": self.ownership.to_wire()}
         if self.exit_code is not None:
             out["exit_code"] = self.exit_code
         return out
@@ -51,6 +56,14 @@ def _status(draining: bool, workers: Sequence[WorkerView], answered: set[int]) -
 
 def _sum_int(replies: Sequence[dict[str, Any]], key: str) -> int:
     return sum(int(r.get(key, 0) or 0) for r in replies)
+
+
+def _served(replies: dict[int, dict[str, Any]], workers: Sequence[WorkerView], key: str) -> list[int]:
+    """The landblocks of the replies' lists under `key` that the answering worker owns, sorted."""
+    served: set[int] = set()
+    for w in workers:
+        served.update(lb for lb in (replies.get(w.index) or {}).get(key) or [] if w.ownership.owns(lb))
+    return sorted(served)
 
 
 def merge_health(base: dict[str, Any], replies: dict[int, dict[str, Any]], workers: Sequence[WorkerView],
@@ -88,13 +101,11 @@ def merge_stats(base: dict[str, Any], parent_counts: dict[str, dict[str, int]], 
     errors: Counter[str] = Counter(parent_counts.get("errors", {}))
     handovers: Counter[str] = Counter()
     cache: Counter[str] = Counter()
-    loaded: set[int] = set()
     for r in got:
         requests.update({k: v for k, v in (r.get("requests") or {}).items() if k not in PARENT_OPS})
         errors.update(r.get("errors") or {})
         handovers.update(r.get("handovers") or {})
         cache.update({k: v for k, v in (r.get("cache") or {}).items() if isinstance(v, (int, float))})
-        loaded.update(r.get("loaded_landblocks") or [])
     requests.update(parent_counts.get("requests", {}))
     out = merge_health(base, replies, workers, draining)
     del out["status"]
@@ -106,7 +117,7 @@ def merge_stats(base: dict[str, Any], parent_counts: dict[str, dict[str, int]], 
         "errors": dict(errors),
         "handovers": {k: handovers.get(k, 0) for k in ("out", "in", "failed")},
         "cache": dict(cache),
-        "loaded_landblocks": sorted(loaded),
+        "loaded_landblocks": _served(replies, workers, "loaded_landblocks"),
     })
     for key, sample_key in (("latency_ms", "latency_s"), ("engine_ms", "engine_s")):
         out[key] = merged_window([s.get(sample_key) or [] for s in samples.values()],
@@ -116,15 +127,12 @@ def merge_stats(base: dict[str, Any], parent_counts: dict[str, dict[str, int]], 
 
 def merge_landblocks(base: dict[str, Any], replies: dict[int, dict[str, Any]],
                      workers: Sequence[WorkerView]) -> dict[str, Any]:
-    """The service's landblock list: what it owns as a whole, everything any worker has loaded,
-    and which worker owns what."""
-    loaded: set[int] = set()
-    for r in replies.values():
-        loaded.update(r.get("loaded") or [])
+    """The service's landblock list: what it owns as a whole, what its workers serve (each worker's
+    loaded landblocks that it owns), and each worker's own list as it answered."""
     return {
         **base,
-        "loaded": sorted(loaded),
+        "loaded": _served(replies, workers, "loaded"),
         "workers": len(workers),
-        "worker_processes": [{"index": w.index, "owned": w.owned, "loaded": (replies.get(w.index) or {}).get("loaded", [])}
-                             for w in workers],
+        "worker_processes": [{"index": w.index, "owned": w.ownership.to_wire(),
+                              "loaded": (replies.get(w.index) or {}).get("loaded", [])} for w in workers],
     }

@@ -178,7 +178,7 @@ class WorkerProcess:
 
     def view(self) -> WorkerView:
         code = self.proc.poll() if self.proc is not None else None
-        return WorkerView(self.index, self.ownership.to_wire(), self.proc.pid if self.proc else None,
+        return WorkerView(self.index, self.ownership, self.proc.pid if self.proc else None,
                           self.proc is not None and code is None, self.instance, code)
 
 

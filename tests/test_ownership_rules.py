@@ -11,7 +11,7 @@ import random
 import pytest
 import zenoh
 
-from service.aggregate import WorkerView, merge_health, merge_stats, merged_window
+from service.aggregate import WorkerView, merge_health, merge_landblocks, merge_stats, merged_window
 from service.ownership import Ownership
 from service.workers import worker_count
 
@@ -88,7 +88,8 @@ def test_merged_latency_is_over_every_sample() -> None:
 
 
 def _views(alive: tuple[bool, bool] = (True, True)) -> list[WorkerView]:
-    return [WorkerView(0, [0xA9B4], 100, alive[0], "w0"), WorkerView(1, [0xAAB4], 101, alive[1], "w1")]
+    return [WorkerView(0, Ownership(frozenset({0xA9B4})), 100, alive[0], "w0"),
+            WorkerView(1, Ownership(frozenset({0xAAB4})), 101, alive[1], "w1")]
 
 
 def test_merge_health_adds_up_and_reports_a_dead_worker() -> None:
@@ -125,8 +126,29 @@ def test_merge_stats_sums_counters_but_not_the_parents_own_queries() -> None:
     assert s["moves"] == 42 and s["errors"] == {"unknown_mover": 2, "busy": 2}
     assert s["handovers"] == {"out": 1, "in": 1, "failed": 0}
     assert s["cache"] == {"hits": 4, "misses": 2, "landblock_loads": 8}
-    assert s["loaded_landblocks"] == [0xA9B4, 0xAAB4, 0xAAB5] and s["movers"] == 3 and s["workers"] == 2
+    # what the workers serve: w0's AAB4 is a copy (w1 owns it), and nobody owns AAB5
+    assert s["loaded_landblocks"] == [0xA9B4, 0xAAB4] and s["movers"] == 3 and s["workers"] == 2
     assert s["latency_ms"]["count"] == 42 and s["latency_ms"]["window"] == 4
     assert math.isclose(s["latency_ms"]["mean"], (3 * 1.0 + 3.0) / 4) and s["latency_ms"]["max"] == pytest.approx(3.0)
     assert s["engine_ms"]["p50"] == pytest.approx(0.5)
     assert "status" not in s and s["instance"] == "parent"
+
+
+def test_merge_landblocks_lists_what_the_owners_serve() -> None:
+    """Every worker holds a scene's every landblock; once AAB4's owner (w1) has unloaded it, the service
+    serves it no more, though w0 still has its copy: the face lists A9B4 only, each worker its own list."""
+    base = {"instance": "parent", "owned": "*"}
+    replies = {0: {"loaded": [0xA9B4, 0xAAB4]}, 1: {"loaded": [0xA9B4]}}
+    got = merge_landblocks(base, replies, _views())
+    assert got["loaded"] == [0xA9B4] and got["instance"] == "parent" and got["owned"] == "*"
+    assert got["workers"] == 2
+    assert got["worker_processes"] == [{"index": 0, "owned": [0xA9B4], "loaded": [0xA9B4, 0xAAB4]},
+                                       {"index": 1, "owned": [0xAAB4], "loaded": [0xA9B4]}]
+    # both owners with theirs loaded: both served; a silent worker's landblocks are not
+    both = {0: {"loaded": [0xA9B4, 0xAAB4]}, 1: {"loaded": [0xA9B4, 0xAAB4]}}
+    assert merge_landblocks(base, both, _views())["loaded"] == [0xA9B4, 0xAAB4]
+    assert merge_landblocks(base, {0: both[0]}, _views())["loaded"] == [0xA9B4]
+    # an X stripe owns by the id's high byte
+    stripes = [WorkerView(0, Ownership.x_stripe(0x00, 0xA9), 100, True), WorkerView(1, Ownership.x_stripe(0xAA, 0xFF), 101, True)]
+    assert merge_landblocks(base, {0: {"loaded": [0xA9B4, 0xAAB4]}, 1: {"loaded": [0xAAB5]}}, stripes)["loaded"] == \
+        [0xA9B4, 0xAAB5]

@@ -414,7 +414,7 @@ def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
     """`--workers 2 --users`: alice's mover walks from the west worker's landblock into the east one's (a
     hand-over between the workers, in her space); bob reaches it on neither, cannot hand a mover over
     himself, and each user's Health counts that user's movers over both workers; only the admin (`--admin alice`)
-    unloads a worker's landblock."""
+    unloads a worker's landblock, which the service's landblock list then leaves out."""
     with ServiceProcess(extra=["--users", str(users_file), "--workers", "2", "--admin", "alice"]) as svc:
         with _client(svc, "alice") as alice, _client(svc, "bob") as bob:
             seen: list[int] = []
@@ -441,10 +441,19 @@ def test_workers_keep_each_users_movers_apart(users_file: Path) -> None:
             with pytest.raises(ServiceError) as e:
                 bob.unload_landblock(0xA9B4)
             assert e.value.kind == "forbidden"
+            (before,) = alice.landblocks()
+            assert 0xA9B4 in before["loaded"]
             alice.unload_landblock(0xA9B4)
             with pytest.raises(ServiceError) as e:
                 alice.unload_landblock(0xA9B4)  # its owner holds it no more
             assert e.value.kind == "landblock_not_loaded"
+            # the service serves it no more, though the other worker keeps its copy of the scene's landblocks
+            (after,) = alice.landblocks()
+            assert after["loaded"] == sorted(set(before["loaded"]) - {0xA9B4})
+            copies = [w["loaded"] for w in after["worker_processes"] if 0xA9B4 not in (w["owned"] if isinstance(w["owned"], list) else [])]
+            assert len(copies) == 1 and 0xA9B4 in copies[0], after["worker_processes"]
+            (stats,) = alice.stats()
+            assert stats["loaded_landblocks"] == after["loaded"]
 
 
 def test_a_cluster_keeps_each_users_movers_apart(users_file: Path, tmp_path: Path) -> None:
