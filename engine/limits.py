@@ -33,6 +33,7 @@ __all__ = [
     "check_number",
     "check_vector",
     "check_unit_vector",
+    "check_sliding_normal",
     "check_orientation",
     "check_target_origin",
     "check_start",
@@ -100,6 +101,20 @@ def check_unit_vector(v: Vec3, field: str) -> Vec3:
     if abs(n - 1.0) > UNIT_TOLERANCE:
         raise OutOfRangeError(f"{field}: length {n:.6g} is not 1 (within {UNIT_TOLERANCE})", field)
     return v
+
+
+def check_sliding_normal(v: Vec3, field: str) -> Vec3:
+    """A mover's sliding normal: a unit vector, or exactly zero.
+
+    CollisionInfo::SetSlidingNormal keeps only the horizontal part of the
+    normal it is given, and zero when that part is too small to normalise
+    (a vertical normal: a mover settling on level ground), still marked
+    valid. Such a mover is Sliding with a zero normal, and must start that
+    way again when it is handed over or read back from a state file."""
+    check_vector(v, field)
+    if v.x == 0.0 and v.y == 0.0 and v.z == 0.0:
+        return v
+    return check_unit_vector(v, field)
 
 
 def check_orientation(q: Quat, field: str) -> Quat:

@@ -264,7 +264,7 @@ _REGISTER_FIELDS = (
     Field("position", POSITION, required=True, doc="Position"),
     Field("contact_plane", PLANE, omit=True, check=engine_check(limits.check_plane)),
     Field("contact_plane_cell", UInt(32), omit=True, with_field="contact_plane"),
-    Field("sliding_normal", Vector(Vec3, engine_check(limits.check_unit_vector)), omit=True),
+    Field("sliding_normal", Vector(Vec3, engine_check(limits.check_sliding_normal)), omit=True),
     Field("water_contact", Bool(), default=False, omit=True),
 )
 

@@ -260,3 +260,16 @@ def test_set_velocity_gives_the_mover_its_own_velocity_clamped_to_max_velocity()
     assert world.mover(mid).velocity == Vec3(0.0, 3.0, 0.0)
     with pytest.raises(NonFiniteError):
         world.set_velocity(mid, Vec3(math.nan, 0.0, 0.0))
+
+
+def test_a_sliding_normal_is_a_unit_vector_or_zero() -> None:
+    """Zero is what a mover settled on level ground slides along (no horizontal direction)."""
+    from engine.limits import check_sliding_normal
+
+    assert check_sliding_normal(Vec3(0.0, 0.0, 0.0), "sliding_normal") == Vec3(0.0, 0.0, 0.0)
+    assert check_sliding_normal(Vec3(0.6, 0.8, 0.0), "sliding_normal") == Vec3(0.6, 0.8, 0.0)
+    for bad in (Vec3(0.3, 0.4, 0.0), Vec3(1e-9, 0.0, 0.0), Vec3(2.0, 0.0, 0.0)):
+        with pytest.raises(OutOfRangeError, match="sliding_normal: length"):
+            check_sliding_normal(bad, "sliding_normal")
+    with pytest.raises(EngineError):
+        check_sliding_normal(Vec3(math.nan, 0.0, 0.0), "sliding_normal")

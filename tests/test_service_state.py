@@ -41,22 +41,29 @@ def test_restart_keeps_movers_seq_contact_and_velocity(tmp_path: Path) -> None:
     ground = start_on_ground(world, cell, x, y)
     cell2, x2, y2 = global_to_cell(100.0, 40.0)
     high = Position.at(cell2, Vec3(x2, y2, world.terrain_height(cell2, x2, y2) + 30.0))
+    cell3, x3, y3 = global_to_cell(250.0, 30.0)  # level ground
+    level = start_on_ground(world, cell3, x3, y3)
     with ServiceProcess(extra=_state_args(state)) as svc:
         with Client([svc.endpoint]) as c:
             c.wait_ready()
             walker = c.register(human(), ground, mover_id=0x5001)
             faller = c.register(human(), high, mover_id=0x5002)
-            w, f = world.add_mover(human(), ground), world.add_mover(human(), high)
+            rester = c.register(human(), level, mover_id=0x5003)
+            w, f, r = world.add_mover(human(), ground), world.add_mover(human(), high), world.add_mover(human(), level)
             for _ in range(8):  # the walker lands and walks; the faller falls (it has speed when we stop)
                 walker = c.step(walker.id, (0.0, 1.0, 0.0), 0.2)
                 world.step(w, Vec3(0.0, 1.0, 0.0), 0.2)
             for _ in range(3):
                 faller = c.step(faller.id, ZERO, 0.2)
                 world.step(f, Vec3(*ZERO), 0.2)
+            for _ in range(4):  # the rester settles: on level ground it slides with no direction, a zero normal
+                rester = c.step(rester.id, ZERO, 0.2)
+                world.step(r, Vec3(*ZERO), 0.2)
             assert walker.on_walkable and not faller.contact
+            assert "Sliding" in rester.result.transient_state and rester.result.sliding_normal == Vec3(0.0, 0.0, 0.0)
         assert svc.stop(signal.SIGTERM) == 0
     saved = read_state(state)
-    assert saved is not None and sorted(m.handover.id for m in saved) == [0x5001, 0x5002]
+    assert saved is not None and sorted(m.handover.id for m in saved) == [0x5001, 0x5002, 0x5003]
     with ServiceProcess(extra=_state_args(state)) as svc:
         with Client([svc.endpoint]) as c:
             c.wait_ready()
@@ -72,7 +79,9 @@ def test_restart_keeps_movers_seq_contact_and_velocity(tmp_path: Path) -> None:
                 assert comparable(c.step(0x5001, (0.0, 1.0, 0.0), 0.2)) == \
                     comparable(world.step(w, Vec3(0.0, 1.0, 0.0), 0.2))
                 assert comparable(c.step(0x5002, ZERO, 0.2)) == comparable(world.step(f, Vec3(*ZERO), 0.2))
-            assert c.get(0x5002)[0].seq == 6
+                assert comparable(c.step(0x5003, (0.0, 1.0, 0.0), 0.2)) == \
+                    comparable(world.step(r, Vec3(0.0, 1.0, 0.0), 0.2))
+            assert c.get(0x5002)[0].seq == 6 and c.get(0x5003)[0].seq == 7
 
 
 def test_state_is_written_at_the_interval_so_a_kill_loses_no_mover(tmp_path: Path) -> None:

@@ -136,7 +136,7 @@ class World:
         if contact_plane is not None:
             limits.check_plane(contact_plane, "contact_plane")
         if sliding_normal is not None:
-            limits.check_unit_vector(sliding_normal, "sliding_normal")
+            limits.check_sliding_normal(sliding_normal, "sliding_normal")
         self._check_position(position)
         mover = mover_from_spec(self._next_mover_id, spec)
         mover.position = position
