@@ -38,11 +38,13 @@ class WorkerView:
     alive: bool
     instance: str | None = None
     exit_code: int | None = None
+    #: times the parent started it again after it died
+    restarts: int = 0
 
     def to_wire(self, answered: bool) -> dict[str, Any]:
         status = "ok" if self.alive and answered else ("unresponsive" if self.alive else "dead")
         out: dict[str, Any] = {"index": self.index, "instance": self.instance, "pid": self.pid, "status": status,
-                               "owned": self.ownership.to_wire()}
+                               "owned": self.ownership.to_wire(), "restarts": self.restarts}
         if self.exit_code is not None:
             out["exit_code"] = self.exit_code
         return out

@@ -23,6 +23,7 @@ from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX, user_prefix
+from .workers import DEFAULT_WORKER_RESTARTS
 from .zconfig import DEFAULT_ENDPOINT, make_config
 
 __all__ = ["add_serve_arguments", "serve", "main"]
@@ -51,6 +52,8 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", default="1", metavar="N",
                    help="engine processes behind one router (service/workers.py): a count or 'auto' (the CPUs); "
                         "default 1, one process")
+    p.add_argument("--worker-restarts", type=int, default=DEFAULT_WORKER_RESTARTS, metavar="N",
+                   help="with --workers: times a worker that dies is started again (0: never; default %(default)s)")
     # set by `--workers` on the processes it starts (service/workers.py); not for people
     p.add_argument("--worker-info", metavar="PREFIX", help=argparse.SUPPRESS)
     p.add_argument("--worker-parent", type=int, metavar="PID", help=argparse.SUPPRESS)

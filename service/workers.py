@@ -19,9 +19,12 @@ Workers answer health, stats and the landblock list under private keys,
 `P/@workers/<parent id>/<index>/...` (a `@` chunk is verbatim in Zenoh:
 no wildcard such as `P/**` reaches it), and the parent answers the public
 `P/health`, `P/stats` and `P/landblocks` once for the whole service
-(service/aggregate.py). It watches the workers: one that dies is logged and
-Health says `degraded`. SIGINT/SIGTERM to the parent stops every worker
-(each finishes its queue), then the router.
+(service/aggregate.py). It watches the workers: one that dies is logged,
+Health says `degraded`, and the parent starts it again with the same
+landblocks (after 0.5 s, doubling with each restart up to 30 s; at most
+`--worker-restarts` times, default 5; its movers come back from its
+`--state` file when there is one). SIGINT/SIGTERM to the parent stops every
+worker (each finishes its queue), then the router.
 
 With `--users` (service/accounts.py) the router checks every login and
 carries the users' access control; each worker logs in to it as the
@@ -77,6 +80,12 @@ log = logging.getLogger("acphys.workers")
 
 #: seconds for a worker to print its ready line (it loads the whole world first)
 WORKER_START_TIMEOUT = 120.0
+#: how many times a worker that dies is started again, by default (`--worker-restarts`)
+DEFAULT_WORKER_RESTARTS = 5
+#: seconds between a worker's death and its restart: the first, and the most (each restart doubles it, so
+#: that a worker dying at every start does not spin the machine)
+RESTART_DELAY_FIRST = 0.5
+RESTART_DELAY_MAX = 30.0
 #: seconds a worker gets to finish its queue after SIGTERM before it is killed
 WORKER_STOP_TIMEOUT = 30.0
 #: seconds the parent waits for the workers' answers to a health query (they answer off the engine thread, in
@@ -86,6 +95,11 @@ INFO_TIMEOUT = 2.0
 _READY = re.compile(r"acphys service ready: instance (\S+),")
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 _PR_SET_PDEATHSIG = 1
+
+
+def restart_delay(restarts: int) -> float:
+    """Seconds to wait before restarting a worker that has already been restarted `restarts` times."""
+    return min(RESTART_DELAY_MAX, RESTART_DELAY_FIRST * 2.0 ** restarts)
 
 
 def worker_count(text: str | int | None) -> int:
@@ -173,13 +187,17 @@ class WorkerProcess:
     proc: subprocess.Popen[str] | None = None
     instance: str | None = None
     ready: threading.Event = field(default_factory=threading.Event)
-    died: bool = False  # exited while the service was running
+    died: bool = False  # exited while the service was running (at least once)
     output: deque[str] = field(default_factory=lambda: deque(maxlen=50))  # its latest stdout lines, for errors
+    #: times it was started again after dying
+    restarts: int = 0
+    #: when its death was noticed (monotonic), until it is started again
+    down_since: float | None = None
 
     def view(self) -> WorkerView:
         code = self.proc.poll() if self.proc is not None else None
         return WorkerView(self.index, self.ownership, self.proc.pid if self.proc else None,
-                          self.proc is not None and code is None, self.instance, code)
+                          self.proc is not None and code is None, self.instance, code, self.restarts)
 
 
 class WorkerSupervisor:
@@ -204,6 +222,9 @@ class WorkerSupervisor:
         self._instance_password: str | None = None
         #: the face's request counters, per key space (a user's, or None: the public prefix)
         self._face_stats: dict[str | None, ServiceStats] = {}
+        #: how many times a dead worker is started again
+        self.restart_limit: int = getattr(args, "worker_restarts", DEFAULT_WORKER_RESTARTS)
+        self._env: dict[str, str] = {}
 
     # -- planning -------------------------------------------------------------------------------
     def plan(self) -> list[Ownership]:
@@ -296,12 +317,10 @@ class WorkerSupervisor:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE_ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         env["PYTHONUNBUFFERED"] = "1"
+        self._env = env
         for index, ownership in enumerate(parts):
             w = WorkerProcess(index, ownership, self._worker_argv(index, ownership))
-            # a session of its own: a terminal's Ctrl-C reaches the parent only, which stops the workers in order
-            w.proc = subprocess.Popen(w.argv, stdout=subprocess.PIPE, stderr=None, text=True, env=env,
-                                      start_new_session=True)
-            threading.Thread(target=self._pump, args=(w,), name=f"acphys-worker-{index}-out", daemon=True).start()
+            self._spawn(w)
             self.workers.append(w)
         deadline = time.monotonic() + WORKER_START_TIMEOUT
         for w in self.workers:
@@ -329,14 +348,23 @@ class WorkerSupervisor:
             log.info("worker %d: pid %d, instance %s, owns %s", w.index, w.proc.pid if w.proc else -1, w.instance,
                      w.ownership.to_text())
 
-    def _pump(self, w: WorkerProcess) -> None:
-        """Read a worker's stdout: its ready line (kept to ourselves), the rest shown with its index."""
-        assert w.proc is not None and w.proc.stdout is not None
-        for line in w.proc.stdout:
+    def _spawn(self, w: WorkerProcess) -> None:
+        """Start the worker's process (again, after it died) and the thread reading its output."""
+        # a session of its own: a terminal's Ctrl-C reaches the parent only, which stops the workers in order
+        proc = subprocess.Popen(w.argv, stdout=subprocess.PIPE, stderr=None, text=True, env=self._env,
+                                start_new_session=True)
+        w.proc, w.ready = proc, threading.Event()
+        threading.Thread(target=self._pump, args=(w, proc, w.ready), name=f"acphys-worker-{w.index}-out",
+                         daemon=True).start()
+
+    def _pump(self, w: WorkerProcess, proc: subprocess.Popen[str], ready: threading.Event) -> None:
+        """Read a worker process's stdout: its ready line (kept to ourselves), the rest shown with its index."""
+        assert proc.stdout is not None
+        for line in proc.stdout:
             m = _READY.search(line)
-            if m and not w.ready.is_set():
+            if m and not ready.is_set():
                 w.instance = m.group(1)
-                w.ready.set()
+                ready.set()
                 continue
             w.output.append(line)
             print(f"[worker {w.index}] {line}", end="", flush=True)
@@ -352,13 +380,27 @@ class WorkerSupervisor:
                 raise RuntimeError(f"workers {sorted(want - got)} do not answer through the router")
             time.sleep(0.05)
 
-    def watch(self) -> None:
-        """Log a worker that has exited while the service runs (called periodically)."""
+    def watch(self, now: float | None = None) -> None:
+        """Log a worker that has exited while the service runs, and start it again when its delay is up
+        (called periodically)."""
+        now = time.monotonic() if now is None else now
         for w in self.workers:
-            if w.proc is not None and not w.died and not self.draining and w.proc.poll() is not None:
-                w.died = True
+            if self.draining or w.proc is None or w.proc.poll() is None:
+                continue
+            if w.down_since is None:  # just noticed
+                w.died, w.down_since = True, now
                 log.error("worker %d (pid %d, instance %s) died with exit code %s; landblocks %s are not served",
                           w.index, w.proc.pid, w.instance, w.proc.returncode, w.ownership.to_text())
+                if w.restarts < self.restart_limit:
+                    log.warning("worker %d: starting it again in %.1f s (restart %d of at most %d)", w.index,
+                                restart_delay(w.restarts), w.restarts + 1, self.restart_limit)
+                else:
+                    log.error("worker %d: not started again (--worker-restarts %d used up)", w.index, self.restart_limit)
+            if w.restarts < self.restart_limit and now - w.down_since >= restart_delay(w.restarts):
+                w.restarts += 1
+                w.down_since = None
+                self._spawn(w)
+                log.info("worker %d started again: pid %d", w.index, w.proc.pid)
 
     def shutdown(self) -> int:
         """Stop every worker (SIGTERM: each answers its queue), then the router; 0 when all went cleanly."""
@@ -468,6 +510,9 @@ def serve_workers(args: argparse.Namespace, count: int) -> int:
     if args.mode not in (None, "router"):
         print("acphys serve: --workers runs a Zenoh router in front of the workers; --mode must be router or absent",
               file=sys.stderr)
+        return 2
+    if getattr(args, "worker_restarts", 0) < 0:
+        print("acphys serve: --worker-restarts must be 0 or more", file=sys.stderr)
         return 2
     stop = threading.Event()
 

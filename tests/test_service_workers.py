@@ -14,6 +14,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -129,7 +130,8 @@ def test_sigterm_stops_every_worker_cleanly() -> None:
 
 
 def test_a_dead_worker_is_reported() -> None:
-    with ServiceProcess(extra=["--workers", "2"]) as s:
+    """With `--worker-restarts 0` a worker that dies stays dead: Health says so, the other serves on."""
+    with ServiceProcess(extra=["--workers", "2", "--worker-restarts", "0"]) as s:
         with Client([s.endpoint], timeout=10.0) as c:
             (health,) = c.wait_ready()
             victim = health["worker_processes"][1]
@@ -139,12 +141,46 @@ def test_a_dead_worker_is_reported() -> None:
             assert health["workers"] == 2 and health["workers_ok"] == 1
             assert health["worker_processes"][1]["status"] == "dead"
             assert health["worker_processes"][1]["exit_code"] == -signal.SIGKILL
+            assert health["worker_processes"][1]["restarts"] == 0
             # the other worker still serves its landblocks
             st, _ = _walk_on_ground(c, demo_world(), 30.0, 30.0)
             assert st.landblock == 0xA9B4
         assert wait_until(lambda: any("worker 1" in ln and "died" in ln for ln in s.output), timeout=5.0)
         assert s.stop(signal.SIGTERM) == 1  # the exit status says a worker failed
         assert _pid_gone(health["worker_processes"][0]["pid"])
+
+
+def test_a_dead_worker_is_started_again_with_its_movers(tmp_path: Path) -> None:
+    """SIGKILL to the east worker: the parent logs it, starts it again with the same landblocks, and its
+    `--state` file gives the mover back with its seq; moves go on from there. The exit status still says
+    that a worker died."""
+    state = tmp_path / "movers.state"
+    with ServiceProcess(extra=["--workers", "2", "--state", str(state), "--state-interval", "0.2"]) as s:
+        with Client([s.endpoint], timeout=10.0) as c:
+            (health,) = c.wait_ready()
+            victim = health["worker_processes"][1]
+            assert victim["owned"] == [0xAAB4, 0xAAB5] and victim["restarts"] == 0
+            st, _ = _walk_on_ground(c, demo_world(), 250.0, 30.0)
+            assert st.landblock == 0xAAB4 and st.seq == 10
+            saved = Path(f"{state}.worker-1-of-2")
+            assert wait_until(lambda: saved.exists() and saved.stat().st_size > 0, timeout=10.0)
+            time.sleep(0.6)  # a save after the last move
+            os.kill(victim["pid"], signal.SIGKILL)
+            assert wait_until(lambda: c.health()[0]["status"] == "degraded", timeout=10.0)
+
+            def started_again() -> bool:
+                (h,) = c.health()
+                w = h["worker_processes"][1]
+                return h["status"] == "ok" and w["restarts"] == 1 and w["pid"] != victim["pid"]
+
+            assert wait_until(started_again, timeout=60.0)
+            (back, *_rest) = c.get(st.id)
+            assert back.seq == 10 and back.position.origin == st.position.origin
+            assert c.step(st.id, ZERO, 0.2).seq == 11
+            # the west worker never stopped
+            assert c.health()[0]["worker_processes"][0]["pid"] == health["worker_processes"][0]["pid"]
+        assert any("worker 1: starting it again in 0.5 s (restart 1 of at most 5)" in ln for ln in s.output), s.output[-20:]
+        assert s.stop(signal.SIGTERM) == 1
 
 
 def test_x_stripe_instances_hand_over(tmp_path: Path) -> None:
