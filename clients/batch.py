@@ -2,7 +2,9 @@
 
 `Client.move_batch` packs its arguments into the request columns declared
 in service/columns.py, sends one column request per landblock (the
-landblock each mover was last seen in), follows `moved` hand-overs by
+landblock each mover was last seen in; every request goes out before any
+reply is read, so that the instances serving them work at the same time),
+follows `moved` hand-overs by
 sending the items concerned again, and puts the reply columns back
 together in the items' order as a `BatchResults`.
 """
@@ -32,7 +34,7 @@ from service.wire import ErrorKind
 from .errors import AcphysError, ServiceError
 
 if TYPE_CHECKING:
-    from .client import Client
+    from .client import Client, PendingRequest
 
 __all__ = ["BatchResults", "move_batch"]
 
@@ -248,6 +250,7 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
     pending: Sequence[int] = range(n)
     for attempt in range(_MAX_REDIRECTS + 1):
         retry: list[int] = []
+        sent: list[tuple[list[int], bool, Array, PendingRequest]] = []
         for lb, members in _groups(client, pending, id_list, errors).items():
             whole = len(members) == n  # every item in this one request, in order: sent and taken as they are
             idx = np.array(members, dtype=np.intp)
@@ -255,8 +258,11 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                 REQUEST_COLUMNS, arrays if whole else {k: a[idx] for k, a in arrays.items()})}
             if publish is not None:
                 body["publish"] = publish
+            # every landblock's request on its way before any reply is read: their instances work at once
+            sent.append((members, whole, idx, client._send(client.keys.move(lb), body, timeout)))
+        for members, whole, idx, request in sent:
             try:
-                cols, reply_errors = _read_reply(client._request(client.keys.move(lb), body, timeout), len(members))
+                cols, reply_errors = _read_reply(client._receive(request), len(members))
             except AcphysError as e:
                 for i in members:
                     errors[i] = e

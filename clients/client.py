@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import msgpack
@@ -52,6 +53,16 @@ def _pack(content: dict[str, Any]) -> bytes:
 
 def _unpack(data: bytes) -> Any:
     return msgpack.unpackb(data, raw=False, strict_map_key=False)
+
+
+@dataclass(slots=True)
+class PendingRequest:
+    """A request on its way (`Client._send`): the key it went to, Zenoh's receiver of its replies, and
+    the seconds it may take."""
+
+    key: str | zenoh.KeyExpr
+    replies: Any
+    timeout: float
 
 
 class Subscription:
@@ -139,7 +150,7 @@ class Client(SpatialQueries):
     def find(self, mover_id: int, timeout: float | None = None) -> MoverState:
         """Ask every instance for the mover (a `get` on every landblock key); its state."""
         errors: list[ServiceError] = []
-        for r in self._replies(self.keys.lb("*", "get"), {"id": mover_id}, timeout, all_instances=True):
+        for r in self._replies_of_all(self.keys.lb("*", "get"), {"id": mover_id}, timeout):
             if r.ok is not None:
                 msg = _unpack(r.ok.payload.to_bytes())
                 return self._learn(MoverState.from_wire(msg["state"]))
@@ -164,21 +175,22 @@ class Client(SpatialQueries):
             key = self._lb_keys[lb, op] = zenoh.KeyExpr(self.keys.lb(lb, op))
         return key
 
-    def _replies(self, key: str | zenoh.KeyExpr, content: dict[str, Any] | None, timeout: float | None, *,
-                 all_instances: bool) -> list[Any]:
-        if not all_instances and content is not None:  # the common case (every per-landblock request): no kwargs map
-            return list(self.session.get(key, payload=_pack(content), timeout=self.timeout if timeout is None else timeout))
-        kwargs: dict[str, Any] = {"timeout": self.timeout if timeout is None else timeout}
-        if content is not None:
-            kwargs["payload"] = _pack(content)
-        if all_instances:
-            kwargs["target"] = zenoh.QueryTarget.ALL
-            kwargs["consolidation"] = zenoh.ConsolidationMode.NONE
-        return list(self.session.get(key, **kwargs))
+    def _replies_of_all(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None) -> list[Any]:
+        """Every instance's reply to one query (`key` may match many)."""
+        return list(self.session.get(key, payload=_pack(content), timeout=self.timeout if timeout is None else timeout,
+                                     target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE))
 
-    def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
-        """One request to the instance serving `key`: its reply map, or an exception."""
-        replies = self._replies(key, content, timeout, all_instances=False)
+    def _send(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> PendingRequest:
+        """Put one request to the instance serving `key` on the bus and return at once (Zenoh gathers its
+        reply meanwhile): a batch sends every landblock's request before it reads any reply, so that the
+        instances (or `--workers`' engines) serving them work at the same time."""
+        wait = self.timeout if timeout is None else timeout
+        return PendingRequest(key, self.session.get(key, payload=_pack(content), timeout=wait), wait)
+
+    def _receive(self, pending: PendingRequest) -> dict[str, Any]:
+        """The reply map of a request `_send` sent (waiting for it), or an exception."""
+        key, timeout = pending.key, pending.timeout
+        replies = list(pending.replies)
         if not replies:
             raise NoServiceError(f"no service answers on {key}")
         r = replies[0]
@@ -193,9 +205,13 @@ class Client(SpatialQueries):
         except Exception:
             text = raw.decode("utf-8", "replace")
             if "timeout" in text.lower():
-                raise RequestTimeout(f"no answer on {key} within {self.timeout if timeout is None else timeout} s") from None
+                raise RequestTimeout(f"no answer on {key} within {timeout} s") from None
             raise ServiceError(ErrorKind.MALFORMED, f"unreadable error reply on {key}: {text}") from None
         raise ServiceError.from_wire(err)
+
+    def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
+        """One request to the instance serving `key`: its reply map, or an exception."""
+        return self._receive(self._send(key, content, timeout))
 
     def _lb_request(self, lb: int, op: str, content: dict[str, Any], mover_id: int | None = None,
                     timeout: float | None = None) -> dict[str, Any]:
@@ -214,7 +230,7 @@ class Client(SpatialQueries):
 
     def _all(self, key: str, timeout: float | None) -> list[InstanceInfo]:
         out = []
-        for r in self._replies(key, {}, timeout, all_instances=True):
+        for r in self._replies_of_all(key, {}, timeout):
             if r.ok is None:
                 continue
             msg = _unpack(r.ok.payload.to_bytes())
@@ -282,7 +298,7 @@ class Client(SpatialQueries):
 
     def move_many(self, moves: Sequence[Move], timeout: float | None = None,
                   publish: str | None = None) -> list[MoverState | AcphysError]:
-        """A batch: one request per landblock, each mover's moves in order.
+        """A batch: one request per landblock (all sent before any reply is read), each mover's moves in order.
 
         Returns one entry per move, in order: its State, or the error for that move alone.
         `publish="batch"`: the service publishes each request's States as one message on
@@ -322,12 +338,15 @@ class Client(SpatialQueries):
                     continue
                 groups.setdefault(lb, []).append(i)
             retry: list[int] = []
-            for lb, idx in groups.items():
+            sent: list[tuple[list[int], PendingRequest]] = []
+            for lb, idx in groups.items():  # every landblock's request on its way before any reply is read
                 body: dict[str, Any] = {"moves": [moves[i].to_wire() for i in idx]}
                 if publish is not None:
                     body["publish"] = publish
+                sent.append((idx, self._send(self._lb_key(lb, "move"), body, timeout)))
+            for idx, pending_request in sent:
                 try:
-                    reply = self._request(self._lb_key(lb, "move"), body, timeout)
+                    reply = self._receive(pending_request)
                 except AcphysError as e:
                     for i in idx:
                         results[i] = e
@@ -370,8 +389,9 @@ class Client(SpatialQueries):
         `ids` (n,) mover ids and exactly one of: `offsets` (n, 3); `targets` (n, 3) origins, with
         optional `cells` (n,) (0: the mover's current cell) and `orientations` (n, 4) (all zeros:
         the current one); `motions` (n, 3) with `dt` (n,) or one number. `velocities` (n, 3) goes
-        with offsets or targets. One request per landblock; a mover handed over meanwhile is
-        followed. `publish`: "each" (default), "batch" or "columns" (one columnar message on
+        with offsets or targets. One request per landblock, all sent before any reply is read (the
+        instances serving them work at the same time); a mover handed over meanwhile is followed.
+        `publish`: "each" (default), "batch" or "columns" (one columnar message on
         `P/state_columns`). Returns the results in the moves' order; failed moves are in
         `errors` by index. ValueError for arguments of the wrong shape or combination. Needs an
         instance whose Health lists "columns" in `move_forms`.

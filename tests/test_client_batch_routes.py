@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import msgpack
 import numpy as np
 import pytest
 
@@ -21,7 +22,7 @@ RESOLVED = Flag.RESOLVED | Flag.OK
 
 
 class StandInClient:
-    """What move_batch uses of a Client: `_where`, `keys`, `landblock_of` and `_request`."""
+    """What move_batch uses of a Client: `_where`, `keys`, `landblock_of`, `_send` and `_receive`."""
 
     def __init__(self, where: dict[int, int], holder: dict[int, int], collide: dict[int, list[int]]) -> None:
         self._where = dict(where)
@@ -29,12 +30,20 @@ class StandInClient:
         self.holder = holder  # mover id -> the landblock that really holds it
         self.collide = collide  # mover id -> ids it collides with on every move
         self.sent: list[tuple[int, list[int]]] = []  # (landblock, ids) of every request
+        self.log: list[str] = []  # "send XX" and "receive XX", in the order they happened
 
     def landblock_of(self, mover_id: int) -> int:
         return self._where[mover_id]
 
-    def _request(self, key: str, body: dict[str, Any], timeout: float | None) -> dict[str, Any]:
+    def _receive(self, pending: tuple[int, dict[str, Any]]) -> dict[str, Any]:
+        lb, reply = pending
+        self.log.append(f"receive {lb:X}")
+        return reply
+
+    def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
+        """The reply, worked out when the request is sent (as the service starts on it then)."""
         lb = int(key.split("/")[2], 16)
+        self.log.append(f"send {lb:X}")
         raw = body["columns"]
         n = len(raw["id"]) // 8
         ids = unpack_column(REQUEST_BY_NAME["id"], raw["id"], n).tolist()
@@ -58,7 +67,7 @@ class StandInClient:
             collide_ids += self.collide.get(mid, [])
         packed = pack_columns(REPLY_COLUMNS, cols)
         packed["collide_ids"] = np.array(collide_ids, dtype="<u8").tobytes()
-        return {"v": 1, "n": n, "columns": packed, "errors": errors}
+        return lb, {"v": 1, "n": n, "columns": packed, "errors": errors}
 
 
 def test_one_landblock_answers_the_whole_batch_and_results_are_writable() -> None:
@@ -77,6 +86,8 @@ def test_two_landblocks_are_asked_apart_and_put_back_in_order() -> None:
     c = StandInClient({1: 0x10, 2: 0x20, 3: 0x10}, {1: 0x10, 2: 0x20, 3: 0x10}, {3: [7, 8], 2: [9]})
     r = move_batch(c, [2, 1, 3], offsets=[[1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]])
     assert sorted(c.sent) == [(0x10, [1, 3]), (0x20, [2])]
+    # both requests go out before either reply is read: the two landblocks' instances work at once
+    assert c.log == ["send 20", "send 10", "receive 20", "receive 10"]
     assert r.seq.tolist() == [2, 1, 3]
     assert r.landblock.tolist() == [0x20, 0x10, 0x10]
     assert r.origin[:, 0].tolist() == [1.0, 2.0, 3.0]
@@ -99,9 +110,9 @@ def test_a_moved_item_is_sent_again_where_the_error_says() -> None:
 
 def test_a_mover_that_keeps_moving_away_ends_as_its_error() -> None:
     class Restless(StandInClient):
-        def _request(self, key: str, body: dict[str, Any], timeout: float | None) -> dict[str, Any]:
+        def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
             self.holder[2] += 1  # handed on before each request arrives
-            return super()._request(key, body, timeout)
+            return super()._send(key, body, timeout)
 
     c = Restless({1: 0x10, 2: 0x10}, {1: 0x10, 2: 0x10}, {})
     r = move_batch(c, [1, 2], offsets=[[1.0, 0, 0], [2.0, 0, 0]])
@@ -116,3 +127,47 @@ def test_wrong_shapes_are_refused_before_anything_is_sent(shape: tuple[int, int]
     with pytest.raises(ValueError, match="offset"):
         move_batch(c, [1, 2], offsets=np.zeros(shape))
     assert c.sent == []
+
+
+class _LoggedReplies:
+    """Zenoh's receiver of one query's replies: logs when it is read."""
+
+    def __init__(self, log: list[str], lb: int, payload: bytes) -> None:
+        self.log, self.lb, self.payload = log, lb, payload
+
+    def __iter__(self) -> Any:
+        self.log.append(f"receive {self.lb:X}")
+        reply = type("Reply", (), {})()
+        reply.ok = type("Sample", (), {"payload": type("Payload", (), {"to_bytes": lambda _s, p=self.payload: p})()})()
+        reply.err = None
+        return iter([reply])
+
+
+class _LoggedSession:
+    """What Client uses of a zenoh.Session for a map batch: `get`, answered with every move resolved (its
+    id as seq) by the landblock the key names."""
+
+    def __init__(self) -> None:
+        self.log: list[str] = []
+
+    def get(self, key: Any, payload: bytes, timeout: float) -> _LoggedReplies:
+        lb = int(str(key).split("/")[2], 16)
+        self.log.append(f"send {lb:X}")
+        moves = msgpack.unpackb(payload)["moves"]
+        results = [{"id": m["id"], "landblock": lb, "seq": m["id"]} for m in moves]
+        return _LoggedReplies(self.log, lb, msgpack.packb({"v": 1, "results": results}))
+
+    def is_closed(self) -> bool:
+        return False
+
+
+def test_a_map_batch_sends_every_landblocks_request_before_reading_a_reply() -> None:
+    from clients import Client, Move
+
+    session = _LoggedSession()
+    client = Client(session=session)  # type: ignore[arg-type]
+    for mid, lb in ((1, 0x10), (2, 0x20), (3, 0x10)):
+        client.locate(mid, lb)
+    entries = client.move_many_maps([Move(m, offset=(1.0, 0.0, 0.0)) for m in (2, 1, 3)])
+    assert session.log == ["send 20", "send 10", "receive 20", "receive 10"]
+    assert [(e["id"], e["landblock"]) for e in entries] == [(2, 0x20), (1, 0x10), (3, 0x10)]  # type: ignore[index]
