@@ -684,7 +684,10 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
 
     issue = issue_workload(quick, engine_root)
     workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
-    return {"latency": lat, "throughput": rows, "issue10_columns": issue, "workers": workers,
+    from .bench_spanning import spanning_batch  # it imports this module's helpers
+
+    spanning = spanning_batch(scene, 60 if quick else 300) if engine_root is None else None
+    return {"latency": lat, "throughput": rows, "issue10_columns": issue, "workers": workers, "spanning": spanning,
             "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off",
             "engine_root": str(engine_root) if engine_root else None}
 

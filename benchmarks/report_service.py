@@ -8,7 +8,7 @@ from typing import Any
 from .report_format import as_float, meta_line, num, pyplot, save_plot
 
 __all__ = ["plot_service", "summary_issue10", "service_limits", "service_section", "memory_section", "client_label",
-           "workers_table", "WORKERS_TEXT"]
+           "workers_table", "WORKERS_TEXT", "spanning_text"]
 
 def plot_service(svc: dict[str, Any]) -> str | None:
     plt = pyplot()
@@ -143,6 +143,19 @@ WORKERS_TEXT = (
     "(their own). Clients and service share this machine's cores, so the row with 2 workers cannot show the "
     "scaling a machine with spare cores gives; `python3 -m benchmarks.bench_service workers --workers 1,2,4 "
     "--clients 8` repeats it (clients on other machines show it best).")
+
+
+def spanning_text(sp: dict[str, Any]) -> list[str]:
+    """The batch over two workers' landblocks (benchmarks/bench_spanning.py)."""
+    return [
+        f"A batch over two workers' landblocks (`--workers 2`, {sp['movers_each']} movers in each of "
+        f"{', '.join(f'{lb:04X}' for lb in sp['landblocks'])}, every mover out and back: {sp['moves']} moves, one "
+        f"client, {sp['rounds']} round trips each way, interleaved): `Client.move_batch` sends both landblocks' "
+        f"requests before it reads either reply, **{sp['together_us']:,.0f} µs** at the median; the same two requests "
+        f"one after the other (each reply read before the next request is sent) {sp['apart_us']:,.0f} µs: "
+        f"**{sp['ratio']:.2f}x**. The two engines work at the same time on this machine's two CPUs, which the client "
+        f"shares. {sp['errors']} errors.",
+    ]
 
 
 def workers_table(rows: list[dict[str, Any]]) -> list[str]:
@@ -282,6 +295,8 @@ def service_section(svc: dict[str, Any], plot: str | None) -> list[str]:
     out += _issue10(svc.get("issue10_columns"), "the working tree's engine")
     if svc.get("workers"):
         out += ["", WORKERS_TEXT, "", *workers_table(svc["workers"])]
+    if svc.get("spanning"):
+        out += ["", *spanning_text(svc["spanning"])]
     comp = svc.get("compiled")
     if comp and "latency" in comp:
         cl = comp["latency"]
