@@ -27,3 +27,32 @@ def test_the_bound_is_sent_the_request_a_client_sends() -> None:
     assert req.arrays["id"].tolist() == [5, 6, 7, 5, 6, 7]
     expected = np.array([[ISSUE_STEP, 0, 0]] * 3 + [[-ISSUE_STEP, 0, 0]] * 3)
     assert np.array_equal(req.arrays["offset"], expected)
+
+
+class _CapturingSession:
+    """What Client uses of a zenoh.Session to send a batch: `get`, whose payload is kept; no reply comes."""
+
+    def __init__(self) -> None:
+        self.payloads: list[bytes] = []
+
+    def get(self, key: object, payload: bytes, timeout: float) -> list[object]:
+        self.payloads.append(payload)
+        return []
+
+    def is_closed(self) -> bool:
+        return False
+
+
+def test_the_raw_clients_send_the_bytes_client_move_batch_sends() -> None:
+    """The "columns, raw clients" form times the service on the request the client library would send."""
+    from clients import Client
+
+    ids = [0x10000001, 0x10000002, 0x10000003]
+    session = _CapturingSession()
+    client = Client(session=session)  # type: ignore[arg-type]
+    for mid in ids:
+        client.locate(mid, 0xA9B4)
+    offsets = np.array([[ISSUE_STEP, 0.0, 0.0]] * 3 + [[-ISSUE_STEP, 0.0, 0.0]] * 3)
+    results = client.move_batch(np.array(ids + ids, dtype=np.uint64), offsets=offsets)
+    assert len(results.errors) == 6  # nobody answered: every item failed, and the request went out once
+    assert session.payloads == [_column_request_bytes(ids)]
