@@ -15,7 +15,7 @@ shares this module without the World.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
@@ -70,15 +70,15 @@ class Column:
     required: tuple[str, ...] = ()
     optional: tuple[str, ...] = ()
     missing: str = ""
+    #: the numpy dtype of `dtype` (little-endian), and the bytes one item takes in this column: read per
+    #: column per request on both sides, so worked out once here
+    np_dtype: np.dtype[Any] = field(init=False, repr=False, compare=False)
+    item_bytes: int = field(init=False, repr=False, compare=False)
 
-    @property
-    def np_dtype(self) -> np.dtype[Any]:
-        return _NP_DTYPES[self.dtype]
-
-    @property
-    def item_bytes(self) -> int:
-        """Bytes one item takes in this column."""
-        return self.np_dtype.itemsize * self.width
+    def __post_init__(self) -> None:
+        wire = _NP_DTYPES[self.dtype]
+        object.__setattr__(self, "np_dtype", wire)
+        object.__setattr__(self, "item_bytes", wire.itemsize * self.width)
 
     @property
     def real(self) -> bool:

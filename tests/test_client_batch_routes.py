@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from clients.batch import move_batch
-from service.columns import REPLY_COLUMNS, REQUEST_BY_NAME, Flag, pack_columns, unpack_column
+from service.columns import REPLY_BY_NAME, REPLY_COLUMNS, REQUEST_BY_NAME, Flag, pack_columns, unpack_column
 from service.wire import Keys
 
 RESOLVED = Flag.RESOLVED | Flag.OK
@@ -119,6 +119,29 @@ def test_a_mover_that_keeps_moving_away_ends_as_its_error() -> None:
     assert set(r.errors) == {1} and r.errors[1].kind == "moved"
     assert r.seq.tolist() == [1, 0] and np.isnan(r.origin[1]).all()
     assert int(r.flags[1]) == 0
+
+
+def test_a_move_that_ends_in_another_landblock_is_remembered_there() -> None:
+    class Crossing(StandInClient):
+        """Mover 2's move ends in landblock 0x11, which the instance serving 0x10 also holds."""
+
+        def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
+            lb, reply = super()._send(key, body, timeout)
+            cols = reply["columns"]
+            cells = unpack_column(REPLY_BY_NAME["cell"], cols["cell"], reply["n"]).copy()
+            ids = unpack_column(REQUEST_BY_NAME["id"], body["columns"]["id"], reply["n"]).tolist()
+            cells[[j for j, mid in enumerate(ids) if mid == 2]] = (0x11 << 16) | 1
+            cols["cell"] = cells.astype("<u4").tobytes()
+            return lb, reply
+
+    c = Crossing({1: 0x10, 2: 0x10, 3: 0x10}, {1: 0x10, 2: 0x10, 3: 0x10}, {})
+    r = move_batch(c, [1, 2, 3], offsets=[[1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]])
+    assert r.landblock.tolist() == [0x10, 0x11, 0x10]
+    assert c._where == {1: 0x10, 2: 0x11, 3: 0x10}
+    # the next batch goes to where each mover is now
+    c.holder[2] = 0x11
+    move_batch(c, [1, 2], offsets=[[1.0, 0, 0], [2.0, 0, 0]])
+    assert sorted(c.sent[1:]) == [(0x10, [1]), (0x11, [2])]
 
 
 @pytest.mark.parametrize("shape", [(2, 2), (3, 3)])
