@@ -183,7 +183,7 @@ def _published(core: ServiceCore, out: ColumnResults, mover_id: int, seq: int, r
 def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: list[Mover | None],
            recs: list[MoverRecord | None], ids: list[int], i: int, forward: bool) -> None:
     """Item i's move ended outside this instance: hand the mover over (its row is then the result), or
-    put it back and fail the item. Later items of that mover go to its new record (or nowhere)."""
+    take the move back and fail the item. After a hand-over, later items of that mover are not run here."""
     _settle(core, req, out, recs, ids, forward, i)  # the hand-over carries the mover's seq so far
     rec = recs[i]
     result = out.rows.results[i]
@@ -193,8 +193,10 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
     lb = (result.position.cell_id >> 16) & 0xFFFF
     # published "each": by the new owner, whose next States follow it on the same session
     state = pack_state(rec.id, rec.seq, result, core.collide_ids(result)) if out.publish_each else None
+    undo = out.rows.undo
+    assert undo is not None  # run_batch keeps it for the item it stopped at
     try:
-        core.hand_over(rec, prev, prev_seq, lb, state)
+        core.hand_over(rec, prev, prev_seq, lb, state, undo)
     except ProtocolError as e:
         out.rows.results[i] = None
         out.errors.append((i, rec.id, e))
@@ -206,11 +208,10 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
         if out.gather:
             out.packed.append(pack_state(rec.id, rec.seq, result, core.collide_ids(result)))
     out.settled = i + 1
-    back = core.movers.get(rec.id)  # None after a hand-over; a new record after a failed one
-    mover = None if back is None else core.world.movers[back.engine_id]
-    for j in range(i + 1, len(ids)):
-        if recs[j] is rec:
-            recs[j], movers[j] = back, mover
+    if core.movers.get(rec.id) is None:  # handed over: later items of that mover are not run here
+        for j in range(i + 1, len(ids)):
+            if recs[j] is rec:
+                recs[j] = movers[j] = None
 
 
 def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],

@@ -17,6 +17,7 @@ from typing import Any, Protocol
 import msgpack
 
 from engine.geometry import Plane, Position, Vec3
+from engine.world.rollback import MoveUndo
 from engine.world.types import MoverSpec, MoveResult
 
 from .codec import encode_mover_spec, encode_state, encode_vec, pack_state
@@ -206,13 +207,14 @@ class ServiceCore:
             while (self._id_base | self._next_id) in self.movers:
                 self._next_id += 1
             mover_id = self._id_base | self._next_id
-            self._next_id += 1
         else:
             mover_id = req.id
             if mover_id in self.movers:
                 raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {mover_id:X} is already registered", "id")
         rec = self._add(mover_id, req.spec, req.position, req.contact_plane, req.contact_plane_cell,
                         sliding_normal=req.sliding_normal, water_contact=bool(req.water_contact))
+        if req.id is None:
+            self._next_id += 1  # taken only once the mover is in: a refused register leaves the next id free
         state = self._state(rec)
         self.refresh()  # a dat world loads the start landblock on demand
         self.bus.publish_state(rec.id, self._packer.pack(state))
@@ -261,6 +263,9 @@ class ServiceCore:
         rec = self.movers.get(item.id)
         if rec is None:
             rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
+        # an instance owning only some landblocks may have to refuse a move after it ended (no owner takes
+        # the mover): kept so that the move can be taken back
+        undo = None if self.ownership.everything else MoveUndo(self.world.movers[rec.engine_id])
         t0 = perf_counter()
         result = self._apply(rec, item)
         engine = perf_counter() - t0
@@ -269,8 +274,9 @@ class ServiceCore:
         packed = pack_state(rec.id, rec.seq, result, self._collide_ids(result), item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
+            assert undo is not None
             # the new owner publishes this State: its next ones follow it on the same session
-            self._hand_over(rec, prev, prev_seq, lb, packed if publish else None)
+            self._hand_over(rec, prev, prev_seq, lb, packed if publish else None, undo)
         elif publish:
             self.bus.publish_state(rec.id, packed)
         return packed, engine
@@ -366,8 +372,9 @@ class ServiceCore:
     def collide_ids(self, r: MoveResult) -> list[int]:
         return self._collide_ids(r)
 
-    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None) -> None:
-        self._hand_over(rec, prev, prev_seq, lb, state)
+    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None,
+                  undo: MoveUndo) -> None:
+        self._hand_over(rec, prev, prev_seq, lb, state, undo)
 
     def moves_done(self, latency: list[float], engine: list[float]) -> None:
         self._done(latency, engine)
@@ -381,18 +388,17 @@ class ServiceCore:
             rec.id, rec.seq, spec_with_contact(rec.spec, r), r.position, r.contact_plane, r.contact_plane_cell,
             r.sliding_normal, r.water_contact, self.instance, state))
 
-    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None) -> None:
+    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None,
+                   undo: MoveUndo) -> None:
         """Pass the mover to `lb`'s owner (which publishes `state`, the crossing move's State, when given),
-        or put it back where it was and refuse the move."""
+        or take the move back (`undo`, taken before it: the mover, its velocity, its time held over and its
+        shadows exactly as they were; its record's last result and seq too) and refuse it."""
         try:
             self.bus.handover(lb, self._handover_payload(rec, state))
         except ProtocolError as e:
             self.stats.bump("handovers", "failed")
-            self._drop(rec)
-            spec = spec_with_contact(rec.spec, prev)
-            back = self._add(rec.id, spec, prev.position, prev.contact_plane, prev.contact_plane_cell, prev_seq,
-                             prev.sliding_normal, prev.water_contact)
-            back.spec = rec.spec
+            undo.restore()
+            rec.last, rec.seq = prev, prev_seq
             raise ProtocolError(
                 ErrorKind.NO_OWNER,
                 f"the move ends in landblock {lb_hex(lb)} and no instance took the mover ({e.kind}: {e.message}); "

@@ -41,6 +41,7 @@ from ..cells.landscape import Landscape
 from ..geometry import Position, Quat, Vec3
 from .mover import Mover
 from .moves import move_checked, step_checked
+from .rollback import MoveUndo
 from .transient import NAMED_BITS
 from .types import MoveResult
 
@@ -110,6 +111,9 @@ class BatchRows:
         #: per item that ran: seconds in the engine, and perf_counter() when it finished
         self.engine_seconds: list[float] = []
         self.finished_at: list[float] = []
+        #: when `run_batch` stopped at an item (`stop_if`): what puts that item's mover back as it was
+        #: before the item (MoveUndo.restore), should its move be refused after all
+        self.undo: MoveUndo | None = None
 
     def reals_le(self) -> bytes:
         """The real rows so far, `count` x REALS_PER_ROW float64s, little-endian."""
@@ -253,7 +257,8 @@ def run_batch(
     the item) gets an empty row and an entry in `rows.errors`. `stop_if(landblock id)` is asked of
     each result's landblock: when it says True the batch stops with that item's result in
     `rows.results` but no row written, and returns the item's index (the caller decides, then goes on
-    from the next index). Returns len(movers) when every item has run."""
+    from the next index; `rows.undo` takes that item's move back). Returns len(movers) when every item
+    has run."""
     n = len(movers)
     results = rows.results
     for i in range(start, n):
@@ -262,6 +267,8 @@ def run_batch(
             results.append(None)
             append_missing(rows)
             continue
+        # a move that may stop the batch may be refused after it ended: kept so that it can be taken back
+        undo = MoveUndo(mover) if stop_if is not None else None
         t0 = perf_counter()
         try:
             if kind == MOTION:
@@ -285,6 +292,7 @@ def run_batch(
         rows.finished_at.append(t1)
         results.append(result)
         if stop_if is not None and stop_if((result.position.cell_id >> 16) & 0xFFFF):
+            rows.undo = undo
             return i
         append_row(rows, result)
     return n

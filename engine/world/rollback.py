@@ -1,10 +1,17 @@
-"""What a move may change on its mover, kept so a move that raises changes nothing.
+"""What a move may change on its mover, kept so that it can be taken back.
 
 A move that fails with an exception (an input the checks at the door let
 through, or a bug) must leave its mover exactly as it was: the World takes
-this snapshot before the move and puts it back if the move raises. Shadows
-change only in the move's very last step (reshadow), after everything that
-can fail, so they need no copy.
+a MoverSnapshot before the move and puts it back if the move raises.
+Shadows change only in the move's very last step (reshadow), after
+everything that can fail, so they need no copy there.
+
+A move that ended may still have to be taken back: a service instance that
+owns only some landblocks hands a mover whose move ended outside them to
+the owner, and when no owner takes it the move is refused. A MoveUndo,
+taken before such a move, puts back the mover and its shadows (the cells it
+was listed in, at the places it held in their lists), so the world is as
+if the move had never been asked.
 """
 
 from __future__ import annotations
@@ -12,12 +19,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .mover import Mover
+from .shadows import remove_shadows
 from .._compat import mypyc_attr
 
 if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
+    from ..objects.obstacle import Obstacle
 
-__all__ = ["MoverSnapshot"]
+__all__ = ["MoverSnapshot", "MoveUndo"]
 
 
 @mypyc_attr(acyclic=True, free_list_len=1)
@@ -59,3 +68,41 @@ class MoverSnapshot:
         m.colliding_with_environment = self.colliding_with_environment
         m.held_time = self.held_time
         m.held_motion = self.held_motion
+
+
+class MoveUndo:
+    """A mover as it stands, shadows included: `restore()` after a move that ended puts it back exactly
+    (the mover's slots, and its obstacle in the same cells' shadow lists at the same places, so that
+    other movers test it in the same order as before). Taken only before moves that may be refused after
+    they ended (a hand-over: engine.world.batch.run_batch's `stop_if`, the service's moves)."""
+
+    __slots__ = ("snapshot", "shadow_cells", "shadow_slots", "shadow_after")
+
+    def __init__(self, mover: Mover) -> None:
+        self.snapshot = MoverSnapshot(mover)
+        self.shadow_cells: list[ObjCell] = list(mover.shadow_cells)
+        #: in each of those cells' lists (oldest first): the mover's place, and the object just before it
+        #: (None: it was first), which it goes back behind if the list changed meanwhile
+        self.shadow_slots: list[int] = []
+        self.shadow_after: list[Obstacle | None] = []
+        obstacle = mover.obstacle
+        if obstacle is not None:
+            for cell in self.shadow_cells:
+                slot = cell.shadow_objects.index(obstacle)
+                self.shadow_slots.append(slot)
+                self.shadow_after.append(cell.shadow_objects[slot - 1] if slot > 0 else None)
+
+    def restore(self) -> None:
+        mover = self.snapshot.mover
+        remove_shadows(mover)
+        obstacle = mover.obstacle
+        if obstacle is not None:
+            for cell, slot, before in zip(self.shadow_cells, self.shadow_slots, self.shadow_after):
+                objects = cell.shadow_objects
+                if slot > len(objects) or (slot > 0 and objects[slot - 1] is not before):
+                    # the list changed meanwhile (a mover handed in while this one waited on its hand-over):
+                    # back behind the object it followed, ahead of everything added since
+                    slot = objects.index(before) + 1 if before in objects else len(objects)
+                objects.insert(slot, obstacle)
+        mover.shadow_cells = list(self.shadow_cells)
+        self.snapshot.restore()
