@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Final
 
-from .constants import BLOCK_LENGTH
+from .constants import BLOCK_LENGTH, EPSILON
 from .errors import NonFiniteError, OutOfRangeError
 from .geometry import Plane, Position, Quat, Vec3
 from .world.types import MoverSpec
@@ -21,6 +21,8 @@ __all__ = [
     "FLOAT32_MAX",
     "MAX_OBJECT_SIZE",
     "MIN_SPHERE_RADIUS",
+    "MIN_RAY_RADIUS",
+    "MAX_RAY_RADIUS",
     "MIN_SCALE",
     "MAX_SCALE",
     "TARGET_MARGIN",
@@ -56,6 +58,12 @@ MAX_OBJECT_SIZE: Final = BLOCK_LENGTH
 #: the smallest scaled sphere radius: a transition takes sub-steps of one
 #: radius, so a vanishing radius only makes every move too long to resolve
 MIN_SPHERE_RADIUS: Final = 1e-4
+#: a swept sphere's radius (ray and sight queries), at most: a mover's largest sphere is far smaller
+MAX_RAY_RADIUS: Final = 10.0
+#: and at least: five times the transition's distance tolerance (EPSILON, 0.2 mm). A sphere near that
+#: size is lost in it (a sweep of radius EPSILON stops at its first step, blocked by nothing), and one
+#: that single precision rounds to 0 divides by zero when the steps are counted
+MIN_RAY_RADIUS: Final = 5 * EPSILON
 MIN_SCALE: Final = 1e-3
 MAX_SCALE: Final = BLOCK_LENGTH
 #: how far past its landblock's edges a target origin may lie (x and y, in

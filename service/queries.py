@@ -18,6 +18,7 @@ from typing import Any
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.queries.results import Blocker, Ground, PlacementResult, RayHit, SightResult
+from engine.limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
 
 from .codec import decode_mover_spec, decode_plane, decode_position, encode_plane, encode_position, encode_vec
 from .engine_errors import to_protocol_error
@@ -62,8 +63,9 @@ def _radius(m: dict[str, Any], path: str, required: bool) -> float | None:
         return None
     p = field_path(path, "radius")
     r = as_float(raw, p)
-    if r <= 0.0:
-        raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be positive, got {r}", p)
+    if not MIN_RAY_RADIUS <= r <= MAX_RAY_RADIUS:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m, "
+                            f"got {r}", p)
     return r
 
 
@@ -125,7 +127,7 @@ def _parse(op: str, msg: dict[str, Any], lb: int | None) -> tuple[bool, list[Ite
     if lb is None:
         raise ProtocolError(ErrorKind.BAD_VALUE, f"a {op} query needs a literal landblock in its key, not a wildcard")
     many = BATCH_FIELDS[op]
-    has_one, has_many = op in msg, many in msg
+    has_one, has_many = msg.get(op) is not None, msg.get(many) is not None  # nil is as good as absent
     if has_one == has_many:
         raise ProtocolError(
             ErrorKind.MISSING_FIELD if not has_one else ErrorKind.BAD_VALUE,

@@ -25,6 +25,8 @@ from typing import Any, Final
 
 import numpy as np
 
+from engine.limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
+
 from .column_request import _column_bytes, _type_name, refuse_bad_reals
 from .columns import Column, pack_columns
 from .errors import ProtocolError
@@ -174,12 +176,17 @@ def query_column_count(msg: dict[str, Any], op: str) -> int:
 
 
 def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
-    """A radius or max_drop below 0 (a ray's radius 0 too), a non-unit orientation, a start outside
-    the key's landblock."""
+    """A radius outside MIN_RAY_RADIUS .. MAX_RAY_RADIUS (for a sight 0 is the default), a max_drop below 0,
+    a non-unit orientation, a start outside the key's landblock."""
     a = req.arrays
     ray = req.op == "ray"
-    for name, low, must in (("radius", (lambda v: v <= 0.0) if ray else (lambda v: v < 0.0),
-                             "be positive" if ray else "be positive (0: the default)"),
+
+    def bad_radius(v: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+        out: np.ndarray[Any, Any] = ~((v >= MIN_RAY_RADIUS) & (v <= MAX_RAY_RADIUS))
+        return out if ray else out & (v != 0.0)
+
+    radius_range = f"be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m" + ("" if ray else " (0: the default)")
+    for name, low, must in (("radius", bad_radius, radius_range),
                             ("max_drop", lambda v: v < 0.0, "not be negative")):
         values = a.get(name)
         if values is not None:
@@ -210,7 +217,7 @@ def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
     from .queries import BATCH_FIELDS  # here: service.queries imports this module
 
 
-    if op in msg or BATCH_FIELDS[op] in msg:
+    if msg.get(op) is not None or msg.get(BATCH_FIELDS[op]) is not None:  # nil is as good as absent
         raise ProtocolError(ErrorKind.BAD_VALUE, f"give exactly one of {op}, {BATCH_FIELDS[op]} or columns")
     cols = msg.get("columns")
     if not isinstance(cols, dict):

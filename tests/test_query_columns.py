@@ -138,3 +138,21 @@ def test_item_errors_name_column_index_and_component_and_spare_the_others() -> N
     place = parse_query_columns("place", {"v": 1, "columns": {"cell": struct.pack("<2I", 0xA9B4000B, 0xA9B4000B),
                                                                "origin": struct.pack("<6d", *[1.0] * 6), "orientation": q}}, A9B4)
     assert [(i, e.path) for i, e in place.bad.items()] == [(1, "columns.orientation[1]")]
+
+
+def test_a_radius_outside_a_millimetre_to_ten_metres_fails_its_item() -> None:
+    # 0.001 m is five times the transition's distance tolerance (0.2 mm): smaller spheres are lost in it
+    radii = [0.001, 0.0009, 1e-200, 5e-324, 10.0, 10.5, 0.0]
+    for op, bad in (("ray", {1, 2, 3, 5, 6}), ("sight", {1, 2, 3, 5})):  # a sight's 0 is its default
+        req = parse_query_columns(op, _segments(len(radii), radius=struct.pack(f"<{len(radii)}d", *radii)), A9B4)
+        assert {i: (e.kind, e.path) for i, e in req.bad.items()} == \
+            {i: (ErrorKind.BAD_VALUE, f"columns.radius[{i}]") for i in bad}, op
+
+
+@pytest.mark.parametrize("op", ["sight", "ray"])
+def test_nil_single_or_batch_field_beside_columns_is_as_good_as_absent(op: str) -> None:
+    many = {"sight": "sights", "ray": "rays"}[op]
+    msg = _segments(1, radius=struct.pack("<d", 0.1))
+    for nil in ({op: None}, {many: None}):
+        req = parse_query_columns(op, {**msg, **nil}, A9B4)
+        assert req.n == 1 and not req.bad

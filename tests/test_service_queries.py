@@ -191,6 +191,31 @@ def test_an_unknown_viewer_or_target_is_named_by_its_own_path(service: ServicePr
         assert msg["sights"][1]["error"]["path"] == "sights[1].viewer"
 
 
+def test_a_radius_below_a_millimetre_is_refused_naming_it_and_a_nil_batch_field_is_absent(
+        service: ServiceProcess) -> None:
+    """A tiny radius used to reach the engine: one single precision rounds to 0 was an `internal` error
+    (a division by zero), one of 1e-4 m an invented hit at the start. Now `bad_value` on `OP.radius`."""
+    import msgpack
+
+    from service.codec import encode_position
+
+    seg = {"from": encode_position(above(40.0, 50.0, 1.6)), "to": encode_position(above(42.0, 50.0, 1.6))}
+    with raw_session(service.endpoint) as s:
+        for op in ("ray", "sight"):
+            for radius in (5e-324, 1e-200, 1e-4, 10.5):
+                body = msgpack.packb({"v": 1, op: {**seg, "radius": radius}}, use_bin_type=True)
+                ok, msg = raw_query(s, f"acphys/lb/A9B4/{op}", body, timeout=10.0)
+                assert not ok and msg["error"]["kind"] == ErrorKind.BAD_VALUE, (op, radius, msg)
+                assert msg["error"]["path"] == f"{op}.radius", msg
+            body = msgpack.packb({"v": 1, op: {**seg, "radius": 0.001}}, use_bin_type=True)
+            ok, msg = raw_query(s, f"acphys/lb/A9B4/{op}", body, timeout=10.0)
+            assert ok, msg  # the smallest radius allowed is answered
+            many = op + "s"
+            body = msgpack.packb({"v": 1, many: None, op: {**seg, "radius": 0.1}}, use_bin_type=True)
+            ok, msg = raw_query(s, f"acphys/lb/A9B4/{op}", body, timeout=10.0)
+            assert ok and op in msg, msg  # nil is as good as absent (docs/protocol.md, Conventions)
+
+
 # -- the column form (docs/protocol.md, "Query columns") ---------------------------------------------
 def _columns_of(positions: list[Position]) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
     return (np.array([p.cell_id for p in positions], dtype=np.uint32),

@@ -48,6 +48,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Final
 
 from .. import limits
+from ..limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
 from ..constants import BLOCK_LENGTH, EPSILON
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere
@@ -61,7 +62,8 @@ if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
     from ..world.world import World
 
-__all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
+__all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS",
+           "MIN_RAY_RADIUS"]
 
 #: The sight object's radius, 0.1 m. What the server sweeps for line of sight
 #: (ACE's WorldObject.IsDirectVisible) is PhysicsObj.makeObject(0x02000124, the
@@ -73,8 +75,6 @@ __all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment",
 #: the default is the dummy sphere's radius, swept with its centre on the eye
 #: line; a caller who knows the arrow's sphere passes it as `radius`.
 SIGHT_RADIUS: Final = 0.1
-#: the largest sweep radius accepted (a mover's largest sphere is far smaller)
-MAX_RAY_RADIUS: Final = 10.0
 #: no step cap for a sight object (PhysicsObj.IsSightObj); for a ray the
 #: settings' own cap (retail 30 steps) would refuse anything longer than
 #: 30 radii, which a query has no reason to
@@ -103,8 +103,8 @@ def check_point(world: World, position: Position, field: str) -> None:
 
 def check_radius(radius: float, field: str = "radius") -> float:
     r = limits.check_number(radius, field)
-    if not (0.0 < r <= MAX_RAY_RADIUS):
-        raise OutOfRangeError(f"{field} must be above 0 and at most {MAX_RAY_RADIUS} m, got {radius!r}")
+    if not (MIN_RAY_RADIUS <= r <= MAX_RAY_RADIUS):
+        raise OutOfRangeError(f"{field} must be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m, got {radius!r}")
     return r
 
 
