@@ -27,6 +27,7 @@ from .messages import (
     Target,
 )
 from .schema import MAX_TAG_LEN
+from .schema_kinds import Tag
 from .validate import as_list, as_map, field_path
 from .wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 from engine.world.types import MoverSpec
@@ -133,8 +134,10 @@ def _item_or_error(value: Any, path: str) -> MoveItem | ItemError:
             raw_id, raw_tag = value.get("id"), value.get("tag")
             if isinstance(raw_id, int) and not isinstance(raw_id, bool) and 0 <= raw_id < (1 << 64):
                 mid = raw_id
-            if isinstance(raw_tag, (int, str)) and not isinstance(raw_tag, bool):
-                tag = raw_tag
+            try:  # echoed only when it is a tag the protocol allows (a 3 MB string is not sent back)
+                tag = Tag().read(raw_tag, "tag") if raw_tag is not None else None
+            except ProtocolError:
+                tag = None
         return ItemError(e, mid, tag)
 
 

@@ -139,3 +139,16 @@ def test_a_sled_keeps_its_sledding_flag_on_the_wire() -> None:
     with pytest.raises(ProtocolError) as e:
         decode_mover_spec(wire, "mover")
     assert e.value.path == "mover.sledding"
+
+
+def test_a_failed_batch_item_echoes_its_tag_only_when_the_protocol_allows_it() -> None:
+    """An item's error carries its tag back (to match answers to requests), but never one the protocol
+    refuses: a 300-character string is not sent back, nor a 3 MB one."""
+    b = parse_moves({"v": 1, "moves": [{"id": 5, "offset": "x", "tag": "a" * 300},
+                                       {"id": 6, "offset": "x", "tag": "b" * 256},
+                                       {"id": 7, "offset": "x", "tag": -(1 << 63)},
+                                       {"id": 8, "offset": "x", "tag": 1 << 64},
+                                       {"id": 9, "offset": "x", "tag": True}]})
+    errors = [item for item in b.items if isinstance(item, ItemError)]
+    assert [(e.id, e.tag) for e in errors] == [(5, None), (6, "b" * 256), (7, -(1 << 63)), (8, None), (9, None)]
+    assert "tag" not in errors[0].to_wire() and errors[1].to_wire()["tag"] == "b" * 256
