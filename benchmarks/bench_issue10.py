@@ -194,22 +194,30 @@ def _bare_worker(endpoint: str, index: int, start_at: float, seconds: float) -> 
     payload = _column_request_bytes(list(range(index * share + 1, (index + 1) * share + 1)))
     session = zenoh.open(make_config(connect=[endpoint]))
     try:
-        key = zenoh.KeyExpr(f"{BARE_KEY}/{index}")
-        time.sleep(max(0.0, start_at - time.time()))
-        cpu0 = time.process_time()
-        end = time.monotonic() + seconds
-        moves = errors = 0
-        while time.monotonic() < end:
-            answered = False
-            for reply in session.get(key, payload=payload, timeout=30.0):
-                answered = reply.ok is not None and len(reply.ok.payload.to_bytes()) > 0
-            errors += 0 if answered else 2 * share
-            moves += 2 * share
-        elapsed = seconds + (time.monotonic() - end)
-        cpu = time.process_time() - cpu0
+        moves, errors, elapsed, cpu = _raw_gets(session, zenoh.KeyExpr(f"{BARE_KEY}/{index}"), payload, 2 * share,
+                                                start_at, seconds, lambda reply: 0 if reply else 2 * share)
     finally:
         session.close()
     return {"index": index, "moves": moves, "errors": errors, "seconds": elapsed, "cpu_seconds": cpu}
+
+
+def _raw_gets(session: Any, key: Any, payload: bytes, items: int, start_at: float, seconds: float,
+              failed: Any) -> tuple[int, int, float, float]:
+    """Raw gets of `payload`, a request of `items` moves, on `key` from `start_at` until `seconds` have
+    passed; `failed(reply bytes)` says how many of the items a reply failed (an unanswered request fails
+    them all): (moves, errors, seconds, CPU seconds)."""
+    time.sleep(max(0.0, start_at - time.time()))
+    cpu0 = time.process_time()
+    end = time.monotonic() + seconds
+    moves = errors = 0
+    while time.monotonic() < end:
+        failures = items
+        for reply in session.get(key, payload=payload, timeout=30.0):
+            if reply.ok is not None:
+                failures = failed(reply.ok.payload.to_bytes())
+        errors += failures
+        moves += items
+    return moves, errors, seconds + (time.monotonic() - end), time.process_time() - cpu0
 
 
 def _raw_column_worker(c: Any, ids: list[int], start_at: float, seconds: float) -> tuple[int, int, float, float]:
@@ -223,20 +231,13 @@ def _raw_column_worker(c: Any, ids: list[int], start_at: float, seconds: float) 
     if any(c.landblock_of(mid) != c.landblock_of(ids[0]) for mid in ids):
         raise RuntimeError("a share's movers are not in one landblock: one raw request cannot reach them all")
     payload = _column_request_bytes(ids)
-    time.sleep(max(0.0, start_at - time.time()))
-    cpu0 = time.process_time()
-    end = time.monotonic() + seconds
-    moves = errors = 0
-    while time.monotonic() < end:
-        answered = False
-        for reply in c.session.get(key, payload=payload, timeout=30.0):
-            if reply.ok is not None:
-                msg = msgpack.unpackb(reply.ok.payload.to_bytes())
-                answered = msg.get("n") == 2 * len(ids)
-                errors += len(msg.get("errors") or ())
-        errors += 0 if answered else 2 * len(ids)
-        moves += 2 * len(ids)
-    return moves, errors, seconds + (time.monotonic() - end), time.process_time() - cpu0
+    items = 2 * len(ids)
+
+    def failed(reply: bytes) -> int:
+        msg = msgpack.unpackb(reply)
+        return len(msg.get("errors") or ()) if msg.get("n") == items else items
+
+    return _raw_gets(c.session, key, payload, items, start_at, seconds, failed)
 
 
 def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:

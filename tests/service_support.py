@@ -271,3 +271,31 @@ def wait_until(predicate: Any, timeout: float = 10.0, interval: float = 0.02) ->
             return True
         time.sleep(interval)
     return bool(predicate())
+
+
+class _Payload:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class StandInQuery:
+    """What the node's query callback uses of a zenoh.Query; keeps what it was answered."""
+
+    def __init__(self, key: str, content: dict[str, Any]) -> None:
+        self.key_expr = key
+        self.payload = _Payload(msgpack.packb(content, use_bin_type=True))
+        self.ok: list[Any] = []
+        self.err: list[Any] = []
+        self.dropped = 0
+
+    def reply(self, _key: Any, payload: bytes) -> None:
+        self.ok.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
+
+    def reply_err(self, payload: bytes) -> None:
+        self.err.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
+
+    def drop(self) -> None:
+        self.dropped += 1

@@ -25,38 +25,10 @@ from service.node import NodeOptions, ServiceNode
 from service.requests import parse_register
 from service.wire import ErrorKind
 from service.zconfig import make_config
-from service_support import DEMO_SCENE, endpoint, free_port, human, raw_session, wait_until
+from service_support import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, wait_until
 
 LB = 0xA9B4
 MOVE_KEY = "acphys/lb/A9B4/move"
-
-
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class StandInQuery:
-    """What the node's query callback uses of a zenoh.Query; keeps what it was answered."""
-
-    def __init__(self, key: str, content: dict[str, Any]) -> None:
-        self.key_expr = key
-        self.payload = _Payload(msgpack.packb(content, use_bin_type=True))
-        self.ok: list[Any] = []
-        self.err: list[Any] = []
-        self.dropped = 0
-
-    def reply(self, _key: Any, payload: bytes) -> None:
-        self.ok.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
-
-    def reply_err(self, payload: bytes) -> None:
-        self.err.append(msgpack.unpackb(payload, raw=False, strict_map_key=False))
-
-    def drop(self) -> None:
-        self.dropped += 1
 
 
 def _node(options: NodeOptions) -> tuple[ServiceNode, str]:

@@ -18,7 +18,6 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-import msgpack
 import numpy as np
 import pytest
 
@@ -27,7 +26,7 @@ from service.node import NodeOptions, ServiceNode
 from service.ownership import Ownership
 from service.world_source import open_world
 from service.zconfig import make_config
-from service_support import free_port
+from service_support import StandInQuery, free_port
 
 DEMO = "clients/demo/demo.json"
 MOVER = 0x70000001
@@ -35,33 +34,6 @@ WALKER = {"spheres": [{"center": [0, 0, 0.48], "radius": 0.48}, {"center": [0, 0
           "step_up_height": 0.6, "step_down_height": 0.4, "state": ["IsPlayer"]}
 #: outdoor cell 0x39 of A9B4 holds x 168..192, y 0..24: 12 m short of the border with AAB4 (not owned)
 CELL = 0xA9B40039
-
-
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class RecordingQuery:
-    """What the service's query handler uses of a zenoh.Query; keeps every reply."""
-
-    def __init__(self, key: str, payload: bytes) -> None:
-        self.key_expr = key
-        self.payload = _Payload(payload)
-        self.oks: list[Any] = []
-        self.errs: list[Any] = []
-
-    def reply(self, _key: Any, payload: bytes) -> None:
-        self.oks.append(msgpack.unpackb(payload, strict_map_key=False))
-
-    def reply_err(self, payload: bytes) -> None:
-        self.errs.append(msgpack.unpackb(payload, strict_map_key=False))
-
-    def drop(self) -> None:
-        pass
 
 
 def _node() -> ServiceNode:
@@ -81,22 +53,22 @@ def nodes() -> Iterator[tuple[ServiceNode, ServiceNode]]:
         b.shutdown(timeout=5.0)
 
 
-def ask(node: ServiceNode, op: str, body: dict[str, Any]) -> RecordingQuery:
+def ask(node: ServiceNode, op: str, body: dict[str, Any]) -> StandInQuery:
     """One request on A9B4's key, answered (queued work included) before this returns."""
-    q = RecordingQuery(node.keys.lb("A9B4", op), msgpack.packb({"v": 1, **body}, use_bin_type=True))
+    q = StandInQuery(node.keys.lb("A9B4", op), {"v": 1, **body})
     node._query_handler(op)(q)
     deadline = time.monotonic() + 10.0
-    while len(q.oks) + len(q.errs) == 0 and time.monotonic() < deadline:
+    while len(q.ok) + len(q.err) == 0 and time.monotonic() < deadline:
         time.sleep(0.002)
     node.snapshot(lambda _core: None)
-    assert len(q.oks) + len(q.errs) == 1, "every request is answered exactly once"
+    assert len(q.ok) + len(q.err) == 1, "every request is answered exactly once"
     return q
 
 
 def ok(node: ServiceNode, op: str, body: dict[str, Any]) -> Any:
     q = ask(node, op, body)
-    assert not q.errs, q.errs
-    return q.oks[0]
+    assert not q.err, q.err
+    return q.ok[0]
 
 
 def engine_mover(node: ServiceNode) -> Any:
@@ -126,7 +98,7 @@ def test_a_refused_move_leaves_a_falling_mover_as_it_was(nodes: tuple[ServiceNod
     before, mover_before = engine_state(a), engine_mover(a)
     assert before[3].z < -4.0  # falling: the refused move must not stop it
     q = ask(a, "move", {"move": {"id": MOVER, "offset": [14.0, 0.0, 0.0]}})  # ends in AAB4: nobody owns it
-    assert q.errs and q.errs[0]["error"]["kind"] == "no_owner" and q.errs[0]["error"]["landblock"] == 0xAAB4
+    assert q.err and q.err[0]["error"]["kind"] == "no_owner" and q.err[0]["error"]["landblock"] == 0xAAB4
     assert engine_state(a) == before
     assert engine_mover(a) is mover_before  # the same engine object: nothing removed and added again
     assert engine_state(a) == engine_state(b)
@@ -146,7 +118,7 @@ def test_a_refused_move_keeps_a_mover_the_start_checks_would_refuse(nodes: tuple
     ok(a, "update", {"id": MOVER, "mover": WALKER})  # now a position the start checks refuse
     before = engine_state(a)
     q = ask(a, "move", {"move": {"id": MOVER, "offset": [3.0, 0.0, 0.0]}})
-    assert q.errs and q.errs[0]["error"]["kind"] == "no_owner"
+    assert q.err and q.err[0]["error"]["kind"] == "no_owner"
     assert ok(a, "get", {"id": MOVER})["state"]["id"] == MOVER  # still here
     assert engine_state(a) == before
 
@@ -154,7 +126,7 @@ def test_a_refused_move_keeps_a_mover_the_start_checks_would_refuse(nodes: tuple
 def _column_move(node: ServiceNode, offsets: list[list[float]]) -> Any:
     ids = np.full(len(offsets), MOVER, dtype=np.uint64)
     cols = pack_columns(REQUEST_COLUMNS, {"id": ids, "offset": np.array(offsets, dtype=np.float64)})
-    return ask(node, "move", {"kind": "offset", "columns": cols}).oks[0]
+    return ask(node, "move", {"kind": "offset", "columns": cols}).ok[0]
 
 
 def test_a_refused_column_item_leaves_the_mover_as_it_was(nodes: tuple[ServiceNode, ServiceNode]) -> None:
@@ -177,7 +149,7 @@ def test_a_refused_column_item_leaves_the_mover_as_it_was(nodes: tuple[ServiceNo
 def test_a_refused_register_leaves_the_next_assigned_id_as_it_was(nodes: tuple[ServiceNode, ServiceNode]) -> None:
     a, b = nodes
     q = ask(a, "register", {"mover": WALKER, "position": {"cell": 0xA9B40100, "origin": [20.0, 20.0, 60.0]}})
-    assert q.errs and q.errs[0]["error"]["kind"] == "unknown_cell"
+    assert q.err and q.err[0]["error"]["kind"] == "unknown_cell"
     b.snapshot(lambda core: setattr(core, "_id_base", a.core._id_base if a.core else 0))  # same id space
     spot = {"mover": WALKER, "position": {"cell": 0xA9B40001, "origin": [20.0, 20.0, 60.0]}}
     assert ok(a, "register", spot)["state"]["id"] == ok(b, "register", spot)["state"]["id"]
