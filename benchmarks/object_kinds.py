@@ -2,7 +2,7 @@
 
 A case is one mover, of any combination of the ObjectInfo flags IsViewer,
 PathClipped, PerfectClip, EdgeSlide, FreeRotate and IsPlayer, with one or
-two spheres of 1 mm to 15 m (scale 0.5 to 2), starting on, under or high
+two spheres of 2 mm to 15 m (scale 0.5 to 2: at least the 1 mm the limits allow), starting on, under or high
 above the ground, exactly on a cell corner or a landblock edge (synthetic
 hills, flat open water at sea level, four landblocks meeting) or at a
 reference start indoors (the cellar, the house), moved by zero, tiny
@@ -28,6 +28,7 @@ from typing import Any
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
 from engine.errors import EngineError
+from engine.limits import MIN_SPHERE_RADIUS
 
 from . import common
 from . import scenes as S
@@ -40,9 +41,10 @@ SCENES = OUTDOOR_SCENES + INDOOR_SCENES
 PRESETS = ("retail", "ace")
 STARTS = ("on", "under", "high", "cell-corner", "landblock-edge")
 MOVE_KINDS = ("zero", "tiny", "vertical", "step", "long", "physics")
-MIN_RADIUS = 0.001
-MAX_RADIUS = 15.0
 SCALES = (0.5, 1.0, 2.0)
+#: unscaled: the smallest scaled radius the limits allow (engine.limits.MIN_SPHERE_RADIUS) at the smallest scale
+MIN_RADIUS = MIN_SPHERE_RADIUS / min(SCALES)
+MAX_RADIUS = 15.0
 MAX_MOVES = 8
 DT = 1.0 / 30.0
 HOME = 0xA9B40000

@@ -21,7 +21,6 @@ __all__ = [
     "FLOAT32_MAX",
     "MAX_OBJECT_SIZE",
     "MIN_SPHERE_RADIUS",
-    "MIN_RAY_RADIUS",
     "MAX_RAY_RADIUS",
     "MIN_SCALE",
     "MAX_SCALE",
@@ -55,15 +54,16 @@ FLOAT32_MAX: Final = 3.4028234663852886e38
 #: nothing in the client is larger than a landblock: sphere radii and centre
 #: offsets (scaled), step heights, cylsphere sizes (metres)
 MAX_OBJECT_SIZE: Final = BLOCK_LENGTH
-#: the smallest scaled sphere radius: a transition takes sub-steps of one
-#: radius, so a vanishing radius only makes every move too long to resolve
-MIN_SPHERE_RADIUS: Final = 1e-4
+#: the smallest scaled sphere radius, a mover's or a swept ray's: five times the
+#: transition's distance tolerance (EPSILON, 0.2 mm). A transition takes sub-steps
+#: of at most one radius and gives up on one shorter than EPSILON, so a sphere near
+#: that size is lost in it: at 0.2 mm every move is Invalid and a ray stops at its
+#: start, blocked by nothing; up to 0.5 mm a move ends after its first sub-step and
+#: is answered as done, and two such spheres pass through each other; one that
+#: single precision rounds to 0 divides by zero when the steps are counted
+MIN_SPHERE_RADIUS: Final = 5 * EPSILON
 #: a swept sphere's radius (ray and sight queries), at most: a mover's largest sphere is far smaller
 MAX_RAY_RADIUS: Final = 10.0
-#: and at least: five times the transition's distance tolerance (EPSILON, 0.2 mm). A sphere near that
-#: size is lost in it (a sweep of radius EPSILON stops at its first step, blocked by nothing), and one
-#: that single precision rounds to 0 divides by zero when the steps are counted
-MIN_RAY_RADIUS: Final = 5 * EPSILON
 MIN_SCALE: Final = 1e-3
 MAX_SCALE: Final = BLOCK_LENGTH
 #: how far past its landblock's edges a target origin may lie (x and y, in

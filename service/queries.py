@@ -18,7 +18,7 @@ from typing import Any
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.queries.results import Blocker, Ground, PlacementResult, RayHit, SightResult
-from engine.limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
+from engine.limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS
 
 from .codec import decode_mover_spec, decode_plane, decode_position, encode_plane, encode_position, encode_vec
 from .engine_errors import to_protocol_error
@@ -63,8 +63,8 @@ def _radius(m: dict[str, Any], path: str, required: bool) -> float | None:
         return None
     p = field_path(path, "radius")
     r = as_float(raw, p)
-    if not MIN_RAY_RADIUS <= r <= MAX_RAY_RADIUS:
-        raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m, "
+    if not MIN_SPHERE_RADIUS <= r <= MAX_RAY_RADIUS:
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: must be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m, "
                             f"got {r}", p)
     return r
 

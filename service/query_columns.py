@@ -12,7 +12,7 @@ go through it.
 Whole-request errors (a column of the wrong type, byte length or item
 count, an unknown or missing column, too many items) refuse the request
 before anything runs. Bad values fail only their item (NaN, ±infinity, a
-magnitude beyond float32, a negative radius, a start outside the key's
+magnitude beyond float32, a radius outside 0.001 .. 10 m, a start outside the key's
 landblock, an unknown target): the others are answered as if sent alone,
 each exactly as the map form answers the same query.
 """
@@ -25,7 +25,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from engine.limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
+from engine.limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS
 
 from .column_request import _column_bytes, _type_name, refuse_bad_reals
 from .columns import Column, pack_columns
@@ -176,16 +176,16 @@ def query_column_count(msg: dict[str, Any], op: str) -> int:
 
 
 def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
-    """A radius outside MIN_RAY_RADIUS .. MAX_RAY_RADIUS (for a sight 0 is the default), a max_drop below 0,
+    """A radius outside MIN_SPHERE_RADIUS .. MAX_RAY_RADIUS (for a sight 0 is the default), a max_drop below 0,
     a non-unit orientation, a start outside the key's landblock."""
     a = req.arrays
     ray = req.op == "ray"
 
     def bad_radius(v: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
-        out: np.ndarray[Any, Any] = ~((v >= MIN_RAY_RADIUS) & (v <= MAX_RAY_RADIUS))
+        out: np.ndarray[Any, Any] = ~((v >= MIN_SPHERE_RADIUS) & (v <= MAX_RAY_RADIUS))
         return out if ray else out & (v != 0.0)
 
-    radius_range = f"be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m" + ("" if ray else " (0: the default)")
+    radius_range = f"be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m" + ("" if ray else " (0: the default)")
     for name, low, must in (("radius", bad_radius, radius_range),
                             ("max_drop", lambda v: v < 0.0, "not be negative")):
         values = a.get(name)

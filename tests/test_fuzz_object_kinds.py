@@ -2,7 +2,7 @@
 
 A property test over every combination of the ObjectInfo flags IsViewer,
 PathClipped, PerfectClip, EdgeSlide, FreeRotate and IsPlayer, spheres of
-1 mm to 15 m, starts on, under and high above the ground, on cell corners,
+2 mm to 15 m, starts on, under and high above the ground, on cell corners,
 landblock edges, open water and indoors, zero, tiny, vertical, ordinary and
 250 m moves and physics steps, under RETAIL and ACE_COMPAT
 (benchmarks/object_kinds.py builds and runs each case; the stress run uses

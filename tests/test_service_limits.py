@@ -73,6 +73,7 @@ HOSTILE: list[tuple[str, str, bytes, str, str]] = [
     ("giant sphere 1e39", "register", register(sphere(1e39)), "bad_value", "mover.spheres[0].radius"),
     ("giant sphere 1e30", "register", register(sphere(1e30)), "bad_value", "mover.spheres[0].radius"),
     ("sphere of a kilometre", "register", register(sphere(1000.0)), "bad_value", "mover.spheres[0].radius"),
+    ("sphere of a tenth of a millimetre", "register", register(sphere(1e-4)), "bad_value", "mover.spheres[0].radius"),
     ("scale 1e30", "register", register(sphere(0.5, scale=1e30)), "bad_value", "mover.scale"),
     ("step height 1e30", "register", register(sphere(0.5, step_up_height=1e30)), "bad_value", "mover.step_up_height"),
     ("origin at 1e30", "register", register(sphere(0.5), [1e30, 10.0, 60.0]), "bad_value", "position.origin[0]"),

@@ -48,7 +48,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Final
 
 from .. import limits
-from ..limits import MAX_RAY_RADIUS, MIN_RAY_RADIUS
+from ..limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS
 from ..constants import BLOCK_LENGTH, EPSILON
 from ..errors import LandblockNotLoadedError, OutOfRangeError
 from ..geometry import ZERO, Position, Sphere
@@ -62,8 +62,7 @@ if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
     from ..world.world import World
 
-__all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS",
-           "MIN_RAY_RADIUS"]
+__all__ = ["SIGHT_RADIUS", "CONTACT_TOLERANCE", "ray", "sight", "check_segment", "cell_for", "MAX_RAY_RADIUS"]
 
 #: The sight object's radius, 0.1 m. What the server sweeps for line of sight
 #: (ACE's WorldObject.IsDirectVisible) is PhysicsObj.makeObject(0x02000124, the
@@ -103,8 +102,8 @@ def check_point(world: World, position: Position, field: str) -> None:
 
 def check_radius(radius: float, field: str = "radius") -> float:
     r = limits.check_number(radius, field)
-    if not (MIN_RAY_RADIUS <= r <= MAX_RAY_RADIUS):
-        raise OutOfRangeError(f"{field} must be from {MIN_RAY_RADIUS:g} to {MAX_RAY_RADIUS:g} m, got {radius!r}")
+    if not (MIN_SPHERE_RADIUS <= r <= MAX_RAY_RADIUS):
+        raise OutOfRangeError(f"{field} must be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m, got {radius!r}")
     return r
 
 
