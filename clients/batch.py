@@ -176,11 +176,6 @@ def _keep_collisions(idx: Array, cols: dict[str, Array], collide: list[tuple[int
         collide.append((int(idx[j]), ids[ends[j] - int(counts[j]):ends[j]]))
 
 
-#: item indices 0, 1, ... of a batch answered whole (read-only: sliced, never written)
-_WHOLE_INDEX = np.arange(4096, dtype=np.intp)
-_WHOLE_INDEX.flags.writeable = False
-
-
 def _learn_landblocks(client: Client, lb: int, ids: Array, idx: Array, cols: dict[str, Array]) -> None:
     """Remember the landblock each resolved item of a reply to `lb`'s request ended in. The usual reply
     (every item resolved, none left `lb`) changes nothing the client knew, and is checked as such with
@@ -270,7 +265,7 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
         sent: list[tuple[int, list[int], bool, Array, PendingRequest]] = []
         for lb, members in _groups(client, pending, id_list, errors).items():
             whole = len(members) == n  # every item in this one request, in order: sent and taken as they are
-            idx = _WHOLE_INDEX[:n] if whole and n <= len(_WHOLE_INDEX) else np.array(members, dtype=np.intp)
+            idx = np.arange(n, dtype=np.intp) if whole else np.array(members, dtype=np.intp)
             body: dict[str, Any] = {"kind": kind, "columns": pack_columns(
                 REQUEST_COLUMNS, arrays if whole else {k: a[idx] for k, a in arrays.items()})}
             if publish is not None:
