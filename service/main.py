@@ -21,6 +21,7 @@ from .accounts import Accounts, add_accounts_arguments, apply_accounts, no_login
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
+from .state_layout import regroup_state
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX, user_prefix
 from .workers import DEFAULT_WORKER_RESTARTS
@@ -106,6 +107,10 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         # with accounts, one tenant per user over the one world (service/accounts.py), each with its own state
         # file; the first tenant is the host
         users: list[str | None] = list(accounts.users) if accounts is not None else [None]
+        if getattr(args, "state", None) and not worker_info:
+            # movers saved by a `--workers N` run come back to this single process (service/state_layout.py)
+            for user in users:
+                regroup_state(args.state, 1, [ownership], user=user, discard_bad=args.state_discard_bad)
         persistences = [Persistence.from_args(args, user) for user in users]
     except Exception as e:
         forget_logins()

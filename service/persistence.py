@@ -25,6 +25,7 @@ from .core import ServiceCore
 from .frames import pack
 from .wire import Keys
 from .state_file import SavedMover, StateFileError, read_state, restore, set_aside, write_state
+from .state_layout import user_state_path
 
 __all__ = ["Persistence", "add_state_arguments", "held_elsewhere", "user_state_path"]
 
@@ -153,11 +154,6 @@ class Persistence:
             self._last_save = time.monotonic()
         self._handovers_saved = handovers
         return True
-
-
-def user_state_path(path: str, user: str) -> str:
-    """Where a user's movers are kept when accounts share one `--state FILE`."""
-    return f"{path}.user-{user}"
 
 
 def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:

@@ -24,7 +24,7 @@ import hashlib
 import logging
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +57,8 @@ class SavedMover:
     handover: HandoverRequest  # where and how it is, as a hand-over would carry it
     spec: MoverSpec  # as registered or last updated
     velocity: Vec3 | None
+    #: the map as the file holds it (written back unchanged when movers move to another file)
+    entry: dict[str, Any] = field(default_factory=dict, repr=False)
 
 
 def write_state(path: str | Path, movers: list[dict[str, Any]], instance: str) -> None:
@@ -123,7 +125,7 @@ def read_state(path: str | Path) -> list[SavedMover] | None:
             velocity = None if vel is None else Vec3(*as_vec3(vel, "velocity"))
         except ProtocolError as e:
             raise StateFileError(f"{what}: mover {i}: {e.message}") from None
-        out.append(SavedMover(handover, spec, velocity))
+        out.append(SavedMover(handover, spec, velocity, entry))
     return out
 
 

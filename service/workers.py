@@ -70,6 +70,7 @@ from .capabilities import capabilities
 from .certificates import INSTANCE_CN, make_certificates
 from .router import router_config
 from .security import ClusterConfig
+from .state_layout import regroup_state, worker_state_path
 from .stats import ServiceStats
 from .wire import ErrorKind, Keys, user_prefix
 from .zconfig import DEFAULT_ENDPOINT
@@ -252,9 +253,9 @@ class WorkerSupervisor:
             for admin in self.accounts.admins:
                 argv += ["--admin", admin]
         if getattr(a, "state", None):
-            # each worker keeps its own movers: one file per worker of this split (the same --workers and
-            # world give the same split, so a restart finds each mover in the file of its landblock's worker)
-            argv += ["--state", f"{a.state}.worker-{index}-of-{self.wanted}",
+            # each worker keeps its own movers: one file per worker of this split (regroup_state, at start,
+            # has put every saved mover in the file of its landblock's worker)
+            argv += ["--state", worker_state_path(a.state, index, self.wanted),
                      "--state-interval", str(a.state_interval)]
             if a.state_discard_bad:
                 argv.append("--state-discard-bad")
@@ -297,6 +298,10 @@ class WorkerSupervisor:
             # the workers' private endpoint is added to the listen list, which then replaces the file's
             raise ValueError("--workers with --zenoh-config needs --listen too (the workers' private endpoint joins it)")
         self.listen = a.listen or [DEFAULT_ENDPOINT]
+        if getattr(a, "state", None):
+            # movers saved under another worker count (or split) go to the files of this one's workers
+            for user in self._spaces():
+                regroup_state(a.state, self.wanted, parts, user=user, discard_bad=a.state_discard_bad)
         for attempt in range(5):  # the free port may be taken between finding and binding it
             self._private_endpoint = f"tls/127.0.0.1:{_free_loopback_port()}"
             try:
