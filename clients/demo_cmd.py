@@ -12,7 +12,7 @@ from tqdm import tqdm
 from .client import Client
 from .connection import connect_client
 from .demo_map import height_grid
-from .demo_walk import DT, LEGS, SPEED, START, walk_demo
+from .demo_walk import DT, LEGS, SPEED, START, numbered_legs, walk_demo
 from .demo_world import DEMO_LANDBLOCKS, demo_scene_path, global_to_cell
 from .embedded import EmbeddedService
 from .errors import AcphysError
@@ -60,14 +60,15 @@ def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
 
 
 def _table(res: object) -> str:
-    """The walk as a table: the landing, then one row per leg; the steps column adds up to the total."""
+    """The walk as a table: the landing (no number: it is not a leg), then one row per leg, numbered as the
+    picture numbers them; the steps column adds up to the total."""
     from .demo_walk import WalkResult
 
     assert isinstance(res, WalkResult)
     head = f"{'leg':<30} {'steps':>5} {'from (x, y, z)':>22} {'to (x, y, z)':>22} {'z range':>13} " \
            f"{'air':>4} {'steep':>5} {'hits':>4}  outcome"
     lines = [head, "-" * len(head)]
-    for n, leg in enumerate([res.landing, *res.legs]):
+    for n, leg in [("-", res.landing), *numbered_legs(res.legs)]:
         def xyz(p: tuple[float, float, float]) -> str:
             return f"({p[0]:5.1f}, {p[1]:5.1f}, {p[2]:5.1f})"
 

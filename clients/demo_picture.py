@@ -5,8 +5,11 @@ north-west and coloured by height, contour lines every 5 m (labelled every
 10 m), slopes too steep to walk (normal z below FloorZ) hatched red, the
 landblock ids, a scale bar and north. The path is black where the mover
 walked, orange where it stood on unwalkable ground and blue (thick) in the
-air; each leg is numbered where it starts and has an arrow in its direction
-of travel; START and END are marked; events are lettered.
+air; each leg is numbered where it starts (from 1, as the printed table
+numbers them) and has an arrow in its direction of travel; START and END are
+marked; events are lettered. Labels are placed clear of each other, of the
+objects and of the marks (`clients.demo_labels`), with a leader line where
+one had to move away from its mark.
 
 Middle, the village drawn to scale (house with its doorway, pillar, boulder,
 platform), with the events that happened there, and the key to every mark.
@@ -19,16 +22,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .demo_labels import PanelLabels
 from .demo_map import FLOOR_Z, PathPoint
-from .demo_walk import DT, LANDING, WalkResult
+from .demo_walk import DT, LANDING, WalkResult, numbered_legs
 from .demo_world import DEMO_LANDBLOCKS, ORIGIN_LANDBLOCK, Footprint, demo_footprints
+from .demo_label_layout import UP_FIRST
 
-__all__ = ["EVENT_STYLE", "VILLAGE_BOX", "event_letters", "path_distances", "render_walk"]
+__all__ = ["EVENT_STYLE", "VILLAGE_BOX", "WalkPicture", "event_letters", "footprint_extent", "path_distances",
+           "render_walk"]
 
 WALK_COLOUR = "#111111"
 STEEP_COLOUR = "#ff8c00"
@@ -105,18 +112,32 @@ def _leg_starts(res: WalkResult) -> list[int]:
     return out
 
 
-def _draw_footprints(ax: Any, footprints: Sequence[Footprint]) -> None:
+def _draw_footprints(ax: Any, footprints: Sequence[Footprint]) -> list[Any]:
+    """The buildings and objects seen from above; returns their patches."""
     from matplotlib.patches import Circle, Rectangle
 
+    patches = []
     for f in footprints:
         if f.shape == "circle":
-            ax.add_patch(Circle((f.a[0], f.a[1]), f.a[2], facecolor=OBJECT_COLOUR, edgecolor="black", lw=0.8, zorder=4))
+            patches.append(ax.add_patch(Circle((f.a[0], f.a[1]), f.a[2], facecolor=OBJECT_COLOUR, edgecolor="black",
+                                               lw=0.8, zorder=4)))
     for f in footprints:
         if f.shape == "rect":
             x0, y0, x1, y1 = f.a
             colour = DOOR_COLOUR if f.kind == "door" else ROOF_COLOUR if f.kind == "building" else OBJECT_COLOUR
-            ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, facecolor=colour,
-                                   edgecolor="none" if f.kind == "door" else "black", lw=0.8, zorder=4))
+            patches.append(ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, facecolor=colour,
+                                                  edgecolor="none" if f.kind == "door" else "black", lw=0.8,
+                                                  zorder=4)))
+    return patches
+
+
+def footprint_extent(footprints: Sequence[Footprint], name: str) -> tuple[float, float, float, float]:
+    """x0, y0, x1, y1 (global metres) of everything drawn for the object `name`."""
+    boxes = [(f.a[0] - f.a[2], f.a[1] - f.a[2], f.a[0] + f.a[2], f.a[1] + f.a[2]) if f.shape == "circle" else f.a
+             for f in footprints if f.name == name]
+    if not boxes:
+        raise KeyError(name)
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes))
 
 
 def _terrain(ax: Any, heights: np.ndarray, step_m: float, size_m: float, cmap: Any, norm: Any) -> None:
@@ -139,26 +160,33 @@ def _terrain(ax: Any, heights: np.ndarray, step_m: float, size_m: float, cmap: A
     ax.contour(xs, ys, (nz < FLOOR_Z).astype(float), levels=[0.5], colors="#c00000", linewidths=0.8, zorder=1)
 
 
-def _north_and_scale(ax: Any, metres: float, label: str) -> None:
+def _north_and_scale(ax: Any, metres: float, label: str) -> list[Any]:
+    """The scale bar (lower left) and the north arrow (upper right); returns both artists."""
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-    ax.add_artist(AnchoredSizeBar(ax.transData, metres, label, "lower left", pad=0.5, sep=4, frameon=True,
-                                  size_vertical=metres / 40, fontproperties={"size": 8}))
-    ax.annotate("N", xy=(0.96, 0.97), xytext=(0.96, 0.87), xycoords="axes fraction", ha="center", va="center",
+    bar = ax.add_artist(AnchoredSizeBar(ax.transData, metres, label, "lower left", pad=0.5, sep=4, frameon=True,
+                                        size_vertical=metres / 40, fontproperties={"size": 8}))
+    north = ax.annotate("N", xy=(0.96, 0.97), xytext=(0.96, 0.87), xycoords="axes fraction", ha="center", va="center",
                 fontsize=11, fontweight="bold", arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5},
                 bbox={"boxstyle": "circle,pad=0.2", "fc": "white", "ec": "black", "alpha": 0.8}, zorder=10)
+    return [bar, north]
 
 
-def _path_on(ax: Any, res: WalkResult, labels: list[str], in_box: Callable[[float, float], bool] | None,
-             legs: bool, arrow_min_m: float, crowd_m: float) -> None:
+def _path_on(labels: PanelLabels, res: WalkResult, letters: list[str], in_box: Callable[[float, float], bool],
+             arrow_min_m: float, ends_anywhere: bool) -> None:
+    """The path, its legs' arrows and numbers, START and END, and the events, on `labels.ax`.
+
+    Only what lies inside `in_box` is marked; START and END also outside it when `ends_anywhere`
+    (the whole map marks them wherever they are, the village only when they are in it)."""
     from matplotlib.collections import LineCollection
 
+    ax = labels.ax
     path = res.path
     segs, colours, widths = _segments(path)
     ax.add_collection(LineCollection(segs, colors=colours, linewidths=widths, zorder=5, capstyle="round"))
-    starts = _leg_starts(res)
+    labels.soft.extend((p.x, p.y) for p in path)
     dist = path_distances(path)
-    for n, (i0, leg) in enumerate(zip(starts, res.legs), start=1):
+    for i0, (n, leg) in zip(_leg_starts(res), numbered_legs(res.legs)):
         i1 = i0 + leg.steps
         if leg.steps == 0:
             continue
@@ -167,38 +195,34 @@ def _path_on(ax: Any, res: WalkResult, labels: list[str], in_box: Callable[[floa
         k = int(np.searchsorted(dist, mid_d))
         k = min(max(k, i0 + 1), i1)
         a, b = path[k - 1], path[k]
-        if dist[i1] - dist[i0] >= arrow_min_m and (in_box is None or in_box(b.x, b.y)):
+        if dist[i1] - dist[i0] >= arrow_min_m and in_box(b.x, b.y):
             ux, uy = b.x - a.x, b.y - a.y
             norm = math.hypot(ux, uy) or 1.0
             ax.annotate("", xy=(b.x + ux / norm * 0.01, b.y + uy / norm * 0.01), xytext=(b.x - ux / norm * arrow_min_m / 4,
                         b.y - uy / norm * arrow_min_m / 4), arrowprops={"arrowstyle": "-|>,head_width=0.35,head_length=0.7",
                         "color": _STATE_COLOUR[_state(b)], "lw": 1.6}, zorder=6)
-        if legs:
-            p = path[i0]
-            if in_box is None or in_box(p.x, p.y):
-                ax.annotate(str(n), (p.x, p.y), xytext=(-9, 7), textcoords="offset points", fontsize=8,
-                            fontweight="bold", ha="center", va="center", zorder=9,
-                            bbox={"boxstyle": "circle,pad=0.18", "fc": "#fff8c0", "ec": "black", "lw": 0.7})
+        p = path[i0]
+        if in_box(p.x, p.y):
+            labels.add(str(n), (p.x, p.y), priority=2, fontsize=8, fontweight="bold", zorder=9,
+                       bbox={"boxstyle": "circle,pad=0.18", "fc": "#fff8c0", "ec": "black", "lw": 0.7})
     s, e = path[0], path[-1]
     for (p, text, colour, marker) in ((s, "START", "#00a000", "o"), (e, "END", "#c00000", "s")):
-        if in_box is None or in_box(p.x, p.y):
+        if ends_anywhere or in_box(p.x, p.y):
             ax.plot([p.x], [p.y], marker=marker, ms=10, mfc=colour, mec="black", zorder=8, ls="none")
-            ax.annotate(text, (p.x, p.y), xytext=(8, -12), textcoords="offset points", fontsize=8,
-                        fontweight="bold", color=colour, zorder=9,
-                        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": colour, "alpha": 0.85})
-    placed: list[tuple[float, float]] = []
-    for ev, letter in zip(res.events, labels):
+            labels.marker(p.x, p.y, 10.0)
+            labels.add(text, (p.x, p.y), priority=1, leader_colour=colour, fontsize=8, fontweight="bold",
+                       color=colour, zorder=9, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": colour,
+                                                     "alpha": 0.85})
+    for ev, letter in zip(res.events, letters):
         style = EVENT_STYLE.get(ev.kind)
-        if style is None or (in_box is not None and not in_box(ev.x, ev.y)):
+        if style is None or not in_box(ev.x, ev.y):
             continue
         marker, colour, _ = style
-        # letters of events close together are stacked upwards, so that each stays readable
-        crowd = sum(1 for (px, py) in placed if math.hypot(px - ev.x, py - ev.y) < crowd_m)
-        placed.append((ev.x, ev.y))
         ax.plot([ev.x], [ev.y], marker=marker, ms=8, mfc=colour, mec="white", mew=0.8, ls="none", zorder=7)
-        ax.annotate(letter, (ev.x, ev.y), xytext=(7, 2 + 10 * crowd), textcoords="offset points", fontsize=7.5,
-                    color=colour, fontweight="bold", zorder=9,
-                    bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.75})
+        labels.marker(ev.x, ev.y, 8.0)
+        labels.add(letter, (ev.x, ev.y), priority=3, leader_colour=colour, fontsize=7.5, color=colour,
+                   fontweight="bold", zorder=9, bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                                                      "alpha": 0.75})
 
 
 def _key(ax: Any) -> None:
@@ -231,27 +255,34 @@ def _key(ax: Any) -> None:
 
 
 def _story(ax: Any, res: WalkResult, labels: list[str]) -> None:
-    leg_no = {leg.name: n for n, leg in enumerate(res.legs, start=1)}
+    leg_no = {leg.name: str(n) for n, leg in numbered_legs(res.legs)}
     lines = [f"The walk: {res.steps} physics steps of {DT:.1f} s.",
              "A player-sized mover (two spheres of 0.48 m) is dropped",
              "onto the hills, then heads for one waypoint after another",
              "(the legs). A leg ends when the mover arrives, or is",
              "blocked: it stops making progress against an obstacle.", "",
-             f"0  {LANDING}: {res.landing.outcome}, {res.landing.steps} steps"]
-    for n, leg in enumerate(res.legs, start=1):
+             f"-  {LANDING}: {res.landing.outcome}, {res.landing.steps} steps"]
+    for n, leg in numbered_legs(res.legs):
         lines.append(f"{n:<2} {leg.name}: {leg.outcome}, {leg.steps} steps")
     lines += ["", "events (letters on the map, the village and the profile)"]
     for ev, letter in zip(res.events, labels):
-        n = leg_no.get(ev.leg, 0)
+        on_leg = leg_no.get(ev.leg, "-")  # the landing's events: no leg number
         text = ev.text if len(ev.text) <= 72 else ev.text[:69] + "..."
-        lines.append(f"{letter:>2} [{n}] {text}")
+        lines.append(f"{letter:>2} [{on_leg}] {text}")
     ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=7.0, transform=ax.transAxes)
     ax.axis("off")
 
 
-def _profile(ax: Any, res: WalkResult, ground_at: Callable[[float, float], float], labels: list[str]) -> None:
+#: where a leg's number goes on the profile: on its line's top end, else above or below it on the line
+#: (moved sideways it would look like a neighbour's number)
+_ON_THE_LINE = ((0, 0), (0, 1), (0, -1))
+
+
+def _profile(labels: PanelLabels, res: WalkResult, ground_at: Callable[[float, float], float],
+             letters: list[str]) -> None:
     from matplotlib.collections import LineCollection
 
+    ax = labels.ax
     path = res.path
     dist = path_distances(path)
     z = np.array([p.z for p in path])
@@ -263,20 +294,24 @@ def _profile(ax: Any, res: WalkResult, ground_at: Callable[[float, float], float
     widths = [3.0 if _state(p) == "air" else 1.4 for p in path[1:]]
     ax.add_collection(LineCollection(segs, colors=colours, linewidths=widths, zorder=3))
     top = max(z.max(), ground.max()) + 6
-    for n, i0 in enumerate(_leg_starts(res), start=1):
+    labels.soft.extend(zip(dist.tolist(), z.tolist()))
+    for i0, (n, _leg) in zip(_leg_starts(res), numbered_legs(res.legs)):
         ax.axvline(dist[i0], color="grey", lw=0.5, ls=":", zorder=0)
-        ax.text(dist[i0], top, str(n), ha="center", va="bottom", fontsize=7.5, fontweight="bold",
-                bbox={"boxstyle": "circle,pad=0.15", "fc": "#fff8c0", "ec": "black", "lw": 0.6})
-    for ev, letter in zip(res.events, labels):
+        labels.add(str(n), (float(dist[i0]), float(top)), priority=1, directions=_ON_THE_LINE, fontsize=7.5,
+                   fontweight="bold", zorder=6, bbox={"boxstyle": "circle,pad=0.15", "fc": "#fff8c0", "ec": "black",
+                                                      "lw": 0.6})
+    for ev, letter in zip(res.events, letters):
         if ev.kind not in EVENT_STYLE:
             continue
         marker, colour, _ = EVENT_STYLE[ev.kind]
-        d = dist[min(ev.step, len(dist) - 1)]
+        d = float(dist[min(ev.step, len(dist) - 1)])
         ax.plot([d], [ev.z], marker=marker, ms=6, mfc=colour, mec="white", ls="none", zorder=4)
-        ax.annotate(letter, (d, ev.z), xytext=(3, 5), textcoords="offset points", fontsize=6.5, color=colour,
-                    fontweight="bold", zorder=5)
+        labels.marker(d, ev.z, 6.0)
+        labels.add(letter, (d, ev.z), priority=2, leader_colour=colour, fontsize=6.5, color=colour,
+                   fontweight="bold", zorder=5, bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                                                      "alpha": 0.75})
     ax.set_xlim(0, dist[-1] if len(dist) else 1)
-    ax.set_ylim(min(ground.min(), z.min()) - 5, top + 8)
+    ax.set_ylim(min(ground.min(), z.min()) - 5, top + 10)
     ax.set_xlabel("distance walked along the path (m)")
     ax.set_ylabel("height (m)")
     ax.set_title("height profile: the mover (line, coloured as on the map) and the ground under it (brown); "
@@ -284,27 +319,41 @@ def _profile(ax: Any, res: WalkResult, ground_at: Callable[[float, float], float
     ax.grid(True, lw=0.3, alpha=0.5)
 
 
+@dataclass(slots=True)
+class WalkPicture:
+    """The drawn picture and where its labels went on each panel (display pixels, `PanelLabels.placements`)."""
+
+    figure: Any
+    map_labels: PanelLabels
+    village_labels: PanelLabels
+    profile_labels: PanelLabels
+
+
 def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: Callable[[float, float], float],
-                out: str | Path | None = None, footprints: Sequence[Footprint] | None = None) -> Any:
+                out: str | Path | None = None, footprints: Sequence[Footprint] | None = None) -> WalkPicture:
     """The picture of the walk `res` over `heights` (row 0 south, `step_m` apart); saved to `out` when given.
 
-    `ground_at(x, y)` is the terrain height at global metres (for the profile). Returns the Figure."""
+    `ground_at(x, y)` is the terrain height at global metres (for the profile)."""
     import matplotlib
 
     matplotlib.use("Agg")
     from matplotlib import colormaps
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
 
     footprints = demo_footprints() if footprints is None else footprints
     size_m = heights.shape[0] * step_m
-    labels = event_letters(len(res.events))
+    letters = event_letters(len(res.events))
     fig = Figure(figsize=(20, 14), dpi=100, layout="constrained")
+    canvas = FigureCanvasAgg(fig)
     gs = fig.add_gridspec(2, 3, width_ratios=[2.3, 1.25, 1.35], height_ratios=[3.0, 1.0])
     middle = gs[0, 1].subgridspec(2, 1, height_ratios=[1.15, 1.0])
     ax_map, ax_zoom = fig.add_subplot(gs[0, 0]), fig.add_subplot(middle[0])
     ax_story, ax_prof = fig.add_subplot(gs[0, 2]), fig.add_subplot(gs[1, :])
     ax_key = fig.add_subplot(middle[1])
+    on_map, on_village, on_profile = PanelLabels(ax_map), PanelLabels(ax_zoom), PanelLabels(ax_prof)
     cmap = colormaps["gist_earth"]
     # the colour scale starts well below the lowest ground, so that low hills read green, not sea blue
     lo, hi = float(heights.min()), float(heights.max())
@@ -317,19 +366,18 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     ox, oy = ORIGIN_LANDBLOCK >> 8, ORIGIN_LANDBLOCK & 0xFF
     for lb in DEMO_LANDBLOCKS:
         bx, by = (lb >> 8) - ox, (lb & 0xFF) - oy
-        ax_map.text(bx * 192.0 + 4, by * 192.0 + 188, f"landblock {lb:04X}", fontsize=8, color="white", va="top",
-                    fontweight="bold", zorder=3)
-    _draw_footprints(ax_map, footprints)
+        on_map.artists.append(ax_map.text(bx * 192.0 + 4, by * 192.0 + 188, f"landblock {lb:04X}", fontsize=8,
+                                          color="white", va="top", fontweight="bold", zorder=3))
+    on_map.artists += _draw_footprints(ax_map, footprints)
     x0, y0, x1, y1 = VILLAGE_BOX
-    from matplotlib.patches import Rectangle
-
     ax_map.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="white", lw=1.2, ls="-", zorder=6))
-    ax_map.text(x0, y1 + 2, "village (middle panel)", color="white", fontsize=8, fontweight="bold", zorder=6)
+    on_map.artists.append(ax_map.text(x0, y1 + 2, "village (middle panel)", color="white", fontsize=8,
+                                      fontweight="bold", zorder=6))
 
-    def outside_village(x: float, y: float) -> bool:
-        return not (x0 <= x <= x1 and y0 <= y <= y1)
+    def in_village(x: float, y: float) -> bool:
+        return x0 <= x <= x1 and y0 <= y <= y1
 
-    _path_on(ax_map, res, labels, outside_village, legs=True, arrow_min_m=12.0, crowd_m=8.0)
+    _path_on(on_map, res, letters, lambda x, y: not in_village(x, y), arrow_min_m=12.0, ends_anywhere=True)
     ax_map.set_xlim(0, size_m)
     ax_map.set_ylim(0, size_m)
     ax_map.set_aspect("equal")
@@ -337,29 +385,33 @@ def render_walk(res: WalkResult, heights: np.ndarray, step_m: float, ground_at: 
     ax_map.set_ylabel("y: north (m)")
     ax_map.set_title("acphys demo walk: a player-sized mover driven by physics steps over the demo world",
                      fontsize=11, loc="left")
-    _north_and_scale(ax_map, 50.0, "50 m")
+    on_map.artists += _north_and_scale(ax_map, 50.0, "50 m")
     sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
     bar = fig.colorbar(sm, ax=ax_map, shrink=0.5, pad=0.01, label="terrain height (m)")
     bar.ax.set_ylim(math.floor(lo), math.ceil(hi))
 
     _terrain(ax_zoom, heights, step_m, size_m, cmap, norm)
-    _draw_footprints(ax_zoom, footprints)
-    _path_on(ax_zoom, res, labels, lambda x, y: x0 <= x <= x1 and y0 <= y <= y1, legs=True, arrow_min_m=4.0, crowd_m=2.5)
-    for f in footprints:
-        if f.kind in ("building", "object") and f.name != "boulder" or (f.name == "boulder" and f.a[2] > 1.0):
-            cx = (f.a[0] + f.a[2]) / 2 if f.shape == "rect" else f.a[0]
-            top = f.a[3] if f.shape == "rect" else f.a[1] + f.a[2]
-            ax_zoom.text(cx, top + 1.0, f.name, ha="center", va="bottom", fontsize=8, zorder=9,
-                         bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
+    on_village.artists += _draw_footprints(ax_zoom, footprints)
+    for name in dict.fromkeys(f.name for f in footprints if f.kind in ("building", "object")):
+        fx0, _, fx1, fy1 = footprint_extent(footprints, name)
+        on_village.add(name, ((fx0 + fx1) / 2.0, fy1), priority=0, directions=UP_FIRST, fontsize=8, zorder=9,
+                       bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
+    _path_on(on_village, res, letters, in_village, arrow_min_m=4.0, ends_anywhere=False)
     ax_zoom.set_xlim(x0, x1)
     ax_zoom.set_ylim(y0, y1)
     ax_zoom.set_aspect("equal")
     ax_zoom.set_title("the village, to scale: house, pillar, boulder, platform", fontsize=10, loc="left")
-    _north_and_scale(ax_zoom, 10.0, "10 m")
+    on_village.artists += _north_and_scale(ax_zoom, 10.0, "10 m")
 
     _key(ax_key)
-    _story(ax_story, res, labels)
-    _profile(ax_prof, res, ground_at, labels)
+    _story(ax_story, res, letters)
+    _profile(on_profile, res, ground_at, letters)
+    # lay the panels out and draw once, so that every size is known; then place the labels and keep the layout
+    canvas.draw()
+    fig.set_layout_engine("none")
+    renderer = canvas.get_renderer()
+    for panel in (on_map, on_village, on_profile):
+        panel.place(renderer, fig.dpi)
     if out is not None:
         fig.savefig(str(out), dpi=100)
-    return fig
+    return WalkPicture(fig, on_map, on_village, on_profile)

@@ -41,8 +41,8 @@ from .demo_world import (
 )
 from .types import MoverState
 
-__all__ = ["ARRIVE_WITHIN", "LANDING", "LEGS", "LegReport", "WalkEvent", "WalkResult", "demo_mover", "global_xy",
-           "walk_demo"]
+__all__ = ["ARRIVE_WITHIN", "FIRST_LEG", "LANDING", "LEGS", "LegReport", "WalkEvent", "WalkResult", "demo_mover",
+           "global_xy", "numbered_legs", "walk_demo"]
 
 #: (what the leg is about, waypoint in global metres)
 LEGS: tuple[tuple[str, tuple[float, float]], ...] = (
@@ -72,6 +72,10 @@ ARRIVE_WITHIN: dict[str, float] = {
     "into the pillar": 0.5,
     "west into the boulder": 0.5,
 }
+
+#: the number of the first leg, the same on the map, the profile, the story and the printed table
+#: (the landing before it is not a leg and has no number)
+FIRST_LEG = 1
 
 START = (20.0, 20.0)
 START_Z = 60.0
@@ -157,6 +161,11 @@ class WalkResult:
         """Record an event at `at` (default: the last point of the path)."""
         x, y = at if at is not None else (self.path[-1].x, self.path[-1].y)
         self.events.append(WalkEvent(kind, leg, self.steps, x, y, z, text))
+
+
+def numbered_legs(legs: list[LegReport]) -> list[tuple[int, LegReport]]:
+    """Each leg with its number (from FIRST_LEG), as every view of the walk numbers it."""
+    return list(enumerate(legs, start=FIRST_LEG))
 
 
 def _point(st: MoverState) -> PathPoint:

@@ -40,9 +40,9 @@ from clients.demo_world import (
     global_to_cell,
     is_indoor,
 )
-from clients.types import MoverState
 from engine import World, world_from_scene_dict
 from engine.geometry import Position, Vec3
+from support.demo_engine_client import EngineClient
 
 MOVER_RADIUS = 0.48
 DT = 0.2
@@ -229,25 +229,6 @@ def test_the_boulder_blocks_and_the_platform_is_stepped_onto(scene: dict[str, An
 
 
 # -- the demo walk --------------------------------------------------------------------------------
-class EngineClient:
-    """The part of `clients.Client` the demo walk uses, on a World in this process."""
-
-    def __init__(self, world: World) -> None:
-        self.world = world
-        self.seq = 0
-
-    def register(self, spec: Any, position: Position) -> MoverState:
-        mid = self.world.add_mover(spec, position)
-        return MoverState(mid, 0, None, self.world.mover_state(mid))
-
-    def step(self, mover_id: int, motion: tuple[float, float, float], dt: float) -> MoverState:
-        self.seq += 1
-        return MoverState(mover_id, self.seq, None, self.world.step(mover_id, Vec3(*motion), dt))
-
-    def remove(self, mover_id: int) -> None:
-        self.world.remove_mover(mover_id)
-
-
 def _check_walk(res: WalkResult) -> None:
     legs = {leg.name: leg for leg in res.legs}
     assert [leg.name for leg in res.legs] == [name for name, _ in LEGS]
@@ -300,7 +281,7 @@ def test_the_demo_walk_through_an_embedded_service() -> None:
 
 
 
-# -- counters, event positions and the picture --------------------------------------------------------
+# -- counters and event positions --------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def walk(scene: dict[str, Any]) -> tuple[WalkResult, list[int]]:
     counts: list[int] = []
@@ -357,59 +338,3 @@ def test_the_walk_has_the_events_the_picture_labels(walk: tuple[WalkResult, list
             "went_in", "came_out", "blocked"} <= kinds
     up = next(e for e in res.events if e.kind == "step_up")
     assert up.leg == "north over the platform" and up.z == pytest.approx(PAD_HEIGHT + 0.4, abs=1e-3)
-
-
-def test_the_picture_tells_the_walk(walk: tuple[WalkResult, list[int]], tmp_path: Any) -> None:
-    pytest.importorskip("matplotlib")
-    from clients.demo_map import height_grid
-    from clients.demo_picture import EVENT_STYLE, VILLAGE_BOX, event_letters, render_walk
-
-    res, _ = walk
-    world = _world(build_demo_scene())
-
-    def ground(x: float, y: float) -> float:
-        c, lx, ly = global_to_cell(x, y)
-        return world.terrain_height(c, lx, ly)
-
-    out = tmp_path / "walk.png"
-    fig = render_walk(res, height_grid(ground, 384, 4.0), 4.0, ground, out)
-    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    ax_map, ax_zoom, ax_story, ax_prof = fig.axes[:4]
-
-    def texts(ax: Any) -> list[str]:
-        return [t.get_text() for t in ax.texts]
-
-    map_texts, zoom_texts = texts(ax_map), texts(ax_zoom)
-    # every leg numbered where it starts (on the map, or in the village for legs starting there)
-    x0, y0, x1, y1 = VILLAGE_BOX
-    for n in range(1, len(res.legs) + 1):
-        assert str(n) in map_texts + zoom_texts, n
-    assert "START" in map_texts and "END" in zoom_texts  # the walk ends in the village, on the platform
-    assert {"N", "50 m"} <= set(map_texts) | {t.get_text() for a in ax_map.artists for t in _all_texts(a)}
-    # every labelled event has its letter on the map or the village, and in the profile
-    letters = event_letters(len(res.events))
-    for e, letter in zip(res.events, letters):
-        if e.kind in EVENT_STYLE:
-            inside = x0 <= e.x <= x1 and y0 <= e.y <= y1
-            assert letter in (zoom_texts if inside else map_texts), (letter, e)
-            assert letter in texts(ax_prof), (letter, e)
-    # the story says every leg and every event in words
-    story = "\n".join(texts(ax_story))
-    assert all(leg.name in story for leg in res.legs)
-    assert all(e.text[:40] in story for e in res.events)
-    assert f"{res.steps} physics steps" in story
-    # the key names every kind of mark drawn
-    legend = fig.axes[4].get_legend()
-    labels = {t.get_text() for t in legend.get_texts()}
-    assert {style[2] for style in EVENT_STYLE.values()} <= labels
-    assert {"in the air", "start", "end"} <= labels
-    # the profile spans the whole walk and reaches the mesa's top
-    assert ax_prof.get_xlim()[1] == pytest.approx(sum(math.hypot(b.x - a.x, b.y - a.y)
-                                                      for a, b in zip(res.path, res.path[1:])))
-    assert ax_prof.get_ylim()[1] > 90.0
-
-
-def _all_texts(artist: Any) -> list[Any]:
-    from matplotlib.text import Text
-
-    return [a for a in artist.findobj(Text)]
