@@ -47,7 +47,18 @@ Array = np.ndarray[Any, Any]
 class BatchResults:
     """The results of `Client.move_batch`, one row per move in the order given (docs/protocol.md, "Column
     reply" for every column's meaning and missing value). A failed move's row holds the missing values
-    and its error is in `errors`, by index."""
+    and its error is in `errors`, by index.
+
+    The columns, numpy arrays of n rows: `seq` (uint64); `cell` (uint32 cell ids, 0xXXYYIIII);
+    `origin` (n, 3) landblock-local metres; `orientation` (n, 4) w x y z; `flags` (uint32 bits:
+    `resolved`, `ok`, `contact`, ... below); `transition_state` (uint8 codes, `transition_name`
+    names them; 255 for a failed move); `frames_stationary_fall` (uint8, 255: none); `contact_plane`
+    (n, 4) normal x y z then d, in metres, in the frame of `contact_plane_cell`'s landblock (NaN when
+    none); `contact_plane_cell` (uint32, 0 when none); `collision_normal` and `sliding_normal` (n, 3)
+    (NaN when none); `collide_count` (uint32) with `collide_ids` (uint64, every move's collided mover ids
+    one move after the other; `collide_objects(i)` picks move i's). The missing values: NaN for
+    floats, 0 for ids and counts, 255 for codes.
+    """
 
     seq: Array  # (n,) uint64
     cell: Array  # (n,) uint32
@@ -66,6 +77,7 @@ class BatchResults:
 
     @classmethod
     def empty(cls, n: int) -> BatchResults:
+        """Results of `n` moves that all hold the missing values, with no errors (what a batch fills in)."""
         arrays: dict[str, Array] = {}
         for col in REPLY_COLUMNS:
             shape = (n,) if col.width == 1 else (n, col.width)
@@ -75,6 +87,7 @@ class BatchResults:
         return made
 
     def __len__(self) -> int:
+        """The number of moves (rows)."""
         return len(self.seq)
 
     def _bit(self, bit: int) -> Array:
@@ -82,38 +95,48 @@ class BatchResults:
 
     @property
     def resolved(self) -> Array:
-        """Which moves have a result (False: see `errors`)."""
+        """Which moves have a result (bool array; False: see `errors`)."""
         return self._bit(Flag.RESOLVED)
 
     @property
     def ok(self) -> Array:
+        """Which moves found a position (bool array; False also for a failed move)."""
         return self._bit(Flag.OK)
 
     @property
     def contact(self) -> Array:
+        """Which movers touch a surface after their move (bool array)."""
         return self._bit(Flag.CONTACT)
 
     @property
     def on_walkable(self) -> Array:
+        """Which movers stand on walkable ground after their move (bool array)."""
         return self._bit(Flag.ON_WALKABLE)
 
     @property
     def water_contact(self) -> Array:
+        """Which movers are in water after their move (bool array)."""
         return self._bit(Flag.WATER_CONTACT)
 
     @property
     def landblock(self) -> Array:
+        """Each row's landblock, 0xXXYY, from its `cell` (0 for a failed move)."""
         return (self.cell >> 16) & 0xFFFF
 
     def transition_name(self, i: int) -> str | None:
+        """Move `i`'s transition state by name ("OK", "Collided", "Adjusted", "Slid", "Invalid",
+        "NoTransition"); None for a failed move."""
         code = int(self.transition_state[i])
         return TRANSITION_STATES[code] if code < len(TRANSITION_STATES) else None
 
     def transient_state(self, i: int) -> list[str]:
+        """Move `i`'s transient state flags by name (of "Contact", "OnWalkable", "Sliding", "WaterContact",
+        "StationaryFall", "StationaryStop", "StationaryStuck"); empty for a failed move."""
         bits = int(self.flags[i]) >> Flag.TRANSIENT_SHIFT
         return [name for k, name in enumerate(TRANSIENT_FLAGS) if bits & (1 << k)]
 
     def collide_objects(self, i: int) -> list[int]:
+        """The ids of the other movers move `i` touched, in order (its share of `collide_ids`)."""
         start = int(self.collide_count[:i].sum())
         return [int(x) for x in self.collide_ids[start:start + int(self.collide_count[i])]]
 

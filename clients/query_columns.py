@@ -33,7 +33,16 @@ Array = np.ndarray[Any, Any]
 class QueryColumnResults:
     """The answers of a column query, one row per query in the order given: `columns` by name
     (docs/protocol.md, "Query columns", for every column's meaning and missing value). A failed
-    query's row holds the missing values and its error is in `errors`, by index."""
+    query's row holds the missing values and its error is in `errors`, by index.
+
+    `op` is the query ("sight", "ray", "ground" or "place"); `columns` its answer columns, numpy arrays of
+    one row per query: cell ids as uint32 (0xXXYYIIII), positions and distances in landblock-local metres
+    (float64; NaN when missing), planes as normal x y z then d, `flags` bits read by `flag`, codes read by
+    `blocker_kind` and `placement_result`.
+
+        cols = client.ground_columns(cells, origins)
+        cols["z"][cols.flag("found")]
+    """
 
     op: str
     columns: dict[str, Array]
@@ -41,6 +50,7 @@ class QueryColumnResults:
 
     @classmethod
     def empty(cls, op: str, n: int) -> QueryColumnResults:
+        """Answers of `n` queries of `op` that all hold the missing values, with no errors."""
         out: dict[str, Array] = {}
         for col in QUERY_COLUMNS[op].reply:
             shape = (n,) if col.width == 1 else (n, col.width)
@@ -49,20 +59,27 @@ class QueryColumnResults:
         return cls(op, out)
 
     def __len__(self) -> int:
+        """The number of queries (rows)."""
         return len(self.columns["flags"])
 
     def __getitem__(self, name: str) -> Array:
+        """The answer column `name` (e.g. "z", "stop", "distance"); KeyError for a name the op has not."""
         return self.columns[name]
 
     def flag(self, name: str) -> Array:
-        """The `flags` bit `name` of every row, as booleans (e.g. "resolved", "clear", "hit", "found")."""
+        """The `flags` bit `name` of every row, as booleans (e.g. "resolved", "clear", "hit", "found",
+        "walkable", "ok"; docs/protocol.md, "Query columns", lists each op's bits). ValueError for a bit
+        the op has not."""
         return (self.columns["flags"] & QUERY_COLUMNS[self.op].bit(name)) != 0
 
     def blocker_kind(self, i: int) -> str | None:
+        """What stopped sight or ray `i`: "terrain", "cell", "building" or "object"; None when nothing did
+        (or the query failed)."""
         code = int(self.columns["blocker"][i])
         return None if code == NO_CODE else BLOCKER_CODES[code]
 
     def placement_result(self, i: int) -> str | None:
+        """Place query `i`'s outcome: "OK", "NoValidPosition" or "NoCell(lost)"; None when it failed."""
         code = int(self.columns["placement_result"][i])
         return None if code == NO_CODE else PLACEMENT_CODES[code]
 
