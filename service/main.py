@@ -17,6 +17,8 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
+from .logs import add_log_arguments, configure_logging
+from .request_log import ERRORS
 from .accounts import Accounts, add_accounts_arguments, apply_accounts, no_logins_file
 from .node import NodeOptions, ServiceNode
 from .persistence import Persistence, add_state_arguments
@@ -48,8 +50,10 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--own", metavar="LANDBLOCKS", default="*",
                    help="landblocks this instance owns: * or XXYY,XXYY,... (default: all)")
     p.add_argument("--queue", type=int, default=1024, metavar="N", help="queued requests before 'busy' (default %(default)s)")
-    p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S", help="seconds to wait for a hand-over")
-    p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+    p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S",
+                   help="seconds to wait for another instance to take a mover crossing into its landblock "
+                        "(default %(default)s)")
+    add_log_arguments(p)
     p.add_argument("--workers", default="1", metavar="N",
                    help="engine processes behind one router (service/workers.py): a count or 'auto' (the CPUs); "
                         "default 1, one process")
@@ -65,7 +69,7 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
 
 def serve(args: argparse.Namespace, world: Any = None) -> int:
     """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
-    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    configure_logging(args.log_level, getattr(args, "log_format", "text"))
     from .workers import attach_worker, die_with_parent, serve_workers, worker_count
 
     try:
@@ -149,16 +153,22 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     named = f"; users {', '.join(accounts.users)} under {args.prefix}/u/USER" if accounts is not None else ""
     print(f"acphys service ready: instance {node.instance}, listening on {', '.join(listen or ['(config file)'])}"
           f"{named}", flush=True)
+    where = (f"listening on {', '.join(listen)}" if listen else "a worker behind its parent's router" if worker_info
+             else "on the config file's endpoints")
+    log.info("started: instance %s, %s, owning %s, %d mover(s)%s", node.instance, where,
+             ownership.to_text(), sum(len(n.core.movers) for n in nodes if n.core is not None), named)
     while not stop.wait(persistences[0].tick):
         for n, persistence in zip(nodes, persistences):
             persistence.maybe_save(n)
+        ERRORS.flush()  # how many error lines the rate limit held back (service/request_log.py)
     for undo in detach:
         undo()
     _shutdown(nodes)
     saved = [persistence.save(n) for n, persistence in zip(nodes, persistences)]  # every file, even after a failure
+    ERRORS.flush(everything=True)
+    log.info("stopped")
     if not all(saved):
         return 1  # some movers could not be written: say so rather than exit as if they were
-    log.info("stopped")
     return 0
 
 

@@ -21,7 +21,7 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 from collections.abc import Callable
 
 import msgpack
@@ -38,6 +38,7 @@ from .jobqueue import JobQueue
 from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
 from .publication import ZenohBus
+from .request_log import ERRORS, LoggedQuery, log_request, requests_logged
 from .requests import (
     ItemError,
     decode_envelope,
@@ -50,7 +51,7 @@ from .requests import (
 )
 from .stats import ServiceStats
 from .queries import QUERY_OPS, query_count, query_work
-from .wire import LB_QUERY_OPS, ErrorKind, Keys, parse_lb_hex
+from .wire import LB_QUERY_OPS, ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
 
@@ -292,6 +293,8 @@ class ServiceNode:
 
     def _reply_err(self, query: zenoh.Query, err: ProtocolError) -> None:
         self.stats.error(err.kind)
+        key = str(query.key_expr)
+        ERRORS.error(err.kind, key.rsplit("/", 1)[-1], key, err.message, path=err.path)
         try:
             query.reply_err(pack({"error": err.to_wire()}))
         finally:
@@ -345,12 +348,18 @@ class ServiceNode:
         def handler(query: zenoh.Query) -> None:
             received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
             self.stats.request(op)
+            logged = None
+            if requests_logged():  # the DEBUG line, written when the query is answered
+                logged = LoggedQuery(query, op, received)
+                query = cast(zenoh.Query, logged)
             try:
                 lb = self._key_lb(str(query.key_expr), op)
                 if forbidden:
                     raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
                                         "the service's --admin users may send it")
                 msg = decode_envelope(self._payload(query), allow_empty=world_op)
+                if logged is not None:
+                    logged.items = _item_count(op, msg)
                 if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
                     # one move (the common request): run straight to its reply, without `_work`'s closures
                     single = self._single_move_job(query, msg, received)
@@ -433,7 +442,7 @@ class ServiceNode:
         core = self.core
         assert core is not None
         if op == "move" and is_column_request(msg):
-            return self._column_work(msg, received)
+            return self._column_work(msg, received, lb)
         if op == "move":
             batch = parse_moves(msg)
             if batch.single:
@@ -444,9 +453,10 @@ class ServiceNode:
             def run_batch() -> bytes:
                 results = core.moves(batch, received)
                 entries: list[bytes] = []
-                for r in results:
+                for i, r in enumerate(results):
                     if isinstance(r, ItemError):
                         self.stats.error(r.error.kind)
+                        self._item_error(op, lb, r.error, i, r.id)
                         entries.append(msgpack.packb(r.to_wire(), use_bin_type=True))
                     else:
                         entries.append(r)
@@ -479,7 +489,12 @@ class ServiceNode:
                               lambda e: core._by_engine.get(e, 0))
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 
-    def _column_work(self, msg: dict[str, Any], received: float) -> Callable[[], bytes]:
+    def _item_error(self, op: str, lb: int | None, err: ProtocolError, index: int, mover_id: int | None) -> None:
+        """The WARNING line of one failed item of a batch (service/request_log.py)."""
+        key = self.keys.lb(lb_hex(lb) if lb is not None else "*", op)
+        ERRORS.error(err.kind, op, key, err.message, item=index, id=mover_id, path=err.path)
+
+    def _column_work(self, msg: dict[str, Any], received: float, lb: int | None) -> Callable[[], bytes]:
         """A column request (docs/protocol.md, "Column batches"): checked here, run by the closure."""
         core, bus = self.core, self.bus
         assert core is not None and bus is not None
@@ -487,8 +502,9 @@ class ServiceNode:
 
         def run() -> bytes:
             out, packed = run_columns(core, req, received)
-            for _i, _mid, err in out.errors:
+            for i, mid, err in out.errors:
                 self.stats.error(err.kind)
+                self._item_error("move", lb, err, i, mid)
             if packed:
                 bus.publish_batch(packed)
             return reply_message(out)
@@ -511,20 +527,29 @@ class ServiceNode:
     def _on_push(self, sample: zenoh.Sample) -> None:
         received = time.monotonic()
         self.stats.request("push")
+        logged = requests_logged()
         try:
             msg = decode_envelope(self._payload(sample))
             if is_column_request(msg):
                 self._on_push_columns(msg, received)
+                if logged:
+                    log_request("push", str(sample.key_expr), column_count(msg), "accepted", received)
                 return
             batch = parse_moves(msg)
         except ProtocolError as e:
             self.stats.error(e.kind)
+            ERRORS.error(e.kind, "push", str(sample.key_expr), e.message, path=e.path)
             self._bus().put(self.keys.errors, {"key": str(sample.key_expr), "error": e.to_wire()})
+            if logged:
+                log_request("push", str(sample.key_expr), None, e.kind, received)
             return
         except Exception as e:
             log.exception("decoding a push failed")
+            ERRORS.error(ErrorKind.INTERNAL, "push", str(sample.key_expr), str(e))
             self._bus().put(self.keys.errors, {"key": str(sample.key_expr), "error": {"kind": ErrorKind.INTERNAL, "message": str(e)}})
             return
+        if logged:  # what happens to each move is published (its State, or an error on its key)
+            log_request("push", str(sample.key_expr), len(batch.items), "accepted", received)
         raw = [msg["move"]] if batch.single else list(msg["moves"])
         core = self.core
         assert core is not None
@@ -604,3 +629,18 @@ class ServiceNode:
             if job is not None:
                 self._run_job(job)  # on the engine thread, which holds the engine lock
 
+
+def _item_count(op: str, msg: dict[str, Any]) -> int | None:
+    """How many items a request holds, for its DEBUG line (1 for an operation on one mover or landblock;
+    None when the request is too malformed to tell: its error follows)."""
+    try:
+        if op == "move":
+            if is_column_request(msg):
+                return column_count(msg)
+            moves = msg.get("moves")
+            return len(moves) if isinstance(moves, list) else 1
+        if op in QUERY_OPS:
+            return query_count(msg, op)
+    except Exception:
+        return None
+    return 1

@@ -120,10 +120,14 @@ class Persistence:
         """Write the file from the engine thread (lock held), right after a hand-over came in."""
         if self.path is None:
             return
+        began = time.monotonic()
         try:
-            write_state(self.path, core.snapshot_movers(), core.instance)
+            movers = core.snapshot_movers()
+            write_state(self.path, movers, core.instance)
         except Exception as e:  # the mover is held in memory all the same; the next save retries
             log.error("cannot write the state file %s after a hand-over: %s", self.path, e)
+            return
+        _written(self.path, len(movers), "after a hand-over in", began)
 
     def _handovers(self, node: Any) -> int:
         h = node.stats.handovers
@@ -142,6 +146,7 @@ class Persistence:
         if self.path is None:
             return True
         handovers = self._handovers(node)
+        began = time.monotonic()
         try:
             movers = node.snapshot(lambda core: core.snapshot_movers())
             if movers is None:
@@ -152,8 +157,14 @@ class Persistence:
             return False
         finally:
             self._last_save = time.monotonic()
+        _written(self.path, len(movers), "after a hand-over" if handovers != self._handovers_saved else "", began)
         self._handovers_saved = handovers
         return True
+
+
+def _written(path: str, movers: int, why: str, began: float) -> None:
+    log.info("state written: %d mover(s) to %s%s (%.1f ms)", movers, path, f" {why}" if why else "",
+             (time.monotonic() - began) * 1000.0)
 
 
 def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:

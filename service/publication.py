@@ -17,6 +17,7 @@ import msgpack
 import zenoh
 
 from .errors import ProtocolError
+from .request_log import ERRORS
 from .frames import pack, state_message, states_message
 from .wire import ErrorKind, Keys
 
@@ -127,7 +128,11 @@ class ZenohBus:
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
         """An error on the mover's error key, or on P/errors when no mover is known."""
-        self.put(self.keys.errors if mover_id is None else self.keys.obj_error(mover_id), error)
+        key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
+        detail = error.get("error")
+        if isinstance(detail, dict):  # a pushed move's error: answered here, so logged (rate-limited)
+            ERRORS.error(str(detail.get("kind")), "push", key, str(detail.get("message")), id=mover_id)
+        self.put(key, error)
 
     def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
         """A fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""

@@ -68,6 +68,7 @@ from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
 from .capabilities import capabilities
 from .certificates import INSTANCE_CN, make_certificates
+from .request_log import ERRORS, log_request, requests_logged
 from .router import router_config
 from .security import ClusterConfig
 from .state_layout import regroup_state, worker_state_path
@@ -246,7 +247,7 @@ class WorkerSupervisor:
         argv += ["--scene", a.scene] if a.scene is not None else ["--dat-dir", a.dat_dir]
         argv += ["--own", ownership.to_text(), "--mode", "client", "--cluster", str(self._worker_cluster),
                  "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
-                 "--log-level", a.log_level,
+                 "--log-level", a.log_level, "--log-format", getattr(a, "log_format", "text"),
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
         if self.accounts is not None:
             argv += ["--users", str(self.accounts.path)]
@@ -496,14 +497,20 @@ class WorkerSupervisor:
         stats = self._face_stats.get(user, self.stats)
 
         def handler(query: zenoh.Query) -> None:
+            received = time.monotonic()
             stats.request(op)
+            result = "ok"
             try:  # the payload is not read, as a single instance does not read it
                 query.reply(query.key_expr, pack(build()))
             except Exception as e:  # never let it reach zenoh's thread
                 log.exception("answering %s failed", op)
                 stats.error(ErrorKind.INTERNAL)
+                result = ErrorKind.INTERNAL
+                ERRORS.error(result, op, str(query.key_expr), f"internal error: {e}")
                 query.reply_err(pack({"error": ProtocolError(ErrorKind.INTERNAL, f"internal error: {e}").to_wire()}))
             finally:
+                if requests_logged():
+                    log_request(op, str(query.key_expr), None, result, received)
                 query.drop()
 
         return handler
@@ -537,8 +544,12 @@ def serve_workers(args: argparse.Namespace, count: int) -> int:
     named = f"; users {', '.join(sup.accounts.users)} under {args.prefix}/u/USER" if sup.accounts is not None else ""
     print(f"acphys service ready: instance {sup.instance}, listening on {', '.join(sup.listen or ['(config file)'])}, "
           f"{len(sup.workers)} workers{named}", flush=True)
+    log.info("started: instance %s, listening on %s, %d workers", sup.instance, ", ".join(sup.listen or []),
+             len(sup.workers))
     while not stop.wait(0.2):
         sup.watch()
+        ERRORS.flush()
     code = sup.shutdown()
-    log.info("stopped")
+    ERRORS.flush(everything=True)
+    log.info("stopped (exit status %d)", code)
     return code
