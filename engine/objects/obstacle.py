@@ -218,7 +218,8 @@ class MoverObstacle(Obstacle):
         self.is_creature = bool(m.creature)
 
     def find_obj_collisions(self, transition: Transition) -> int:
-        if transition.object_info.obj is self.mover:
+        oi = transition.object_info
+        if oi.obj is self.mover or oi.ignore_movers:
             return _OK
         self.refresh()
         return find_obj_collisions(self, transition)

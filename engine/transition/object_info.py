@@ -39,6 +39,7 @@ class ObjectInfo:
         "walkable_z",
         "missile",
         "gravity",
+        "ignore_movers",
     )
 
     def __init__(self, state: int = 0, obj: Any = None) -> None:
@@ -56,6 +57,8 @@ class ObjectInfo:
         # standing in for the live Missile state when there is no mover behind us
         self.missile = False
         self.gravity = True
+        # other movers are not obstacles (a navigation probe's default: engine.navigation)
+        self.ignore_movers = False
 
     def get_walkable_z(self) -> float:
         """PhysicsObj.get_walkable_z: FloorZ for every object the client moves."""

@@ -69,6 +69,7 @@ class Mover:
         "ethereal",
         "creature",
         "sledding",
+        "ignore_movers",
         "position",
         "cell",
         "transient",
@@ -123,6 +124,8 @@ class Mover:
         self.creature = creature
         #: PhysicsState.Sledding: the sledding friction rule, and (retail) gravity on the ground
         self.sledding = sledding
+        #: other movers are not obstacles to this one (a navigation probe, engine.navigation)
+        self.ignore_movers = False
         self.position: Position = Position(0, Frame(ZERO))
         self.cell: ObjCell | None = None
         self.transient = TS.ACTIVE
@@ -229,6 +232,7 @@ class Mover:
         oi.step_down = self.step_down and not self.missile
         oi.missile = not oi.step_down
         oi.gravity = self.gravity
+        oi.ignore_movers = self.ignore_movers
         return oi
 
     def transition(self, world: CellLookup, old_pos: Position, new_pos: Position, settings: EngineSettings) -> Transition | None:

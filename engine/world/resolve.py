@@ -35,11 +35,14 @@ def _block_distance(a: int, b: int) -> int:
     return dx if dx > dy else dy
 
 
-def move_mover(landscape: Landscape, mover: Mover, target: Position, loaded: bool = False) -> MoveResult:
+def move_mover(landscape: Landscape, mover: Mover, target: Position, loaded: bool = False,
+               cast_shadows: bool = True) -> MoveResult:
     """Move `mover` toward `target` (already checked): PhysicsObj.SetPosition through
     a transition. A target within EPSILON of where the mover stands runs no
     transition; one more than a landblock away is refused, as the client refuses it.
-    `loaded`: the target's landblock is known to be loaded (its check loaded it)."""
+    `loaded`: the target's landblock is known to be loaded (its check loaded it).
+    `cast_shadows` False moves an object no cell knows about (a navigation probe):
+    its shadows are not cast into the cells it reaches."""
     current = mover.position
     if target.cell_id == current.cell_id and target.frame.equals_within_epsilon(current.frame):
         mover.position = Position(current.cell_id, target.frame)
@@ -53,7 +56,8 @@ def move_mover(landscape: Landscape, mover: Mover, target: Position, loaded: boo
         mover.position = Position(current.cell_id, current.frame.with_orientation(target.frame.orientation))
         return move_result(mover, False, "Invalid", t)
     mover.set_position_internal(t)
-    reshadow(mover, t.cell_array)
+    if cast_shadows:
+        reshadow(mover, t.cell_array)
     result = move_result(mover, True, "OK", t)
     give_back(t)
     return result

@@ -27,6 +27,11 @@ from ..queries.ground import MAX_GROUND_DROP
 from ..queries.ground import ground as ground_query
 from ..queries.placement import place as place_query
 from ..queries.results import Ground, PlacementResult, RayHit, SightResult
+from ..navigation import path as navigation_path
+from ..navigation.cache import NavCache
+from ..navigation.graph import GraphStats
+from ..navigation.results import PathResult
+from ..navigation.walker import Walker
 from . import shadows
 from .mover import Mover
 from .moves import move_checked, step_checked
@@ -56,6 +61,7 @@ class World:
         self.stats = {"landblock_loads": 0, "landblock_unloads": 0}
         #: the DatLandblockSource of a World opened on dat files, else None
         self.dat_source: DatLandblockSource | None = None
+        self._navigation: NavCache | None = None
 
     @property
     def settings(self) -> EngineSettings:
@@ -307,6 +313,55 @@ class World:
     def grounds(self, positions: Sequence[Position], max_drop: float | None = None) -> list[Ground | None]:
         """`ground` for each position: a list of Ground or None (engine.queries.batch)."""
         return batch.grounds(self, positions, MAX_GROUND_DROP if max_drop is None else max_drop)
+
+    # -- navigation (engine.navigation; none of it changes any mover) -----------------------
+    @property
+    def navigation(self) -> NavCache:
+        """The navigation graphs and their settings (`world.navigation.settings = NavSettings(...)`)."""
+        if self._navigation is None:
+            self._navigation = NavCache(self)
+        return self._navigation
+
+    def path(self, walker: Walker, start: Position | None, goal: Position, *, max_distance: float | None = None,
+             budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+        """A path `walker` (a MoverSpec, or a registered mover's id with `start` None: it starts where it
+        stands) can walk from `start` to `goal`: a PathResult.
+
+        The guarantee: walk the waypoints in turn as engine.navigation.walk says (World.move, moves of
+        at most NavSettings.stride metres, default 2, straight toward the next waypoint, until within
+        NavSettings.arrival_tolerance, default 0.25 m) and the walker reaches every waypoint, standing on
+        walkable ground in the waypoint's cell, the goal last. A MoverSpec walker starts as
+        `add_mover(spec, waypoints[0], placement="enter_world")` places it. Other movers are not
+        obstacles unless `avoid_movers` (then the movers standing now are), and the guarantee holds while
+        the world stays as it was asked in. `max_distance` bounds the path's length, metres; `budget`
+        the graph nodes the search may expand (NavSettings.budget by default). A path not found says
+        why in `reason` (engine.navigation.results.PathResult)."""
+        return navigation_path.find_path(self, walker, start, goal, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers)
+
+    def paths(self, walker: Walker, pairs: Sequence[tuple[Position | None, Position]], *, max_distance: float | None = None,
+              budget: int | None = None, avoid_movers: bool = False) -> list[PathResult]:
+        """`path` for each (start, goal) pair: a list of PathResult."""
+        return navigation_path.find_paths(self, walker, pairs, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers)
+
+    def reachable(self, walker: Walker, a: Position | None, b: Position, *, max_distance: float | None = None,
+                  budget: int | None = None, avoid_movers: bool = False) -> bool:
+        """Whether `path(walker, a, b)` finds a path."""
+        return self.path(walker, a, b, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers).found
+
+    def random_point(self, walker: Walker, near: Position | None, radius: float, *, seed: int | None = None,
+                     budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+        """A random point within `radius` metres (horizontally) of `near` that the walker can reach, as a
+        PathResult whose last waypoint is the point (the wandering query); `seed` makes it repeatable."""
+        return navigation_path.random_point(self, walker, near, radius, seed=seed, budget=budget, avoid_movers=avoid_movers)
+
+    def build_navigation(self, walker: Walker, landblock_ids: Sequence[int] | None = None) -> GraphStats:
+        """Build the walker class's navigation graph of these landblocks (all loaded ones by default) now,
+        every node and every edge, instead of as paths reach them; what the graph then holds."""
+        probe = navigation_path.probe_of(self, walker)
+        graph = self.navigation.graph_for(probe)
+        for lb_id in (self.loaded_landblocks() if landblock_ids is None else landblock_ids):
+            graph.build_landblock(lb_id)
+        return graph.stats()
 
     # -- terrain queries -----------------------------------------------------------------
     def terrain_height(self, cell_id: int, x: float, y: float) -> float:
