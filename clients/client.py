@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -46,6 +47,12 @@ _REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
 _MAX_REDIRECTS = 4
 #: most per-landblock request keys kept parsed (`Client._lb_key`)
 _KEY_CACHE = 4096
+#: Seconds a new peer session takes to meet every instance of a cluster. It connects to one endpoint and
+#: meets the other instances through Zenoh's gossip, whose queryables it learns about 0.1 s after opening
+#: (measured on loopback); a query sent sooner reaches only the instances met so far (`acphys stats` listed
+#: one instance of two in half the tries). A query to every instance (health, stats, landblocks) waits until
+#: the client is this old.
+SETTLE_S = 0.5
 
 
 _encode_register = REGISTER.encode_fn()
@@ -172,6 +179,7 @@ class Client(SpatialQueries):
             session = zenoh.open(make_config(config_file=config_file, connect=list(connect or []),
                                              user=user, password=password))
         self.session = session
+        self._opened = time.monotonic()  # a young session may not have met every instance yet (SETTLE_S)
         self._where: dict[int, int] = {}
         # fire-and-forget keeps one route per mover: the old owner forwards after a hand-over,
         # in order, where switching keys mid-stream could overtake moves still in flight
@@ -297,7 +305,11 @@ class Client(SpatialQueries):
                     self._where[mover_id] = lb
         return self._request(self.keys.lb(lb, op), content, timeout)
 
-    def _all(self, key: str, timeout: float | None) -> list[InstanceInfo]:
+    def _all(self, key: str, timeout: float | None, settle: bool = True) -> list[InstanceInfo]:
+        """Every instance's answer on `key`; `settle`: first wait until the session has met them all."""
+        wait = self._opened + SETTLE_S - time.monotonic()
+        if settle and wait > 0:
+            time.sleep(wait)
         out = []
         for r in self._replies_of_all(key, {}, timeout):
             if r.ok is None:
@@ -655,11 +667,9 @@ class Client(SpatialQueries):
     def wait_ready(self, instances: int = 1, timeout: float = 10.0) -> list[InstanceInfo]:
         """Block until `instances` instances answer on the health key with status "ok"; their Health.
         Raises RequestTimeout when fewer did within `timeout` seconds (asking again every 50 ms)."""
-        import time
-
         deadline = time.monotonic() + timeout
-        while True:
-            found = [h for h in self.health(timeout=1.0) if h.get("status") == "ok"]
+        while True:  # asked at once and again: the count wanted says when every instance has been met
+            found = [h for h in self._all(self.keys.health, 1.0, settle=False) if h.get("status") == "ok"]
             if len(found) >= instances:
                 return found
             if time.monotonic() >= deadline:
