@@ -7,13 +7,18 @@ A Starlette app served by uvicorn on loopback (default http://127.0.0.1:8765/):
 - `/api/landblocks`: the landblocks to draw: those the service's instances have
   loaded, and those a mover was seen in;
 - `/api/terrain/XXYY`: a landblock's height grid (`clients.view_terrain`);
+- `/api/objects/XXYY`: the outlines of a landblock's buildings and static
+  objects (`clients.view_objects`);
 - `/api/movers`: every mover's latest State;
 - `/api/events`: server-sent events, one `state` event per new State
-  (`clients.view_board` subscribes to the service's state publications).
+  (`clients.view_board` subscribes to the service's state publications) and
+  one `removed` event per mover the service no longer holds
+  (`clients.view_removals` asks after movers that fell quiet).
 
-The page colours movers by contact state, pans and zooms, and shows a mover's
-State when clicked. A mover appears with its first State published after the
-view started (the protocol has no "list every mover" query).
+The page colours movers by contact state, draws buildings and objects, pans
+and zooms, and shows a mover's State when clicked. A mover appears with its
+first State published after the view started (the protocol has no "list
+every mover" query).
 """
 
 from __future__ import annotations
@@ -21,11 +26,14 @@ from __future__ import annotations
 import argparse
 import asyncio
 import sys
+import threading
 import time
 from importlib import resources
 from typing import Any
 
 from .view_board import MoverBoard
+from .view_objects import ObjectSource
+from .view_removals import RemovalWatch, held_by_service
 from .view_terrain import TerrainSource
 
 __all__ = ["add_view_arguments", "build_app", "run_view"]
@@ -68,7 +76,8 @@ class _Landblocks:
         return sorted(self._loaded | seen)
 
 
-def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks | None, info: dict[str, Any]) -> Any:
+def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks | None, info: dict[str, Any],
+              objects: ObjectSource | None = None) -> Any:
     """The Starlette application of the live map."""
     from sse_starlette.sse import EventSourceResponse
     from starlette.applications import Starlette
@@ -93,7 +102,7 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
             sorted({int(s["landblock"]) for s in board.snapshot()})
         return JSONResponse([f"{lb:04X}" for lb in lbs])
 
-    async def api_terrain(request: Request) -> Response:
+    def landblock_of(request: Request) -> int | Response:
         text = request.path_params["lb"]
         try:
             lb = int(text, 16)
@@ -101,10 +110,25 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
                 raise ValueError
         except ValueError:
             return JSONResponse({"error": f"not a landblock id (XXYY in hex): {text!r}"}, status_code=400)
+        return lb
+
+    async def api_terrain(request: Request) -> Response:
+        lb = landblock_of(request)
+        if isinstance(lb, Response):
+            return lb
         grid = await asyncio.to_thread(terrain.grid, lb)
         if grid is None:
             return JSONResponse({"error": f"the view's world has no landblock {lb:04X}"}, status_code=404)
         return JSONResponse(grid.to_json())
+
+    async def api_objects(request: Request) -> Response:
+        lb = landblock_of(request)
+        if isinstance(lb, Response):
+            return lb
+        found = await asyncio.to_thread(objects.objects, lb) if objects is not None else None
+        if found is None:
+            return JSONResponse({"error": f"the view's world has no landblock {lb:04X}"}, status_code=404)
+        return JSONResponse(found.to_json())
 
     async def api_movers(_: Request) -> Response:
         return JSONResponse(board.snapshot())
@@ -115,8 +139,8 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
         async def stream() -> Any:
             try:
                 while True:
-                    text = await q.get()
-                    yield {"event": "state", "data": text}
+                    event, text = await q.get()
+                    yield {"event": event, "data": text}
             finally:
                 board.unlisten(q)
 
@@ -127,6 +151,7 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
         Route("/api/info", api_info),
         Route("/api/landblocks", api_landblocks),
         Route("/api/terrain/{lb}", api_terrain),
+        Route("/api/objects/{lb}", api_objects),
         Route("/api/movers", api_movers),
         Route("/api/events", api_events),
         Mount("/static", StaticFiles(directory=static_dir), name="static"),
@@ -155,6 +180,8 @@ def run_view(args: argparse.Namespace) -> int:
     with connect_client(args) as client:
         board = MoverBoard(client.session, client.keys.prefix)
         board.start()
+        removals = RemovalWatch(board, held_by_service(client))
+        removals.start()
         lbs = _Landblocks(client)
         instances = [h.instance for h in client.health(timeout=min(args.timeout, 2.0))]
         print(describe_service(instances, args.connect, client.keys.prefix, args.zenoh_config), file=sys.stderr)
@@ -162,7 +189,8 @@ def run_view(args: argparse.Namespace) -> int:
             print("acphys view: no service answers yet; movers appear when one publishes states", file=sys.stderr)
         info = {"prefix": client.keys.prefix, "connect": args.connect or ["tcp/127.0.0.1:7447"],
                 "world": args.dat_dir or scene, "instances": instances}
-        app = build_app(board, TerrainSource(world), lbs, info)
+        world_lock = threading.Lock()  # the terrain and the objects read the one world from the server's threads
+        app = build_app(board, TerrainSource(world, lock=world_lock), lbs, info, ObjectSource(world, lock=world_lock))
         config = uvicorn.Config(app, host=args.host, port=args.port, log_level="warning", lifespan="off")
         server = uvicorn.Server(config)
 
@@ -188,5 +216,6 @@ def run_view(args: argparse.Namespace) -> int:
                   "pick another with --port", file=sys.stderr)
             return 1
         finally:
+            removals.close()
             board.close()
     return 0

@@ -37,11 +37,11 @@ class TerrainGrid:
 class TerrainSource:
     """Samples a World's terrain per landblock, once each (thread-safe: the web server asks from its threads)."""
 
-    def __init__(self, world: Any, step_m: float = 4.0) -> None:
+    def __init__(self, world: Any, step_m: float = 4.0, lock: threading.Lock | None = None) -> None:
         self.world = world
         self.step_m = step_m
         self._grids: dict[int, TerrainGrid | None] = {}
-        self._lock = threading.Lock()
+        self._lock = lock or threading.Lock()  # shared with whatever else reads the same world
 
     def grid(self, landblock: int) -> TerrainGrid | None:
         """The landblock's height grid, or None when the view's world has no such landblock."""

@@ -112,3 +112,117 @@ def test_the_board_keeps_the_newest_state_of_each_mover() -> None:
     (page,) = board.snapshot()
     assert page["id"] == "52BCE000000001" and page["seq"] == 6 and page["position"]["origin"][0] == 4.0
     assert page["cell_hex"] == "A9B40001" and page["collide_objects"] == ["52BCE000000002"]
+
+
+# -- buildings and objects ----------------------------------------------------------------------------
+def _bbox(points: list[list[float]]) -> tuple[float, float, float, float]:
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    return min(xs), min(ys), max(xs), max(ys)
+
+
+def test_the_view_draws_the_worlds_buildings_and_objects(view_url: tuple[str, ServiceProcess]) -> None:
+    from clients.demo_world import ORIGIN_LANDBLOCK, demo_footprints
+
+    url, _ = view_url
+    # the demo world's own account of its village (global demo metres from A9B4's corner), in the view's
+    # global metres (landblock column and row times 192)
+    ox, oy = (ORIGIN_LANDBLOCK >> 8) * 192.0, (ORIGIN_LANDBLOCK & 0xFF) * 192.0
+    want = {f.name: f for f in demo_footprints()}
+    status, body = _get(url + "api/objects/A9B5")
+    assert status == 200 and body["id"] == "A9B5"
+    (house,) = body["buildings"]
+    x0, y0, x1, y1 = want["house"].a
+    assert _bbox(house["polygon"]) == pytest.approx((ox + x0, oy + y0, ox + x1, oy + y1), abs=1e-3)
+    assert len(house["polygon"]) == 4 and house["circles"] == [] and house["model"] == "01000001"
+    circles = sorted(tuple(c) for o in body["objects"] for c in o["circles"])
+    expected = sorted((ox + f.a[0], oy + f.a[1], f.a[2]) for f in demo_footprints() if f.shape == "circle")
+    assert len(circles) == len(expected) == 3  # the pillar and the boulder's two spheres
+    for got, exp in zip(circles, expected):
+        assert got == pytest.approx(exp, abs=1e-3)
+    (platform,) = [o for o in body["objects"] if o["polygon"]]
+    x0, y0, x1, y1 = want["platform"].a
+    assert _bbox(platform["polygon"]) == pytest.approx((ox + x0, oy + y0, ox + x1, oy + y1), abs=1e-3)
+    # the hills have none; ids are checked as for the terrain
+    assert _get(url + "api/objects/A9B4") == (200, {"id": "A9B4", "buildings": [], "objects": []})
+    assert _get(url + "api/objects/zz")[0] == 400
+    status, body = _get(url + "api/objects/1234")
+    assert status == 404 and "no landblock 1234" in body["error"]
+
+
+def test_a_convex_hull_keeps_the_corners_only() -> None:
+    from clients.view_objects import convex_hull
+
+    square_with_inside = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (1.0, 1.0), (1.0, 0.0), (0.5, 1.5)]
+    assert convex_hull(square_with_inside) == [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]  # counter-clockwise
+    assert convex_hull([(1.0, 1.0), (1.0, 1.0)]) == [(1.0, 1.0)]
+
+
+# -- removed movers leave ------------------------------------------------------------------------------
+def _state(mid: int, seq: int) -> dict[str, Any]:
+    return {"id": mid, "seq": seq, "landblock": 0xA9B4, "position": {"cell": 0xA9B40001, "origin": [1.0, 2.0, 3.0]}}
+
+
+def test_a_quiet_mover_the_service_no_longer_holds_is_forgotten_after_two_answers() -> None:
+    from clients.view_board import MoverBoard
+    from clients.view_removals import QUIET_S, RECHECK_S, RETRY_S, RemovalWatch
+
+    board = MoverBoard(session=None, prefix="p")
+    held = {0xA1: True, 0xB2: False, 0xC3: None}  # held; gone; the service does not answer
+    asked: list[int] = []
+
+    def ask(mid: int) -> bool | None:
+        asked.append(mid)
+        return held[mid]
+
+    for mid in held:
+        board.offer(_state(mid, 3))
+    t0 = max(s["received"] for s in board.snapshot())
+    watch = RemovalWatch(board, ask)
+    assert watch.run_once(t0 + QUIET_S - 0.5) == [] and asked == []  # none quiet yet
+    assert watch.run_once(t0 + QUIET_S + 0.1) == [] and sorted(asked) == [0xA1, 0xB2, 0xC3]  # one "gone" is not enough
+    asked.clear()
+    assert watch.run_once(t0 + QUIET_S + 0.1 + RETRY_S / 2) == [] and asked == []  # not due again yet
+    assert watch.run_once(t0 + QUIET_S + 0.1 + RETRY_S) == ["B2"] and sorted(asked) == [0xB2, 0xC3]
+    assert sorted(s["id"] for s in board.snapshot()) == ["A1", "C3"]  # no answer drops nothing
+    asked.clear()
+    assert watch.run_once(t0 + QUIET_S + 0.1 + RECHECK_S) == [] and 0xA1 in asked  # the held one, asked again later
+    # the forgotten mover stays out for its old State arriving late, and is back for a newer one
+    assert not board.offer(_state(0xB2, 3))
+    assert board.offer(_state(0xB2, 4)) and "B2" in {s["id"] for s in board.snapshot()}
+
+
+def test_a_mover_that_spoke_again_is_not_forgotten() -> None:
+    from clients.view_board import MoverBoard
+    from clients.view_removals import QUIET_S, RETRY_S, RemovalWatch
+
+    board = MoverBoard(session=None, prefix="p")
+    board.offer(_state(0xB2, 1))
+    t0 = board.snapshot()[0]["received"]
+    watch = RemovalWatch(board, lambda mid: False)
+    watch.run_once(t0 + QUIET_S)
+    board.offer(_state(0xB2, 2))  # a new State between the two answers: the first miss no longer counts
+    assert watch.run_once(t0 + QUIET_S + RETRY_S) == []
+    assert [s["seq"] for s in board.snapshot()] == [2]
+
+
+def test_the_view_drops_a_mover_the_service_removed(view_url: tuple[str, ServiceProcess]) -> None:
+    from clients import Client
+    from clients.demo_walk import demo_mover
+    from clients.demo_world import global_to_cell
+    from engine.geometry import Position, Vec3
+
+    url, svc = view_url
+    with Client([svc.endpoint], prefix=PREFIX, timeout=10.0) as c:
+        cell, x, y = global_to_cell(50.0, 50.0)
+        st = c.register(demo_mover(), Position.at(cell, Vec3(x, y, 60.0)))
+        key = f"{st.id:X}"
+        deadline = time.monotonic() + 30.0
+        while key not in {m["id"] for m in _get(url + "api/movers")[1]}:  # re-sent until the view has one
+            assert time.monotonic() < deadline, "the view never got the mover's State"
+            c.step(st.id, (0.0, 0.0, 0.0), 0.2)
+            time.sleep(0.2)
+        c.remove(st.id)
+        deadline = time.monotonic() + 30.0
+        while key in {m["id"] for m in _get(url + "api/movers")[1]}:
+            assert time.monotonic() < deadline, "the view still lists the removed mover"
+            time.sleep(0.2)

@@ -1,12 +1,17 @@
-// acphys live map: terrain of the service's landblocks and its movers, live (server-sent events).
+// acphys live map: terrain, buildings and objects of the service's landblocks and its movers, live
+// (server-sent events: a `state` event per new State, a `removed` event per mover the service no longer holds).
 // Coordinates: global metres, x = landblock column * 192 + local x, y likewise; north is up.
 "use strict";
 
 (function () {
   const LANDBLOCK_M = 192;
-  const STALE_S = 30;
+  const IDLE_S = 30;
   const TRAIL = 60;               // points of trail kept per mover
-  const COLOURS = { walkable: "#18c018", steep: "#ff8c00", air: "#1e5aff", stale: "#999999" };
+  const FLOOR_Z = 0.6641741;      // walkable limit: steeper terrain is tinted
+  const COLOURS = { walkable: "#18c018", steep: "#ff8c00", air: "#1e5aff", idle: "#999999" };
+  const BUILDING = { fill: "#d9c7a0", stroke: "#222222" };   // sandstone: apart from the reddish steep tint
+  const OBJECT = { fill: "#7d7d7d", stroke: "#222222" };
+  const LABELS = window.acphysLabels;
 
   const canvas = document.getElementById("map");
   const ctx = canvas.getContext("2d");
@@ -15,17 +20,21 @@
   const listEl = document.getElementById("movers");
   const stateEl = document.getElementById("state");
   const selectedEl = document.getElementById("selected");
+  const hintEl = document.getElementById("hint");
 
   const view = { cx: 0, cy: 0, scale: 1, fitted: false };   // scale: pixels per metre
   const terrain = new Map();   // "A9B4" -> {x0, y0, image (canvas) or null}
-  const movers = new Map();    // id hex -> {state, x, y, trail: [[x, y], ...], updates}
+  const outlines = new Map();  // "A9B4" -> {buildings: [...], objects: [...]} (global metres)
+  const movers = new Map();    // id hex -> {state, x, y, trail: [[x, y], ...]}
+  const heightRange = { lo: null, hi: null };   // of the terrain drawn (metres), for the key
+  let layout = { labels: [], fixed: {}, dots: [] };   // where the last frame put things (for tests)
   let selected = null;
   let info = null;
-  let updates = 0;
+  let updates = 0, removals = 0;
   let dirty = true;
 
   function contactClass(st) {
-    if ((Date.now() / 1000 - st.received) > STALE_S) return "stale";
+    if ((Date.now() / 1000 - st.received) > IDLE_S) return "idle";
     return st.on_walkable ? "walkable" : st.contact ? "steep" : "air";
   }
 
@@ -34,9 +43,13 @@
     return [(lb >> 8) * LANDBLOCK_M + st.position.origin[0], (lb & 0xff) * LANDBLOCK_M + st.position.origin[1]];
   }
 
+  function lbHex(lb) { return lb.toString(16).toUpperCase().padStart(4, "0"); }
+  function cellHex(cell) { return cell.toString(16).toUpperCase().padStart(8, "0"); }
+
   // -- terrain -------------------------------------------------------------------------------
   function heightColour(t) {   // t in 0..1: green lowlands, brown hills, light tops
     const stops = [[0, [52, 120, 60]], [0.35, [118, 160, 74]], [0.6, [168, 140, 88]], [0.85, [150, 120, 100]], [1, [245, 245, 240]]];
+    t = Math.min(1, Math.max(0, t));
     for (let i = 1; i < stops.length; i++) {
       if (t <= stops[i][0]) {
         const [t0, c0] = stops[i - 1], [t1, c1] = stops[i];
@@ -47,7 +60,12 @@
     return stops[stops.length - 1][1];
   }
 
-  function terrainImage(grid, lo, hi) {
+  // the colour scale reaches below the lowest ground and above the highest, as the images use it
+  function scaleOf(lo, hi) { return { lo: lo - 10, hi: hi + 5 }; }
+  function colourAt(z, sc) { return heightColour((z - sc.lo) / Math.max(sc.hi - sc.lo, 1e-6)); }
+  function steepTint(rgb) { return [rgb[0] * 0.55 + 90, rgb[1] * 0.55 + 18, rgb[2] * 0.55 + 18]; }
+
+  function terrainImage(grid, sc) {
     const n = grid.size, img = document.createElement("canvas");
     img.width = n; img.height = n;
     const g = img.getContext("2d"), data = g.createImageData(n, n);
@@ -58,14 +76,49 @@
         const dzdx = (h(i + 1, j) - h(i - 1, j)) / (2 * grid.step), dzdy = (h(i, j + 1) - h(i, j - 1)) / (2 * grid.step);
         const nz = 1 / Math.sqrt(1 + dzdx * dzdx + dzdy * dzdy);
         const shade = Math.min(1, Math.max(0, (dzdx * 0.5 - dzdy * 0.5 + 0.75) * nz));   // light from the north-west
-        let rgb = heightColour((z - lo) / Math.max(hi - lo, 1e-6)).map(c => c * (0.5 + 0.55 * shade));
-        if (nz < 0.6641741) rgb = [rgb[0] * 0.55 + 90, rgb[1] * 0.55 + 18, rgb[2] * 0.55 + 18];   // too steep to walk
+        let rgb = colourAt(z, sc).map(c => c * (0.5 + 0.55 * shade));
+        if (nz < FLOOR_Z) rgb = steepTint(rgb);   // too steep to walk
         const o = ((n - 1 - j) * n + i) * 4;   // row 0 of the grid is the south edge: the bottom of the image
         data.data[o] = rgb[0]; data.data[o + 1] = rgb[1]; data.data[o + 2] = rgb[2]; data.data[o + 3] = 255;
       }
     }
     g.putImageData(data, 0, 0);
     return img;
+  }
+
+  // -- the height key (in the side panel): the colours of the heights drawn, lowest to highest ---------
+  function niceStep(span) {
+    for (const s of [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000]) if (span / s <= 5) return s;
+    return 5000;
+  }
+
+  function drawHeightKey() {
+    const bar = document.getElementById("height-key-bar"), ticks = document.getElementById("height-key-ticks");
+    const { lo, hi } = heightRange;
+    if (lo === null) return;
+    const sc = scaleOf(lo, hi), g = bar.getContext("2d"), w = bar.width;
+    for (let x = 0; x < w; x++) {
+      const rgb = colourAt(lo + (hi - lo) * (x + 0.5) / w, sc);
+      g.fillStyle = "rgb(" + rgb.map(Math.round).join(",") + ")"; g.fillRect(x, 0, 1, bar.height);
+    }
+    const mid = colourAt((lo + hi) / 2, sc);
+    document.getElementById("swatch-steep").style.background = "rgb(" + steepTint(mid).map(Math.round).join(",") + ")";
+    // the ends say the lowest and highest heights; nice round heights between, none crowding an end
+    const marks = [[lo, lo.toFixed(1) + " m", "left"], [hi, hi.toFixed(1) + " m", "right"]];
+    const step = niceStep(hi - lo);
+    for (let z = Math.ceil(lo / step) * step; z < hi; z += step) {
+      const f = (z - lo) / Math.max(hi - lo, 1e-6);
+      if (f > 0.18 && f < 0.82) marks.push([z, z + " m", "centre"]);
+    }
+    ticks.replaceChildren(...marks.map(([z, text, align]) => {
+      const s = document.createElement("span");
+      const f = (z - lo) / Math.max(hi - lo, 1e-6);
+      s.textContent = text; s.dataset.height = String(z);
+      if (align === "left") s.style.left = "0px";
+      else if (align === "right") s.style.right = "0px";
+      else { s.style.left = (f * w) + "px"; s.style.transform = "translateX(-50%)"; }
+      return s;
+    }));
   }
 
   async function fetchJSON(url) {
@@ -87,12 +140,20 @@
         const r = await fetchJSON("/api/terrain/" + id);
         if (r.ok) grids.set(id, r.body);
       } catch (e) { /* drawn blank */ }
+      try {
+        const r = await fetchJSON("/api/objects/" + id);
+        if (r.ok) outlines.set(id, r.body);
+      } catch (e) { /* drawn without */ }
     }
     if (added) {
       // one colour scale for every landblock, so that heights compare across edges
       let lo = Infinity, hi = -Infinity;
       for (const g of grids.values()) { lo = Math.min(lo, g.min); hi = Math.max(hi, g.max); }
-      for (const [id, g] of grids) terrain.get(id).image = terrainImage(g, lo - 10, hi + 5);
+      if (isFinite(lo)) {
+        heightRange.lo = lo; heightRange.hi = hi;
+        for (const [id, g] of grids) terrain.get(id).image = terrainImage(g, scaleOf(lo, hi));
+        drawHeightKey();
+      }
       if (!view.fitted) fit();
       dirty = true;
     }
@@ -125,31 +186,77 @@
     dirty = true;
   }
 
-  function drawScale() {
+  // the hint (an HTML box over the map's lower left) in canvas pixels
+  function hintBox() {
+    const c = canvas.getBoundingClientRect(), h = hintEl.getBoundingClientRect();
+    return { x0: h.left - c.left, y0: h.top - c.top, x1: h.right - c.left, y1: h.bottom - c.top };
+  }
+
+  // the scale bar (just above the hint) and north (upper right); returns their boxes
+  function drawScaleAndNorth(hint) {
     const steps = [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000];
     let m = steps[0];
     for (const s of steps) if (s * view.scale <= 160) m = s;
-    const x = 12, y = canvas.height - 40;
-    ctx.fillStyle = "rgba(255,255,255,0.85)"; ctx.fillRect(x - 6, y - 18, m * view.scale + 40, 28);
+    const x = 12, y = Math.min(canvas.height - 12, hint.y0 - 12);
+    const scale = { x0: x - 6, y0: y - 18, x1: x + m * view.scale + 34, y1: y + 10 };
+    ctx.fillStyle = "rgba(255,255,255,0.85)"; ctx.fillRect(scale.x0, scale.y0, scale.x1 - scale.x0, scale.y1 - scale.y0);
     ctx.fillStyle = "#000"; ctx.fillRect(x, y, m * view.scale, 4);
-    ctx.font = "12px sans-serif"; ctx.fillText(m + " m", x, y - 5);
-    // north
+    ctx.font = "12px sans-serif"; ctx.textBaseline = "alphabetic"; ctx.fillText(m + " m", x, y - 5);
     const nx = canvas.width - 28, ny = 40;
+    const north = { x0: nx - 12, y0: ny - 26, x1: nx + 12, y1: ny + 22 };
+    ctx.fillStyle = "rgba(255,255,255,0.75)"; ctx.fillRect(north.x0, north.y0, north.x1 - north.x0, north.y1 - north.y0);
+    ctx.fillStyle = "#000";
     ctx.beginPath(); ctx.moveTo(nx, ny - 22); ctx.lineTo(nx - 8, ny); ctx.lineTo(nx + 8, ny); ctx.closePath(); ctx.fill();
     ctx.fillText("N", nx - 4, ny + 16);
+    return { scale, north };
   }
+
+  // buildings and objects; returns what was drawn in sight: {kind, box} in canvas pixels
+  function drawOutlines() {
+    const drawn = [];
+    for (const o of outlines.values()) {
+      for (const [list, style, kind] of [[o.buildings, BUILDING, "building"], [o.objects, OBJECT, "object"]]) {
+        for (const shape of list) {
+          ctx.fillStyle = style.fill; ctx.strokeStyle = style.stroke; ctx.lineWidth = 1;
+          const box = { x0: Infinity, y0: Infinity, x1: -Infinity, y1: -Infinity };
+          const grow = (x0, y0, x1, y1) => { box.x0 = Math.min(box.x0, x0); box.y0 = Math.min(box.y0, y0); box.x1 = Math.max(box.x1, x1); box.y1 = Math.max(box.y1, y1); };
+          if (shape.polygon.length) {
+            ctx.beginPath();
+            shape.polygon.forEach(([x, y], k) => {
+              const [px, py] = toScreen(x, y);
+              if (k) ctx.lineTo(px, py); else ctx.moveTo(px, py);
+              grow(px, py, px, py);
+            });
+            ctx.closePath(); ctx.fill(); ctx.stroke();
+          }
+          for (const [x, y, r] of shape.circles) {
+            const [px, py] = toScreen(x, y), rp = Math.max(1.5, r * view.scale);
+            ctx.beginPath(); ctx.arc(px, py, rp, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+            grow(px - rp, py - rp, px + rp, py + rp);
+          }
+          if (box.x1 > 0 && box.y1 > 0 && box.x0 < canvas.width && box.y0 < canvas.height) drawn.push({ kind, box });
+        }
+      }
+    }
+    return drawn;
+  }
+
+  function dotRadius() { return Math.max(5, 0.48 * view.scale); }
 
   function draw() {
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.fillStyle = "#445"; ctx.fillRect(0, 0, canvas.width, canvas.height);
     ctx.imageSmoothingEnabled = true;
+    const squares = [];
     for (const [id, t] of terrain) {
       const [sx, sy] = toScreen(t.x0, t.y0 + LANDBLOCK_M), size = LANDBLOCK_M * view.scale;
       if (t.image) ctx.drawImage(t.image, sx, sy, size, size);
       else { ctx.fillStyle = "#667"; ctx.fillRect(sx, sy, size, size); }
       ctx.setLineDash([6, 4]); ctx.strokeStyle = "rgba(255,255,255,0.8)"; ctx.lineWidth = 1; ctx.strokeRect(sx, sy, size, size); ctx.setLineDash([]);
-      ctx.fillStyle = "#fff"; ctx.font = "bold 12px sans-serif"; ctx.fillText("landblock " + id, sx + 4, sy + 14);
+      squares.push([id, { x0: sx, y0: sy, x1: sx + size, y1: sy + size }]);
     }
+    const shapes = drawOutlines();
+    const r = dotRadius(), dots = [];
     for (const [id, m] of movers) {
       const cls = contactClass(m.state);
       if (m.trail.length > 1) {
@@ -158,13 +265,59 @@
         ctx.strokeStyle = "rgba(0,0,0,0.55)"; ctx.lineWidth = 1.5; ctx.stroke();
       }
       const [px, py] = toScreen(m.x, m.y);
-      const r = Math.max(5, 0.48 * view.scale);
       ctx.beginPath(); ctx.arc(px, py, r, 0, 2 * Math.PI);
       ctx.fillStyle = COLOURS[cls]; ctx.fill();
       ctx.lineWidth = id === selected ? 3 : 1.2; ctx.strokeStyle = id === selected ? "#ffe000" : "#000"; ctx.stroke();
-      ctx.fillStyle = "#000"; ctx.font = "11px monospace"; ctx.fillText(id.slice(-4), px + r + 2, py - r);
+      dots.push({ id, x: px, y: py, r });
     }
-    drawScale();
+    const hint = hintBox();
+    const fixed = drawScaleAndNorth(hint);
+    fixed.hint = hint;
+    drawLabels(squares, dots, fixed);
+    layout.shapes = shapes;
+  }
+
+  // landblock names and mover ids, each where it covers no other label, no mover and none of the fixed marks
+  function drawLabels(squares, dots, fixed) {
+    const view_ = { x0: 0, y0: 0, x1: canvas.width, y1: canvas.height };
+    const requests = [], kinds = [];
+    const pad = 3;
+    const measure = (text, font) => { ctx.font = font; return ctx.measureText(text).width + 2 * pad; };
+    const moverFont = "11px monospace", lbFont = "bold 12px sans-serif";
+    const byPriority = [...dots].sort((a, b) => (b.id === selected) - (a.id === selected) || (a.id < b.id ? -1 : 1));
+    for (const d of byPriority) {
+      const text = d.id.slice(-4), w = measure(text, moverFont), h = 15;
+      requests.push({ w, h, places: LABELS.aroundDot(d.x, d.y, d.r, w, h), always: d.id === selected });
+      kinds.push({ kind: "mover", id: d.id, text, font: moverFont, fg: "#000", bg: "rgba(255,255,255,0.8)", dot: d });
+    }
+    for (const [id, sq] of squares) {
+      // the part of the landblock in sight: its name follows it when the corner is out of view
+      const vis = { x0: Math.max(sq.x0, 0), y0: Math.max(sq.y0, 0), x1: Math.min(sq.x1, canvas.width), y1: Math.min(sq.y1, canvas.height) };
+      const text = "landblock " + id, w = measure(text, lbFont), h = 17;
+      const places = vis.x1 - vis.x0 > w + 8 && vis.y1 - vis.y0 > h + 8 ? LABELS.inCorners(vis, w, h) : [];
+      requests.push({ w, h, places });
+      kinds.push({ kind: "landblock", id, text, font: lbFont, fg: "#fff", bg: "rgba(0,0,0,0.45)" });
+    }
+    const obstacles = [fixed.scale, fixed.north, fixed.hint, ...dots.map(d => ({ x0: d.x - d.r - 1, y0: d.y - d.r - 1, x1: d.x + d.r + 1, y1: d.y + d.r + 1 }))];
+    const placed = LABELS.place(requests, obstacles, view_);
+    const labels = [];
+    placed.forEach((p, k) => {
+      const L = kinds[k], leader = p.shown && p.ring > 0;
+      labels.push({ kind: L.kind, id: L.id, text: L.text, shown: p.shown, box: p.box, leader });
+      if (!p.shown) return;
+      const b = p.box;
+      if (leader) {   // moved out of the crowd: a line from the dot's edge to the label's nearest point
+        const d = L.dot, nx = Math.min(Math.max(d.x, b.x0), b.x1), ny = Math.min(Math.max(d.y, b.y0), b.y1);
+        const len = Math.hypot(nx - d.x, ny - d.y) || 1;
+        ctx.beginPath(); ctx.moveTo(d.x + (nx - d.x) / len * d.r, d.y + (ny - d.y) / len * d.r); ctx.lineTo(nx, ny);
+        ctx.strokeStyle = "rgba(0,0,0,0.8)"; ctx.lineWidth = 1; ctx.stroke();
+      }
+      ctx.fillStyle = L.bg; ctx.fillRect(b.x0, b.y0, b.x1 - b.x0, b.y1 - b.y0);
+      ctx.fillStyle = L.fg; ctx.font = L.font; ctx.textBaseline = "middle";
+      ctx.fillText(L.text, b.x0 + pad, (b.y0 + b.y1) / 2 + 0.5);
+    });
+    ctx.textBaseline = "alphabetic";
+    layout = { labels, fixed, dots: dots.map(d => ({ id: d.id, x: d.x, y: d.y, r: d.r })), canvas: { w: canvas.width, h: canvas.height } };
   }
 
   function frame() {
@@ -175,7 +328,7 @@
   // -- movers --------------------------------------------------------------------------------
   function describe(st) {
     const o = st.position.origin;
-    return st.id + "  " + contactClass(st).padEnd(8) + " (" + o.map(v => v.toFixed(1)).join(", ") + ")";
+    return st.id + "  " + contactClass(st).padEnd(8) + " " + lbHex(st.landblock) + " " + o.map(v => v.toFixed(1)).join(", ");
   }
 
   function renderList() {
@@ -190,17 +343,41 @@
     }));
   }
 
+  function two(n) { return String(n).padStart(2, "0"); }
+
+  function humanTime(t) {   // seconds since the epoch -> local "HH:MM:SS (N s ago)"
+    const d = new Date(t * 1000), ago = Math.max(0, Math.round(Date.now() / 1000 - t));
+    const clock = two(d.getHours()) + ":" + two(d.getMinutes()) + ":" + two(d.getSeconds());
+    return clock + " (" + (ago < 120 ? ago + " s" : Math.round(ago / 60) + " min") + " ago)";
+  }
+
+  // the State as the panel shows it: every id in hex (mover, landblock, cells), the time it came as a clock
+  function forPanel(st) {
+    const o = JSON.parse(JSON.stringify(st));
+    delete o.id_hex; delete o.cell_hex;
+    o.landblock = lbHex(st.landblock);
+    if (o.position && typeof st.position.cell === "number") o.position.cell = cellHex(st.position.cell);
+    if (typeof st.contact_plane_cell === "number") o.contact_plane_cell = cellHex(st.contact_plane_cell);
+    o.received = humanTime(st.received);
+    return o;
+  }
+
   function showState() {
     const m = selected && movers.get(selected);
-    selectedEl.textContent = m ? selected : "(click a mover)";
+    if (!m) { if (!selected) { selectedEl.textContent = "(click a mover)"; stateEl.textContent = ""; } return; }
+    selectedEl.textContent = selected;
     // one line per field: short arrays (origin, orientation, normals) stay on their line
-    stateEl.textContent = m ? JSON.stringify(m.state, null, 1).replace(/\[\s+([^\[\]{}]*?)\s+\]/g,
-      (_, inner) => "[" + inner.replace(/\s+/g, " ") + "]") : "";
+    stateEl.textContent = JSON.stringify(forPanel(m.state), null, 1).replace(/\[\s+([^\[\]{}]*?)\s+\]/g,
+      (_, inner) => "[" + inner.replace(/\s+/g, " ") + "]");
   }
 
   function select(id) { selected = id; showState(); renderList(); dirty = true; }
 
   let listDue = false;
+  function listSoon() {
+    if (!listDue) { listDue = true; setTimeout(() => { listDue = false; renderList(); }, 250); }
+  }
+
   function take(st) {
     const [x, y] = globalXY(st);
     let m = movers.get(st.id);
@@ -210,17 +387,27 @@
     updates++;
     if (!terrain.has(lbHex(st.landblock))) refreshLandblocks();
     if (st.id === selected) showState();
-    if (!listDue) { listDue = true; setTimeout(() => { listDue = false; renderList(); }, 250); }
+    listSoon();
     dirty = true;
   }
 
-  function lbHex(lb) { return lb.toString(16).toUpperCase().padStart(4, "0"); }
+  function drop(id) {   // the service no longer holds it
+    if (!movers.delete(id)) return;
+    removals++;
+    if (id === selected) {
+      selectedEl.textContent = id + " (removed)";
+      stateEl.textContent = "";
+      selected = null;
+    }
+    listSoon();
+    dirty = true;
+  }
 
   function nearestMover(px, py) {
     let best = null, bestD = 12;
     for (const [id, m] of movers) {
       const [sx, sy] = toScreen(m.x, m.y);
-      const d = Math.hypot(sx - px, sy - py) - Math.max(5, 0.48 * view.scale);
+      const d = Math.hypot(sx - px, sy - py) - dotRadius();
       if (d < bestD) { bestD = d; best = id; }
     }
     return best;
@@ -263,9 +450,10 @@
     for (const st of (await fetchJSON("/api/movers")).body) take(st);
     const events = new EventSource("/api/events");
     events.addEventListener("state", e => take(JSON.parse(e.data)));
+    events.addEventListener("removed", e => drop(JSON.parse(e.data).id));
     events.onopen = () => { statusEl.dataset.live = "1"; };
     setInterval(refreshLandblocks, 5000);
-    setInterval(() => { dirty = true; }, 1000);   // stale colours
+    setInterval(() => { dirty = true; showState(); }, 1000);   // idle colours, "s ago"
     requestAnimationFrame(frame);
   }
 
@@ -274,10 +462,17 @@
     moverIds: () => [...movers.keys()],
     position: id => { const m = movers.get(id); return m ? [m.x, m.y] : null; },
     screenOf: id => { const m = movers.get(id); return m ? toScreen(m.x, m.y) : null; },
+    toScreen: (x, y) => toScreen(x, y),
     updates: () => updates,
+    removals: () => removals,
     landblocks: () => [...terrain.keys()],
     terrainReady: () => [...terrain.values()].filter(t => t.image).length,
+    outlines: () => [...outlines.values()],
+    heightRange: () => ({ lo: heightRange.lo, hi: heightRange.hi }),
+    layout: () => JSON.parse(JSON.stringify(layout)),
     selected: () => selected,
+    view: () => ({ cx: view.cx, cy: view.cy, scale: view.scale }),
+    setView: (cx, cy, scale) => { view.cx = cx; view.cy = cy; view.scale = scale; view.fitted = true; dirty = true; },
   };
   start();
 })();
