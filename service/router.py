@@ -27,6 +27,7 @@ from typing import Any
 import zenoh
 
 from .accounts import Accounts, apply_accounts, no_logins_file
+from .logs import add_log_arguments, configure_logging
 from .security import ClusterConfig, apply_security
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config
@@ -73,12 +74,12 @@ def add_router_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--users", metavar="FILE",
                    help="the instances' users file (as `acphys serve --users`): clients log in here and reach their "
                         "own keys only; needs --cluster with a 'password' file")
-    p.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"))
+    add_log_arguments(p)
 
 
 def run_router(args: argparse.Namespace) -> int:
     """Run a router until SIGINT/SIGTERM; 0 on a clean stop, 2 when it cannot start."""
-    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    configure_logging(args.log_level, getattr(args, "log_format", "text"))
     listen = args.listen
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
