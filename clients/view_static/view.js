@@ -394,10 +394,9 @@
   function drop(id) {   // the service no longer holds it
     if (!movers.delete(id)) return;
     removals++;
-    if (id === selected) {
+    if (id === selected) {   // it stays selected: the panel says so until another is clicked (or it returns)
       selectedEl.textContent = id + " (removed)";
       stateEl.textContent = "";
-      selected = null;
     }
     listSoon();
     dirty = true;
