@@ -51,7 +51,8 @@ _KEY_CACHE = 4096
 #: meets the other instances through Zenoh's gossip, whose queryables it learns about 0.1 s after opening
 #: (measured on loopback); a query sent sooner reaches only the instances met so far (`acphys stats` listed
 #: one instance of two in half the tries). A query to every instance (health, stats, landblocks) waits until
-#: the client is this old.
+#: the client is this old (so does `find`), and a request to one landblock that nobody answered is sent again
+#: then.
 SETTLE_S = 0.5
 
 
@@ -227,6 +228,7 @@ class Client(SpatialQueries):
         instances answer that they hold no such mover, NoServiceError when no instance answers at all;
         `timeout` in seconds."""
         errors: list[ServiceError] = []
+        self._settle()
         for r in self._replies_of_all(self.keys.lb("*", "get"), {"id": mover_id}, timeout):
             if r.ok is not None:
                 msg = _unpack(r.ok.payload.to_bytes())
@@ -288,7 +290,22 @@ class Client(SpatialQueries):
 
     def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
         """One request to the instance serving `key`: its reply map, or an exception."""
-        return self._receive(self._send(key, content, timeout))
+        try:
+            return self._receive(self._send(key, content, timeout))
+        except NoServiceError:
+            # nobody had it (so sending again repeats nothing); a young session may not have met the instance
+            # serving `key` yet (SETTLE_S): once it has, ask again
+            if not self._settle():
+                raise
+            return self._receive(self._send(key, content, timeout))
+
+    def _settle(self) -> bool:
+        """Wait until the session is SETTLE_S old (it has met every instance); whether it had to wait."""
+        wait = self._opened + SETTLE_S - time.monotonic()
+        if wait <= 0:
+            return False
+        time.sleep(wait)
+        return True
 
     def _lb_request(self, lb: int, op: str, content: dict[str, Any], mover_id: int | None = None,
                     timeout: float | None = None) -> dict[str, Any]:
@@ -307,9 +324,8 @@ class Client(SpatialQueries):
 
     def _all(self, key: str, timeout: float | None, settle: bool = True) -> list[InstanceInfo]:
         """Every instance's answer on `key`; `settle`: first wait until the session has met them all."""
-        wait = self._opened + SETTLE_S - time.monotonic()
-        if settle and wait > 0:
-            time.sleep(wait)
+        if settle:
+            self._settle()
         out = []
         for r in self._replies_of_all(key, {}, timeout):
             if r.ok is None:

@@ -1,9 +1,11 @@
-"""`acphys stats` lists every instance of a cluster, every time: the README's two instances (B connects
-to A's TLS endpoint; the command connects to A's plain one), and two instances behind a router.
+"""A new client reaches every instance of a cluster, every time: `acphys stats` lists both of the README's
+two instances (B connects to A's TLS endpoint; the command connects to A's plain one) and both of two
+instances behind a router; `acphys move` through A reaches B's landblock.
 
 A new peer session meets B through Zenoh's gossip about 0.1 s after it opens; asked sooner, only A
-answered (1 of 2 instances in about half the tries). The client waits until it is `SETTLE_S` old
-before a query to every instance (clients/client.py).
+answered (1 of 2 instances in about half the tries), and a request to B's landblock found nobody. The
+client waits until it is `SETTLE_S` old before a query to every instance, and asks again then when
+nobody answered a landblock's request (clients/client.py).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from service_support import DEMO_SCENE, ROOT, ServiceProcess, child_env, free_po
 
 TRIES = 20  # the README recipe; behind a router, ROUTER_TRIES
 ROUTER_TRIES = 10
+MOVE_TRIES = 10
 
 
 def _listed(endpoint: str) -> list[str]:
@@ -49,6 +52,23 @@ def test_the_readme_cluster_lists_both_instances_every_time(tmp_path: Path) -> N
     with ServiceProcess(own="A9B4,A9B5", extra=["--cluster", str(a)]) as first, \
             ServiceProcess(own="AAB4,AAB5", extra=["--cluster", str(b)]):
         _every_try_lists_both(first.endpoint)
+
+
+def test_a_move_in_the_other_instances_landblock_reaches_it_every_time(tmp_path: Path) -> None:
+    """`acphys move` connected to A registers, moves and removes a mover in AAB4, B's landblock."""
+    make_certificates(tmp_path)
+    a_tls, b_tls = tls_endpoint(), tls_endpoint()
+    a = cluster_file(tmp_path, "a", [a_tls], [])
+    b = cluster_file(tmp_path, "b", [b_tls], [a_tls])
+    with ServiceProcess(own="A9B4,A9B5", extra=["--cluster", str(a)]) as first, \
+            ServiceProcess(own="AAB4,AAB5", extra=["--cluster", str(b)]):
+        with Client([first.endpoint], timeout=10.0) as c:
+            c.wait_ready(instances=2, timeout=30.0)
+        for _ in range(MOVE_TRIES):
+            r = subprocess.run([sys.executable, "-m", "clients.cli", "move", "--start", "AAB40001", "20", "20", "60",
+                                "--offset", "1", "0", "0", "--connect", first.endpoint], cwd=ROOT, env=child_env(),
+                               capture_output=True, text=True, timeout=60)
+            assert r.returncode == 0, r.stderr
 
 
 @contextmanager
