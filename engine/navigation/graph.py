@@ -245,7 +245,9 @@ class NavGraph:
 
     # -- edges ------------------------------------------------------------------------
     def edges(self, key: int) -> tuple[array[int], array[float]]:
-        """The node's out-edges (target keys, costs), walked now if they were not."""
+        """The node's out-edges (target keys, costs), walked now if they were not: to every node within
+        the link radius, then, in each lattice direction no such edge went, to the first node farther
+        out that way (a long link: a slope too steep to stand on, a drop, a doorway wider apart)."""
         tile = self.tiles[key >> 16]
         i = key & 0xFFFF
         known = tile.edges.get(i)
@@ -259,40 +261,32 @@ class NavGraph:
         if place_probe(world, probe, self.position(key), False):
             start = ProbeState(probe)
             gx, gy, z = tile.gx[i], tile.gy[i], tile.z[i]
-            for target in self._link_candidates(key, gx, gy, z):
+
+            def attempt(target: int) -> None:
                 start.restore()
                 self.walks += 1
                 if walk_toward(world.landscape, probe, self.position(target), self.nav):
                     tx, ty, tz = self.coords(target)
                     targets.append(target)
                     costs.append(math.sqrt((tx - gx) ** 2 + (ty - gy) ** 2 + (tz - z) ** 2))
+
+            for target in self._near(key, gx, gy, z):
+                attempt(target)
+            for ux, uy in _DIRECTIONS:
+                if not self._goes(targets, gx, gy, ux, uy):
+                    far = self._first_along(key, gx, gy, z, ux, uy)
+                    if far is not None and far not in targets:
+                        attempt(far)
         tile.edges[i] = (targets, costs)
         return targets, costs
 
-    def _link_candidates(self, key: int, gx: float, gy: float, z: float) -> list[int]:
-        """The nodes an edge from `key` is tried to: near ones, then one long link per empty direction."""
+    def _near(self, key: int, gx: float, gy: float, z: float) -> list[int]:
         radius = self.nav.link_radius
-        near = [k for _, k in self.nodes_near(gx, gy, z, radius, 2.0 * radius + self.walker.step_up_height) if k != key]
-        out = list(near)
-        spacing = self.nav.resolution
-        for ux, uy in _DIRECTIONS:
-            if self._covers(near, gx, gy, ux, uy):
-                continue
-            reach = radius + spacing
-            while reach <= LONG_LINK_SPAN:
-                px, py = gx + ux * reach, gy + uy * reach
-                hits = [k for _, k in self.nodes_near(px, py, z, 0.75 * spacing, LONG_LINK_SPAN * 2.0) if k != key]
-                # a drop, or a climb no steeper than the slope it crosses allows: the walk decides
-                if hits:
-                    if hits[0] not in out:
-                        out.append(hits[0])
-                    break
-                reach += spacing
-        return out
+        return [k for _, k in self.nodes_near(gx, gy, z, radius, 2.0 * radius + self.walker.step_up_height) if k != key]
 
-    def _covers(self, near: list[int], gx: float, gy: float, ux: float, uy: float) -> bool:
-        """Whether one of the `near` nodes lies in lattice direction (ux, uy) from (gx, gy)."""
-        for k in near:
+    def _goes(self, targets: array[int], gx: float, gy: float, ux: float, uy: float) -> bool:
+        """Whether one of `targets` lies in lattice direction (ux, uy) from (gx, gy)."""
+        for k in targets:
             nx, ny, _ = self.coords(k)
             dx, dy = nx - gx, ny - gy
             d = math.hypot(dx, dy)
@@ -300,28 +294,26 @@ class NavGraph:
                 return True
         return False
 
-    def _covered(self, key: int, ux: float, uy: float) -> bool:
-        """Whether node `key` has a near node in lattice direction (ux, uy) (then it links no farther that way)."""
-        gx, gy, z = self.coords(key)
-        radius = self.nav.link_radius
-        near = [k for _, k in self.nodes_near(gx, gy, z, radius, 2.0 * radius + self.walker.step_up_height) if k != key]
-        return self._covers(near, gx, gy, ux, uy)
+    def _first_along(self, key: int, gx: float, gy: float, z: float, ux: float, uy: float) -> int | None:
+        """The first node beyond the link radius along direction (ux, uy), up to LONG_LINK_SPAN."""
+        spacing = self.nav.resolution
+        reach = self.nav.link_radius + spacing
+        while reach <= LONG_LINK_SPAN:
+            for _, k in self.nodes_near(gx + ux * reach, gy + uy * reach, z, 0.75 * spacing, LONG_LINK_SPAN * 2.0):
+                if k != key:
+                    return k
+            reach += spacing
+        return None
 
     def predecessors(self, key: int) -> list[int]:
-        """The nodes with an edge into `key`: its near nodes, and the nodes behind it along each lattice
-        direction that a long link could come from, whose walked edges include it."""
+        """The nodes with an edge into `key` among its near nodes and the first node back along each
+        lattice direction (where a long link into it would come from)."""
         gx, gy, z = self.coords(key)
-        radius = self.nav.link_radius
-        spacing = self.nav.resolution
-        candidates = {k for _, k in self.nodes_near(gx, gy, z, radius, 2.0 * radius + self.walker.step_up_height)}
+        candidates = set(self._near(key, gx, gy, z))
         for ux, uy in _DIRECTIONS:
-            reach = radius + spacing
-            while reach <= LONG_LINK_SPAN:
-                for _, k in self.nodes_near(gx - ux * reach, gy - uy * reach, z, 0.75 * spacing, LONG_LINK_SPAN * 2.0):
-                    if k not in candidates and not self._covered(k, ux, uy):
-                        candidates.add(k)  # it has no near node toward `key`: it looks farther, a long link
-                reach += spacing
-        candidates.discard(key)
+            back = self._first_along(key, gx, gy, z, -ux, -uy)
+            if back is not None:
+                candidates.add(back)
         return [k for k in sorted(candidates) if key in self.edges(k)[0]]
 
     def build_landblock(self, lb_id: int) -> None:

@@ -12,7 +12,9 @@
     4. The route is proven with the walker's own probe, from its own start
        state, by the walk of the contract (engine.navigation.walk), and
        shortened on the way: from each waypoint reached, the farthest route
-       point that a direct walk reaches becomes the next waypoint. A route
+       point that a direct walk reaches becomes the next waypoint. (Every
+       walk the search accepts, an edge's included, keeps within the arrival
+       tolerance of its straight line: engine.navigation.walk.) A route
        point the probe cannot reach from where it actually stands (within
        the tolerance of the graph's node, not on it) refuses that edge and
        the search runs again around it, at most NavSettings.repairs times.
@@ -293,11 +295,10 @@ def _prove(landscape: Landscape, probe: Mover, points: list[Position], nav: NavS
     waypoints: list[Position] = []
     i = -1  # the point the probe stands at (-1: the start)
     last = len(points) - 1
-    shortcut = max(nav.resolution, 1.0)
     while i < last:
         here = ProbeState(probe)
         # the farthest point a direct walk reaches: the goal first, else a bisection over the route
-        if i + 1 < last and walk_toward(landscape, probe, points[last], nav, shortcut):
+        if i + 1 < last and walk_toward(landscape, probe, points[last], nav):
             waypoints.append(points[last])
             return waypoints, -1
         here.restore()
@@ -309,7 +310,7 @@ def _prove(landscape: Landscape, probe: Mover, points: list[Position], nav: NavS
         while hi - lo > 1:
             mid = (lo + hi) // 2
             here.restore()
-            if walk_toward(landscape, probe, points[mid], nav, shortcut):
+            if walk_toward(landscape, probe, points[mid], nav):
                 lo, reached, best = mid, mid, ProbeState(probe)
             else:
                 hi = mid

@@ -10,8 +10,9 @@ for. The candidates, for a walker class and a lattice spacing:
   building attached to the cell;
 - an indoor cell (EnvCell): the lattice points inside each of its walkable
   physics polygons (floors, stair treads, ramps: normal z at least FloorZ)
-  and each such polygon's centroid, so that a tread narrower than the
-  lattice still gets a node; and both sides of each of its portals.
+  and along each such polygon's middle line (_spine), so that a corridor or
+  a tread narrower than the lattice still gets nodes; and both sides of
+  each of its portals.
 
 Doors and portals get nodes of their own because a door is usually
 narrower than the lattice spacing: no lattice point need lie in it.
@@ -63,16 +64,17 @@ def outdoor_candidates(world: World, landblock: Landblock, cell: LandCell, spaci
         for gy in lattice(by + y0, by + y0 + CELL_LENGTH, spacing):
             x, y = gx - bx, gy - by
             z = landblock.terrain.height_at(x, y)
-            out.append((cell.id, x, y, z))
+            triangle = cell.find_terrain_poly(Vec3(x, y, z), False)
+            out.append((cell.id, x, y, z + clearance(triangle.plane.normal.z if triangle is not None else 1.0, radius)))
             for loop in tops:
                 if _inside_2d(loop, x, y):
                     top = _height_on(loop, x, y)
                     if top > z + 0.05:
-                        out.append((cell.id, x, y, top))
-    for loop in tops:  # a top narrower than the lattice still gets a node
-        cx, cy = sum(v.x for v in loop) / len(loop), sum(v.y for v in loop) / len(loop)
-        if x0 <= cx < x0 + CELL_LENGTH and y0 <= cy < y0 + CELL_LENGTH:
-            out.append((cell.id, cx, cy, _height_on(loop, cx, cy)))
+                        out.append((cell.id, x, y, top + clearance(_normal_z(loop), radius)))
+    for loop in tops:  # a top narrower than the lattice still gets nodes
+        for x, y in _spine(loop, spacing):
+            if x0 <= x < x0 + CELL_LENGTH and y0 <= y < y0 + CELL_LENGTH:
+                out.append((cell.id, x, y, _height_on(loop, x, y) + clearance(_normal_z(loop), radius)))
     building = cell.building
     if building is not None:
         block = cell.id & 0xFFFF0000
@@ -136,6 +138,42 @@ def _inside_2d(loop: list[Vec3], x: float, y: float) -> bool:
     return True
 
 
+def clearance(normal_z: float, radius: float) -> float:
+    """How far above a surface of this slope a sphere of `radius`, standing on it at a point, must be
+    placed so as not to cut into it (its centre is radius / normal_z above the surface there, not
+    radius), and a centimetre more: a placement that may not slide refuses an overlap, and lands an
+    object a little above the ground onto it."""
+    return radius * (1.0 / max(normal_z, 0.1) - 1.0) + 0.01
+
+
+def _normal_z(loop: list[Vec3]) -> float:
+    a, b, c = loop[0], loop[1], loop[2]
+    n = (b - a).cross(c - a)
+    length = n.length()
+    return abs(n.z) / length if length > 0.0 else 1.0
+
+
+def _spine(loop: list[Vec3], spacing: float) -> list[tuple[float, float]]:
+    """Points along a polygon's middle: its centroid, and every half spacing along the line through the
+    centroid parallel to its longer side (x or y) while inside it. A corridor, a ramp or a tread
+    narrower than the lattice, which lattice points miss or meet at its walls, gets nodes down its
+    middle."""
+    cx = sum(v.x for v in loop) / len(loop)
+    cy = sum(v.y for v in loop) / len(loop)
+    along_x = max(v.x for v in loop) - min(v.x for v in loop) >= max(v.y for v in loop) - min(v.y for v in loop)
+    out = [(cx, cy)]
+    step = 0.5 * spacing
+    for sign in (1.0, -1.0):
+        k = 1
+        while k < 10_000:
+            x, y = (cx + sign * k * step, cy) if along_x else (cx, cy + sign * k * step)
+            if not _inside_2d(loop, x, y):
+                break
+            out.append((x, y))
+            k += 1
+    return out
+
+
 def _height_on(loop: list[Vec3], x: float, y: float) -> float:
     """The height of a polygon's plane at (x, y)."""
     a, b, c = loop[0], loop[1], loop[2]
@@ -152,13 +190,14 @@ def indoor_candidates(env: EnvCell, spacing: float, radius: float) -> list[tuple
     for loop in _walkable_floors(env):
         xs = [v.x for v in loop]
         ys = [v.y for v in loop]
+        lift = clearance(_normal_z(loop), radius)
         for gx in lattice(bx + min(xs), bx + max(xs), spacing):
             for gy in lattice(by + min(ys), by + max(ys), spacing):
                 x, y = gx - bx, gy - by
                 if _inside_2d(loop, x, y):
-                    out.append((env.id, x, y, _height_on(loop, x, y)))
-        cx, cy = sum(xs) / len(xs), sum(ys) / len(ys)
-        out.append((env.id, cx, cy, _height_on(loop, cx, cy)))
+                    out.append((env.id, x, y, _height_on(loop, x, y) + lift))
+        for x, y in _spine(loop, spacing):
+            out.append((env.id, x, y, _height_on(loop, x, y) + lift))
     for portal_index in range(len(env.portals)):
         for x, y, z in portal_points(env, portal_index, radius):
             if z is not None:

@@ -25,7 +25,9 @@ __all__ = ["Route", "astar", "settle", "GOAL"]
 #: the key of the virtual goal node (no tile has cell id 0)
 GOAL = -1
 #: nodes the backward flood from the goal may find before it gives up telling closed places apart
-BACKWARD_FLOOD_LIMIT = 200
+BACKWARD_FLOOD_LIMIT = 100
+#: forward expansions before the backward flood starts (a path found sooner never pays for it)
+BACKWARD_AFTER = 200
 
 
 @dataclass(slots=True)
@@ -60,14 +62,15 @@ def astar(graph: NavGraph, sources: dict[int, float], goals: dict[int, float], g
             heapq.heappush(heap, (g + h(key), g, key))
     closed: set[int] = set()
     expanded = 0
-    # the nodes that walk to the goal, flooded backward a node per forward one: a goal in a small
-    # closed place (a room with no door) is known unreachable once they are all found and no source is
-    # among them, without the forward search flooding everything the start reaches
+    # the nodes that walk to the goal, flooded backward a node per forward one once the search has run
+    # a while: a goal in a small closed place (a room with no door) is known unreachable once they are
+    # all found and no source is among them, without the forward search flooding everything the start
+    # reaches
     behind: set[int] = set(goals)
     backlog = sorted(goals)
     flooding = not any(k in behind for k in sources)
     while heap:
-        if flooding:
+        if flooding and expanded >= BACKWARD_AFTER:
             if not backlog:
                 return Route([], math.inf, expanded, "unreachable")
             for pred in graph.predecessors(backlog.pop()):

@@ -75,20 +75,23 @@ def stands_at(probe: Mover, waypoint: Position, tolerance: float) -> bool:
     return bool(ts & TS.CONTACT) and bool(ts & TS.ON_WALKABLE)
 
 
-def walk_toward(landscape: Landscape, probe: Mover, waypoint: Position, nav: NavSettings,
-                max_lateral: float = math.inf) -> bool:
-    """Walk the probe to `waypoint` as the contract says; True when it stands there.
+def walk_toward(landscape: Landscape, probe: Mover, waypoint: Position, nav: NavSettings) -> bool:
+    """Walk the probe to `waypoint` as the contract says; True when it stands there having kept within
+    the arrival tolerance of the straight line (seen from above) all the way.
 
-    `max_lateral` gives up once the probe is pushed that far (metres, sideways)
-    off the straight line to the waypoint: a stricter proof, for the search's
-    shortcut tries, that only ever answers False where the full walk might
-    still have arrived."""
+    The second condition is the search's own, stricter than the contract: a
+    leg the walker only completes by sliding along a wall or round a corner
+    is not taken, so that a path's waypoints are the track walked (to the
+    tolerance), not just points the walk happens to reach."""
+    max_lateral = nav.arrival_tolerance
     stride = nav.stride
     tolerance = nav.arrival_tolerance
     start = probe.position
     offset = start.get_offset(waypoint)
     distance = offset.length()
-    line = offset * (1.0 / distance) if distance > 0.0 else None
+    # the straight line, seen from above: steps and slopes bend a walk up and down, never sideways
+    flat = math.hypot(offset.x, offset.y)
+    line = (offset.x / flat, offset.y / flat) if flat > 0.0 else None
     for _ in range(leg_strides(distance, stride)):
         here = probe.position
         to_go = here.get_offset(waypoint)
@@ -103,11 +106,9 @@ def walk_toward(landscape: Landscape, probe: Mover, waypoint: Position, nav: Nav
         after = probe.position
         if after.cell_id == here.cell_id and after.frame.origin == here.frame.origin and probe.transient == before:
             return False  # stuck: every further move would be this one again
-        if line is not None and max_lateral < math.inf:
+        if line is not None:
             walked = start.get_offset(after)
-            along = walked.dot(line)
-            sideways = walked - line * along
-            if sideways.length() > max_lateral:
+            if abs(walked.x * line[1] - walked.y * line[0]) > max_lateral:
                 return False
     return stands_at(probe, waypoint, tolerance)
 

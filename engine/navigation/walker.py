@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 __all__ = ["WalkerClass", "walker_class", "probe_for_spec", "probe_like", "Walker"]
 
 #: a walker's radius is rounded up to this, metres
-RADIUS_QUANTUM: Final = 0.05
+RADIUS_QUANTUM: Final = 0.02
 #: its height is rounded up to this
 HEIGHT_QUANTUM: Final = 0.1
 #: its step-up and step-down heights are rounded down to this
@@ -51,10 +51,10 @@ class WalkerClass:
 
     def representative(self) -> Mover:
         """A probe of this class's shape: spheres of the class radius stacked up to its height, each
-        overlapping the next (no gap a ledge could slip through), the class's step heights."""
+        touching or overlapping the next (no gap a ledge could slip through), the class's step heights."""
         r = self.radius
         top = max(r, self.height - r)
-        count = max(1, math.ceil((top - r) / r) + 1)
+        count = max(1, math.ceil((top - r) / (2.0 * r)) + 1)
         spheres = [Sphere(Vec3(0.0, 0.0, r + (top - r) * i / max(1, count - 1)), r) for i in range(count)]
         flags = OI.EDGE_SLIDE if self.edge_slide else 0
         probe = Mover(-1, spheres, oi_flags=flags, step_up_height=self.step_up_height,
