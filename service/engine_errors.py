@@ -7,12 +7,16 @@ added: an unknown EngineError still becomes `engine_error`.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 
 from .errors import ProtocolError
 from .wire import ErrorKind
 
 __all__ = ["to_protocol_error", "wire_path"]
+
+#: a request path that ends in an offset (`move.offset[0]`, `moves[3].offset`)
+_OFFSET = re.compile(r"(^|\.)offset(\[\d+\])?$")
 
 _BY_CLASS = {
     "UnknownCellError": ErrorKind.UNKNOWN_CELL,
@@ -58,7 +62,7 @@ def to_protocol_error(
         wire = wire_path(field, fields)
         if wire is not None:
             path = wire
-            text = text.replace(f" {field}:", f" {wire}:", 1)  # the message names the request's field too
+            text = _renamed(text, field, wire)  # the message names the request's field too
     names = [c.__name__ for c in type(exc).__mro__]
     for name in names:
         kind = _BY_CLASS.get(name)
@@ -73,6 +77,18 @@ def to_protocol_error(
     return ProtocolError(ErrorKind.INTERNAL, f"internal error: {_describe(exc)}", path)
 
 
+def _renamed(text: str, field: str, wire: str) -> str:
+    """`text` naming the request's field `wire` where it named the engine's `field`. A target worked out
+    from an offset is called the target: its value is not the number the request gave."""
+    name = wire
+    if field.startswith("target") and _OFFSET.search(wire):
+        name = f"{wire} (the target: current position + offset)"
+    if text.startswith(f"{field}:"):
+        return name + text[len(field):]
+    return text.replace(f" {field}:", f" {name}:", 1)
+
+
 def _describe(exc: BaseException) -> str:
+    """The exception's message for the error's text; its class is the error's kind, never in the text."""
     text = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    return text if text else type(exc).__name__

@@ -27,7 +27,7 @@ from .state_layout import regroup_state
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX, user_prefix
 from .workers import DEFAULT_WORKER_RESTARTS
-from .zconfig import DEFAULT_ENDPOINT, make_config
+from .zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
 
 __all__ = ["add_serve_arguments", "serve", "main"]
 
@@ -118,7 +118,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         persistences = [Persistence.from_args(args, user) for user in users]
     except Exception as e:
         forget_logins()
-        print(f"acphys serve: bad configuration: {e}", file=sys.stderr)
+        print(f"acphys serve: bad configuration: {zenoh_reason(e)}", file=sys.stderr)
         return 2
     options = NodeOptions(
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
@@ -144,7 +144,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         for n, persistence in zip(nodes, persistences):
             n.start(restore=persistence.restorer(n))
     except Exception as e:
-        print(f"acphys serve: cannot start: {e}", file=sys.stderr)
+        print(f"acphys serve: cannot start: {zenoh_reason(e)}", file=sys.stderr)
         _shutdown(nodes)
         return 2
     finally:

@@ -176,7 +176,7 @@ class ServiceNode:
         if self.options.tune_heap and self._host is None:
             heap.tune()
             heap.settle()
-        log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_wire(), self.keys.prefix)
+        log.info("acphys service %s up; owns %s under %s/", instance, self.options.ownership.to_text(), self.keys.prefix)
 
     @property
     def instance(self) -> str:

@@ -30,7 +30,7 @@ from .accounts import Accounts, apply_accounts, no_logins_file
 from .logs import add_log_arguments, configure_logging
 from .security import ClusterConfig, apply_security
 from .wire import DEFAULT_PREFIX
-from .zconfig import DEFAULT_ENDPOINT, make_config
+from .zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
 
 __all__ = ["add_router_arguments", "router_config", "run_router"]
 
@@ -101,7 +101,7 @@ def run_router(args: argparse.Namespace) -> int:
         finally:
             forget_logins()
     except Exception as e:
-        print(f"acphys router: cannot start: {e}", file=sys.stderr)
+        print(f"acphys router: cannot start: {zenoh_reason(e)}", file=sys.stderr)
         return 2
     print(f"acphys router ready: {session.zid()}, listening on {', '.join(listen or ['(config file)'])}", flush=True)
     while not stop.wait(0.5):

@@ -74,7 +74,7 @@ from .security import ClusterConfig
 from .state_layout import regroup_state, worker_state_path
 from .stats import ServiceStats
 from .wire import ErrorKind, Keys, user_prefix
-from .zconfig import DEFAULT_ENDPOINT
+from .zconfig import DEFAULT_ENDPOINT, zenoh_reason
 
 __all__ = ["worker_count", "serve_workers", "attach_worker", "die_with_parent", "WorkerSupervisor"]
 
@@ -538,7 +538,7 @@ def serve_workers(args: argparse.Namespace, count: int) -> int:
     try:
         sup.start()
     except Exception as e:
-        print(f"acphys serve: cannot start the workers: {e}", file=sys.stderr)
+        print(f"acphys serve: cannot start the workers: {zenoh_reason(e)}", file=sys.stderr)
         sup.shutdown()
         return 2
     named = f"; users {', '.join(sup.accounts.users)} under {args.prefix}/u/USER" if sup.accounts is not None else ""

@@ -17,12 +17,13 @@ nothing measurable.
 from __future__ import annotations
 
 import json
+import re
 
 import zenoh
 
 from .wire import DEFAULT_PORT
 
-__all__ = ["DEFAULT_ENDPOINT", "make_config", "SHM_KEY"]
+__all__ = ["DEFAULT_ENDPOINT", "make_config", "SHM_KEY", "zenoh_reason"]
 
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 SHM_KEY = "transport/shared_memory/enabled"
@@ -76,3 +77,25 @@ def make_config(
             raise ValueError(f"user {user!r} needs a password")
         cfg.insert_json5("transport/auth/usrpwd", json.dumps({"user": user, "password": password}))
     return cfg
+
+
+#: where Zenoh's messages say which of its own source lines raised them (" at /.../endpoint.rs:615.")
+_RUST_LOCATION = re.compile(r"\s*\bat \S+?\.rs:\d+\.?")
+_JSON5_MESSAGE = re.compile(r'Json5Err\(Message \{ msg: "(.*?)", location')
+_PARSE_AT = re.compile(r"-->\s*(\d+):(\d+)")
+
+
+def zenoh_reason(exc: BaseException) -> str:
+    """Zenoh's own reason for a refusal (a zenoh.ZError), as one line for a user: without the source
+    locations of Zenoh's build and the wrappers of its config parser."""
+    text = str(exc)
+    found = _JSON5_MESSAGE.search(text)
+    if found:
+        text = found.group(1)
+    text = _RUST_LOCATION.sub("", text)
+    at = _PARSE_AT.search(text)
+    if at and "\n" in text:  # a config parser's picture of the bad line: its position and its "= reason" line
+        lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+        reason = next((ln[1:].strip() for ln in lines if ln.startswith("=")), "; ".join(lines[1:]))
+        text = f"line {at.group(1)}, column {at.group(2)}: {reason}"
+    return text.strip() or type(exc).__name__
