@@ -7,32 +7,67 @@
     acphys ground A9B4000B 40 50 60    # spatial queries: ground, sight, ray, place (clients/query_cmd.py)
     acphys view                       # a live map of the movers on http://127.0.0.1:8765/
     acphys router --listen tcp/0.0.0.0:7447   # a Zenoh router for instances on several machines
+    acphys --version                  # the version and the protocol version
+
+A failed command says why in one message on stderr and exits 1; a wrong command line exits 2
+(clients/cli_parser.py, cli_values.py, endpoints.py); no command shows a traceback (cli_failures.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from typing import Any
 
 from service.main import add_serve_arguments, serve
 from service.router import add_router_arguments, run_router
 
+from .cli_failures import USAGE, CommandFailed, report_failure
+from .cli_parser import CommandParser, walk_parsers
+from .cli_values import PositionAction, TargetAction, hex_id, number
 from .connection import add_connection_arguments, connect_client
-from .landblock_cmd import add_landblock_commands
+from .endpoints import connect_endpoint, key_prefix, listen_endpoint, tcp_port
+from .landblock_cmd import add_landblock_commands, parse_landblock
 from .query_cmd import add_query_commands
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "version_text"]
 
 
-def _hex(text: str) -> int:
-    return int(text, 16)
+def version_text() -> str:
+    """`acphys 0.1.0 (protocol version 1, docs/protocol.md)`: the installed package's version and the wire
+    protocol's (the `v` of every message)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from service.wire import PROTOCOL_VERSION
+
+    try:
+        package = version("acphys")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        package = "(not installed)"
+    return f"acphys {package} (protocol version {PROTOCOL_VERSION}, docs/protocol.md)"
+
+
+#: the network options every command that has them checks as they are parsed (clients/endpoints.py)
+_BUS_OPTION_TYPES = {"--listen": listen_endpoint, "--connect": connect_endpoint, "--prefix": key_prefix,
+                     "--port": tcp_port}
+
+
+def _check_bus_options(parser: argparse.ArgumentParser) -> None:
+    """Every command's --listen, --connect, --prefix and --port (serve's and router's too) checked as parsed."""
+    for _, p in walk_parsers(parser):
+        for action in p._actions:
+            for option, check in _BUS_OPTION_TYPES.items():
+                if option in action.option_strings:
+                    action.type = check
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="acphys", description="Asheron's Call collision physics on a Zenoh bus.")
-    sub = p.add_subparsers(dest="command", required=True)
+    p = CommandParser(prog="acphys", description="Asheron's Call collision physics on a Zenoh bus.")
+    p.add_argument("--version", action="version", version=version_text(),
+                   help="print the version and the protocol version, and exit")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     s = sub.add_parser("serve", help="run the service (the built-in demo world unless --scene/--dat-dir)")
     add_serve_arguments(s)
@@ -44,16 +79,17 @@ def build_parser() -> argparse.ArgumentParser:
     m = sub.add_parser("move", help="send one move and print the result")
     add_connection_arguments(m)
     who = m.add_mutually_exclusive_group(required=True)
-    who.add_argument("--id", type=_hex, help="move this registered mover (hex id)")
-    who.add_argument("--start", nargs=4, metavar=("CELL", "X", "Y", "Z"),
+    who.add_argument("--id", type=hex_id, help="move this registered mover (hex id)")
+    who.add_argument("--start", nargs=4, metavar=("CELL", "X", "Y", "Z"), action=PositionAction,
                      help="register a player-sized mover here (hex cell id, landblock metres), move it, remove it")
-    m.add_argument("--landblock", type=_hex, help="landblock (hex XXYY) the --id mover is in")
+    m.add_argument("--landblock", type=parse_landblock, help="landblock (hex XXYY) the --id mover is in")
     what = m.add_mutually_exclusive_group(required=True)
-    what.add_argument("--to", nargs="+", metavar="V", help="target: X Y Z in the current cell, or CELL X Y Z")
-    what.add_argument("--offset", nargs=3, type=float, metavar=("DX", "DY", "DZ"), help="target = current + offset")
-    what.add_argument("--motion", nargs=3, type=float, metavar=("DX", "DY", "DZ"),
+    what.add_argument("--to", nargs="+", metavar="V", action=TargetAction,
+                      help="target: X Y Z in the current cell, or CELL X Y Z")
+    what.add_argument("--offset", nargs=3, type=number, metavar=("DX", "DY", "DZ"), help="target = current + offset")
+    what.add_argument("--motion", nargs=3, type=number, metavar=("DX", "DY", "DZ"),
                       help="physics step with this own motion (object frame); needs --dt")
-    m.add_argument("--dt", type=float, default=0.1,
+    m.add_argument("--dt", type=number, default=0.1,
                    help="seconds of a --motion step (default %(default)s); a --start mover is first put on the ground")
     m.add_argument("--json", action="store_true", help="print the State map as JSON")
 
@@ -74,43 +110,52 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
     add_landblock_commands(sub)
     add_query_commands(sub, add_connection_arguments)
+    _check_bus_options(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run one command: its exit status (0; 1 when it failed, 2 for a usage error; never a traceback)."""
+    args = build_parser().parse_args(argv)  # a usage error exits here with status 2
     try:
-        func = getattr(args, "func", None)
-        if func is not None:  # subcommands added by other modules set their own handler
-            return int(func(args))
-        if args.command == "serve":
-            if args.scene is None and args.dat_dir is None:
-                from .demo_world import demo_scene_path
-
-                args.scene = str(demo_scene_path())
-            return serve(args)
-        if args.command == "move":
-            return _cmd_move(args)
-        if args.command == "demo":
-            from .demo_cmd import run_demo
-
-            return run_demo(args)
-        if args.command == "stats":
-            return _cmd_stats(args)
-        if args.command == "view":
-            from .view_server import run_view
-
-            return run_view(args)
+        return _run(args)
     except KeyboardInterrupt:
         return 130
     except Exception as e:
-        from .errors import AcphysError
+        return report_failure(args.command, e, args)
 
-        if isinstance(e, AcphysError):
-            print(f"acphys {args.command}: {e}", file=sys.stderr)
-            return 1
-        raise
-    return 2
+
+def _run(args: argparse.Namespace) -> int:
+    func = getattr(args, "func", None)
+    if func is not None:  # subcommands added by other modules set their own handler
+        return int(func(args))
+    if args.command == "serve":
+        if args.scene is None and args.dat_dir is None:
+            from .demo_world import demo_scene_path
+
+            args.scene = str(demo_scene_path())
+        return serve(args)
+    if args.command == "move":
+        return _cmd_move(args)
+    if args.command == "demo":
+        from .demo_cmd import run_demo
+
+        _check_out_directory(args.out)
+        return run_demo(args)
+    if args.command == "stats":
+        return _cmd_stats(args)
+    if args.command == "view":
+        from .view_server import run_view
+
+        return run_view(args)
+    return USAGE
+
+
+def _check_out_directory(path: str) -> None:
+    """A usage error, before the walk, when --out names a file in a directory that is not there."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise CommandFailed(f"--out {path}: there is no directory {folder}", USAGE)
 
 
 def _state_rows(st: Any) -> list[tuple[str, str]]:
@@ -140,7 +185,7 @@ def _state_rows(st: Any) -> list[tuple[str, str]]:
 
 
 def _cmd_move(args: argparse.Namespace) -> int:
-    from engine.geometry import Position, Vec3
+    from engine.geometry import Position
     from service.codec import encode_state
 
     from .demo_walk import demo_mover
@@ -150,9 +195,7 @@ def _cmd_move(args: argparse.Namespace) -> int:
     with connect_client(args) as c:
         temp = args.id is None
         if temp:
-            cell = _hex(args.start[0])
-            x, y, z = (float(v) for v in args.start[1:])
-            registered = c.register(demo_mover(), Position.at(cell, Vec3(x, y, z)))
+            registered = c.register(demo_mover(), args.start)
             mover_id = registered.id
             if args.motion is not None:  # a step from rest in the air does nothing: stand it on the ground first
                 try:
@@ -169,14 +212,8 @@ def _cmd_move(args: argparse.Namespace) -> int:
                 c.locate(mover_id, args.landblock)
         try:
             if args.to is not None:
-                vals = args.to
-                if len(vals) not in (3, 4):
-                    print("acphys move: --to takes X Y Z or CELL X Y Z", file=sys.stderr)
-                    return 2
-                cell_part = _hex(vals[0]) if len(vals) == 4 else None
-                x, y, z = (float(v) for v in vals[-3:])
-                target = Position.at(cell_part or 0, Vec3(x, y, z))
-                move = Move(mover_id, to=target, keep_cell=cell_part is not None)
+                cell, origin = args.to
+                move = Move(mover_id, to=Position.at(cell or 0, origin), keep_cell=cell is not None)
             elif args.offset is not None:
                 move = Move(mover_id, offset=tuple(args.offset))
             else:
@@ -208,11 +245,12 @@ def _print_instance(c: Any, args: argparse.Namespace, lb: int) -> None:
 def _cmd_stats(args: argparse.Namespace) -> int:
     from .which_service import print_service
 
+    from .no_answer import explain_no_answer
+
     with connect_client(args) as c:
         stats = c.stats()
     if not stats:
-        print("acphys stats: no service instance answered", file=sys.stderr)
-        return 1
+        raise CommandFailed(explain_no_answer(args))
     print_service([s.instance for s in stats], args.connect, c.keys.prefix, args.zenoh_config)
     if args.json:
         print(json.dumps([s.data for s in stats], indent=2, default=str))

@@ -4,6 +4,9 @@
 service run with accounts (`acphys serve --users`, docs/protocol.md "Accounts"). The password never
 comes as a command-line word, which every user of the machine can read in the process list: it is the
 first line of `--password-file`, else the `ACPHYS_PASSWORD` environment variable.
+
+Endpoints are checked as they are parsed (clients/endpoints.py); a session Zenoh will not open is a
+CommandFailed with Zenoh's reason and what was tried (clients/cli_failures.py).
 """
 
 from __future__ import annotations
@@ -13,26 +16,41 @@ import os
 from typing import Any
 
 from service.wire import DEFAULT_PREFIX
+from service.zconfig import zenoh_reason
+
+from .cli_failures import USAGE, CommandFailed
+from .endpoints import connect_endpoint
 
 __all__ = ["add_connection_arguments", "password_of", "connect_client"]
 
 
 def add_connection_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("connection")
-    g.add_argument("--connect", metavar="ENDPOINT", action="append",
+    g.add_argument("--connect", metavar="ENDPOINT", action="append", type=connect_endpoint,
                    help="service endpoint (repeatable; default tcp/127.0.0.1:7447, shared by every user of the machine)")
     g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config file instead of --connect")
     g.add_argument("--prefix", default=DEFAULT_PREFIX,
                    help="key expression prefix (default %(default)s; a service's own prefix keeps it apart from others)")
-    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer (default %(default)s)")
+    g.add_argument("--timeout", type=seconds, default=5.0, help="seconds to wait for each answer (default %(default)s)")
     g.add_argument("--user", metavar="NAME",
                    help="log in to a service run with --users as NAME (password: --password-file, else the "
                         "ACPHYS_PASSWORD environment variable)")
     g.add_argument("--password-file", metavar="FILE", help="file whose first line is --user's password")
 
 
+def seconds(text: str) -> float:
+    """argparse type of a wait: a number of seconds above 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a number of seconds above 0")
+    return value
+
+
 def password_of(args: argparse.Namespace) -> str | None:
-    """--user's password (None without --user); SystemExit with the reason when there is none to be had."""
+    """--user's password (None without --user); CommandFailed with the reason when there is none to be had."""
     if getattr(args, "user", None) is None:
         return None
     if getattr(args, "password_file", None):
@@ -40,20 +58,26 @@ def password_of(args: argparse.Namespace) -> str | None:
             with open(args.password_file, encoding="utf-8") as f:
                 return f.readline().rstrip("\r\n")
         except OSError as e:
-            raise SystemExit(f"acphys: --password-file: {e}") from None
+            raise CommandFailed(f"--password-file {args.password_file}: {e.strerror or e}") from None
     password = os.environ.get("ACPHYS_PASSWORD")
     if password is None:
-        raise SystemExit("acphys: --user needs a password: --password-file FILE or ACPHYS_PASSWORD")
+        raise CommandFailed("--user needs a password: --password-file FILE or ACPHYS_PASSWORD", USAGE)
     return password
 
 
 def connect_client(args: argparse.Namespace) -> Any:
-    """A Client as the connection options say (logged in with --user)."""
+    """A Client as the connection options say (logged in with --user); CommandFailed when there is none."""
+    import zenoh
+
     from .client import Client
+    from .no_answer import tried
 
     user = getattr(args, "user", None)
+    password = password_of(args)
     try:
         return Client(args.connect, config_file=args.zenoh_config, prefix=args.prefix, timeout=args.timeout,
-                      user=user, password=password_of(args))
-    except ValueError as e:  # a user name that cannot be one (service/wire.py, check_user_name)
-        raise SystemExit(f"acphys: --user: {e}") from None
+                      user=user, password=password)
+    except zenoh.ZError as e:
+        raise CommandFailed(f"Zenoh cannot open a session (tried {tried(args)}): {zenoh_reason(e)}") from None
+    except ValueError as e:  # a user name or prefix that cannot be one (service/wire.py)
+        raise CommandFailed(f"--user or --prefix: {e}", USAGE) from None

@@ -14,27 +14,22 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 from engine.geometry import Position, Vec3
 from service.queries import encode_answer
+
+from .cli_values import PositionAction, cell_id, number, parse_position
 
 __all__ = ["QUERY_COMMANDS", "add_query_commands", "parse_position"]
 
 QUERY_COMMANDS = ("sight", "ray", "ground", "place")
 
 
-def parse_position(values: Sequence[str]) -> Position:
-    """CELL X Y Z (hex cell id, metres) as a Position; argparse.ArgumentTypeError when unreadable."""
-    try:
-        cell = int(values[0], 16)
-        x, y, z = (float(v) for v in values[1:])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{' '.join(values)!r} is not CELL X Y Z (hex cell id, three numbers)") from None
-    if not 0 <= cell <= 0xFFFFFFFF:
-        raise argparse.ArgumentTypeError(f"cell {values[0]!r} is not a 32-bit cell id")
-    return Position.at(cell, Vec3(x, y, z))
+def _at(args: argparse.Namespace) -> Position:
+    """The position of `ground` and `place`: their CELL X Y Z words, read by argparse."""
+    return Position.at(args.cell, Vec3(args.x, args.y, args.z))
 
 
 def _vec(v: Vec3 | None) -> str:
@@ -77,14 +72,8 @@ def _run(op: str, ask: Callable[[Any, argparse.Namespace], Any]) -> Callable[[ar
     def run(args: argparse.Namespace) -> int:
         from .connection import connect_client
 
-        import sys
-
-        try:
-            with connect_client(args) as c:
-                answer = ask(c, args)
-        except argparse.ArgumentTypeError as e:
-            print(f"acphys {op}: {e}", file=sys.stderr)
-            return 2
+        with connect_client(args) as c:
+            answer = ask(c, args)
         if args.json:
             print(json.dumps(encode_answer(op, answer), indent=2))
         else:
@@ -98,31 +87,38 @@ def _run(op: str, ask: Callable[[Any, argparse.Namespace], Any]) -> Callable[[ar
 def _ask_place(c: Any, args: argparse.Namespace) -> Any:
     from .demo_walk import demo_mover
 
-    return c.place(demo_mover(), parse_position(args.position), mode=args.mode, slide=not args.no_slide)
+    return c.place(demo_mover(), _at(args), mode=args.mode, slide=not args.no_slide)
+
+
+def _add_position(p: argparse.ArgumentParser) -> None:
+    """CELL X Y Z as four positionals (argparse cannot show one positional of four named words)."""
+    p.add_argument("cell", metavar="CELL", type=cell_id, help="hex cell id, 8 digits XXYYnnnn (e.g. A9B40001)")
+    for axis in ("x", "y", "z"):
+        p.add_argument(axis, metavar=axis.upper(), type=number, help=f"{axis} in landblock metres")
 
 
 def add_query_commands(subparsers: Any, conn_args: Callable[[argparse.ArgumentParser], None]) -> None:
     """Add the four query commands; `conn_args` adds the connection options (clients.cli)."""
-    pos = {"nargs": 4, "metavar": ("CELL", "X", "Y", "Z")}
+    pos = {"nargs": 4, "metavar": ("CELL", "X", "Y", "Z"), "action": PositionAction}
     g = subparsers.add_parser("ground", help="the surface under a point (terrain or an indoor floor)")
-    g.add_argument("position", **pos)
-    g.add_argument("--max-drop", type=float, help="look at most this far down (metres; default the engine's)")
-    g.set_defaults(func=_run("ground", lambda c, a: c.ground(parse_position(a.position), a.max_drop)))
+    _add_position(g)
+    g.add_argument("--max-drop", type=number, help="look at most this far down (metres; default the engine's)")
+    g.set_defaults(func=_run("ground", lambda c, a: c.ground(_at(a), a.max_drop)))
 
     s = subparsers.add_parser("sight", help="is the line from one eye to another clear?")
     s.add_argument("--from", dest="start", required=True, **pos)
     s.add_argument("--to", dest="end", required=True, **pos)
-    s.add_argument("--radius", type=float, help="the sight object's radius (default the client's, 0.1 m)")
-    s.set_defaults(func=_run("sight", lambda c, a: c.sight(parse_position(a.start), parse_position(a.end), a.radius)))
+    s.add_argument("--radius", type=number, help="the sight object's radius (default the client's, 0.1 m)")
+    s.set_defaults(func=_run("sight", lambda c, a: c.sight(a.start, a.end, a.radius)))
 
     r = subparsers.add_parser("ray", help="where a sphere swept along a segment first touches something")
     r.add_argument("--from", dest="start", required=True, **pos)
     r.add_argument("--to", dest="end", required=True, **pos)
-    r.add_argument("--radius", type=float, default=0.1, help="the swept sphere's radius (default %(default)s m)")
-    r.set_defaults(func=_run("ray", lambda c, a: c.ray(parse_position(a.start), parse_position(a.end), a.radius)))
+    r.add_argument("--radius", type=number, default=0.1, help="the swept sphere's radius (default %(default)s m)")
+    r.set_defaults(func=_run("ray", lambda c, a: c.ray(a.start, a.end, a.radius)))
 
     p = subparsers.add_parser("place", help="where a player-sized mover would be placed at a position (places nothing)")
-    p.add_argument("position", **pos)
+    _add_position(p)
     p.add_argument("--mode", choices=("enter_world", "teleport"), default="enter_world")
     p.add_argument("--no-slide", action="store_true", help="no search for a free spot nearby")
     p.set_defaults(func=_run("place", _ask_place))
