@@ -128,8 +128,8 @@ def test_demo_against_a_running_service(service: ServiceProcess, tmp_path: Path)
     assert "arrived" in ramp
     assert any("off the north ledge: left the ground" in ln for ln in lines)
     # the table's steps add up to its total, which is the summary's count
-    rows = [ln for ln in lines if ln[:2].strip().isdigit() and ln[2] == " "]
-    assert len(rows) == 16  # the landing and 15 legs
+    rows = [ln for ln in lines if (ln[:2].strip() == "-" or ln[:2].strip().isdigit()) and ln[2] == " "]
+    assert [ln[:2].strip() for ln in rows] == ["-", *(str(n) for n in range(1, 16))]  # the landing, then 15 legs
     total = int(next(ln for ln in lines if ln.startswith("total")).split()[1])
     assert sum(int(ln[30:37]) for ln in rows) == total
     assert any(ln.startswith(f"{total} physics steps") for ln in lines)
