@@ -48,7 +48,7 @@ def _stand(world: engine.World, point: Position) -> Position | None:
     return None
 
 
-def _surfaces(world: engine.World, x: float, y: float) -> list[Position]:
+def _surfaces(world: engine.World, x: float, y: float, env_boxes: dict[int, tuple[float, float, float, float]]) -> list[Position]:
     """Where the walker may stand at (x, y): on the terrain, on anything standing there, on each indoor floor."""
     out: list[Position] = []
     cell = _outdoor(x, y)
@@ -63,7 +63,9 @@ def _surfaces(world: engine.World, x: float, y: float) -> list[Position]:
         stood = _stand(world, Position.at(cell, Vec3(x, y, top.z + 0.02)))
         if stood is not None:
             out.append(stood)
-    for env_id in world.landblocks[LB].env_cells:
+    for env_id, (ex0, ex1, ey0, ey1) in env_boxes.items():
+        if not (ex0 <= x <= ex1 and ey0 <= y <= ey1):
+            continue
         try:
             floor = world.ground(Position.at(env_id, Vec3(x, y, 200.0)), max_drop=400.0)
         except engine.EngineError:
@@ -79,14 +81,24 @@ def _surfaces(world: engine.World, x: float, y: float) -> list[Position]:
     return unique
 
 
+def _env_boxes(world: engine.World) -> dict[int, tuple[float, float, float, float]]:
+    """Each indoor cell's x and y extent in landblock coordinates, from its polygons' vertices."""
+    boxes = {}
+    for env_id, env in world.landblocks[LB].env_cells.items():
+        points = [env.pos.frame.local_to_global(v) for p in env.cell_struct.physics_polygons.values() for v in p.vertices]
+        boxes[env_id] = (min(p.x for p in points), max(p.x for p in points), min(p.y for p in points), max(p.y for p in points))
+    return boxes
+
+
 def flood(scene: str, box: tuple[float, float, float, float]) -> Flood:
     world = engine.load_scene(SCENES / scene)
     x0, y0, x1, y1 = box
     grid: dict[tuple[int, int], list[int]] = {}
     nodes: list[Position] = []
+    env_boxes = _env_boxes(world)
     for i in range(int((x1 - x0) / STEP) + 1):
         for j in range(int((y1 - y0) / STEP) + 1):
-            for p in _surfaces(world, x0 + i * STEP, y0 + j * STEP):
+            for p in _surfaces(world, x0 + i * STEP, y0 + j * STEP, env_boxes):
                 grid.setdefault((i, j), []).append(len(nodes))
                 nodes.append(p)
     edges: dict[int, list[tuple[int, float]]] = {k: [] for k in range(len(nodes))}
