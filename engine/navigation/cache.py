@@ -49,3 +49,8 @@ class NavCache:
         else:
             graph.refresh()
         return graph
+
+    def refresh(self) -> None:
+        """Drop from every graph what the World's landblocks no longer match (NavGraph.refresh)."""
+        for graph in self.graphs.values():
+            graph.refresh()

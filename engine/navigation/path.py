@@ -170,6 +170,10 @@ def _start_state(world: World, w: _Walker, start: Position | None) -> tuple[Posi
     placed = _stand(world, probe, start)
     if placed is None:
         return None, PathResult(False, reason="start_invalid", detail=f"the walker cannot stand at the start {start!r}")
+    away = _moved(start, probe.position)
+    if away > nav_tolerance(world):
+        return None, PathResult(False, reason="start_invalid",
+                                detail=f"the walker cannot stand at the start {start!r}: the nearest place it can is {away:.2f} m away, {probe.position!r}")
     # where the walker stands is placed once more, as World.add_mover(spec, waypoints[0], placement=...) places it
     first = probe.position
     w.fresh.restore()
@@ -191,12 +195,18 @@ def _goal_state(world: World, w: _Walker, goal: Position, nav: NavSettings) -> t
     if placed is None:
         return None, PathResult(False, reason="goal_invalid", detail=f"the walker cannot stand at the goal {goal!r}")
     where = twin.position
-    gx, gy, _ = global_coords(goal)
-    px, py, _ = global_coords(where)
-    if math.hypot(px - gx, py - gy) > nav.resolution:
+    away = _moved(goal, where)
+    if away > nav.arrival_tolerance:
         return None, PathResult(False, reason="goal_invalid",
-                                detail=f"the walker cannot stand at the goal {goal!r}: the nearest place is {math.hypot(px - gx, py - gy):.2f} m away")
+                                detail=f"the walker cannot stand at the goal {goal!r}: the nearest place it can is {away:.2f} m away, {where!r}")
     return where, None
+
+
+def _moved(asked: Position, placed: Position) -> float:
+    """How far (horizontally) a placement moved the walker from the point asked."""
+    ax, ay, _ = global_coords(asked)
+    px, py, _ = global_coords(placed)
+    return math.hypot(px - ax, py - ay)
 
 
 def _find(world: World, w: _Walker, start: Position | None, goal: Position, distance_cap: float, budget: int,

@@ -22,7 +22,9 @@ class PathResult:
     `max_distance` when one was given), "budget" (the search stopped at its
     node budget, or could not prove a route in its repairs), "not_loaded"
     (the start's or the goal's landblock is not loaded), "start_invalid"
-    (the walker cannot stand at the start), "goal_invalid" (nor at the goal).
+    (the walker cannot stand at the start: no place to stand within the
+    arrival tolerance of it, horizontally, as a new object is placed there),
+    "goal_invalid" (nor at the goal).
     """
 
     found: bool

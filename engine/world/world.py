@@ -102,6 +102,8 @@ class World:
         if self.landblocks.pop(landblock_id, None) is None:
             raise LandblockNotLoadedError(f"landblock {landblock_id:04X} is not loaded")
         self.stats["landblock_unloads"] += 1
+        if self._navigation is not None:
+            self._navigation.refresh()  # its graphs' tiles there (and beside it) go now, not at their next use
 
     def loaded_landblocks(self) -> list[int]:
         return sorted(self.landblocks)
