@@ -552,6 +552,10 @@ def write(results: dict[str, Any]) -> None:
         from .bench_instructions import section as instructions_section
 
         lines += instructions_section(results["instructions"], meta_line(results["instructions"]))
+    if "navigation" in results:
+        from .bench_navigation import section as navigation_section
+
+        lines += navigation_section(results["navigation"], meta_line(results["navigation"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

@@ -26,7 +26,7 @@ from typing import Any
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions")
+SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation")
 
 
 def _git_commit() -> str:
@@ -167,6 +167,14 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 data = bench_queries.run(args.quick)
             except Exception as e:  # noqa: BLE001 - the doc says why instead
+                data = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "navigation":
+            from . import bench_navigation
+
+            try:
+                data = bench_navigation.run(args.quick)
+            except Exception as e:  # noqa: BLE001 - the doc says why instead
+                log(f"navigation benchmark failed: {type(e).__name__}: {e}")
                 data = {"failed": f"{type(e).__name__}: {e}"}
         elif section == "instructions":
             from . import bench_instructions
