@@ -23,6 +23,7 @@ import numpy as np
 from engine.world.batch import (
     INTS_PER_ROW,
     MOTION,
+    MOVER_STATE_BYTES,
     OFFSET,
     REALS_PER_ROW,
     TO,
@@ -34,6 +35,7 @@ from engine.world.batch import (
     run_batch,
 )
 from engine.world.mover import Mover
+from librt.strings import BytesWriter
 from engine.world.transient import NAMED_BITS as TRANSIENT_BITS
 from engine.world.types import MoveResult
 
@@ -87,6 +89,7 @@ _TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FL
 #: the engine's transition-state index -> the reply's code
 _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
+_GONE = bytes(MOVER_STATE_BYTES)
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
 
 
@@ -112,6 +115,8 @@ class ColumnResults:
     publish_each: bool = False
     gather: bool = False
     packed: list[bytes] = field(default_factory=list)
+    #: items before this index are in the state log (service/journal_records.py), when there is one
+    journaled: int = 0
 
 
 def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> tuple[list[Mover | None],
@@ -140,6 +145,8 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     out.publish_each = req.publish == "each" and bus.states_watched()
     out.gather = req.publish == "batch" and bus.batch_watched()
     rows = out.rows
+    if core.log is not None:
+        rows.states = BytesWriter()  # each row's mover as it stands after its move, for the state log
     kind = _KIND[req.kind]
     # the columns as flat lists of Python floats: the map form's values exactly (msgpack float64)
     vectors = arrays[_MAIN_COLUMN[req.kind]].ravel().tolist()
@@ -159,6 +166,9 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
             _leave(core, req, out, movers, recs, ids, i, forward)
             i += 1
     _settle(core, req, out, recs, ids, forward, req.n)
+    if core.log is not None:
+        _journal(core, req, out, req.n)
+        core.commit()
     if out.errors:
         out.errors.sort(key=lambda e: e[0])
     if rows.collide_ids:  # a row collided: its engine ids become wire ids
@@ -175,7 +185,7 @@ def _published(core: ServiceCore, out: ColumnResults, mover_id: int, seq: int, r
     if out.publish_each or out.gather:
         state = pack_state(mover_id, seq, r, core.collide_ids(r))
         if out.publish_each:
-            core.bus.publish_state(mover_id, state)
+            core.publish_state(mover_id, state)
         else:
             out.packed.append(state)
 
@@ -195,6 +205,8 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
     state = pack_state(rec.id, rec.seq, result, core.collide_ids(result)) if out.publish_each else None
     undo = out.rows.undo
     assert undo is not None  # run_batch keeps it for the item it stopped at
+    if core.log is not None:
+        _journal(core, req, out, i)  # the moves before this one, then (in _hand_over) the hand-over
     try:
         core.hand_over(rec, prev, prev_seq, lb, state, undo)
     except ProtocolError as e:
@@ -204,14 +216,36 @@ def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: li
         append_missing(out.rows)
     else:
         append_row(out.rows, result)
+        if out.rows.states is not None:
+            out.rows.states.write(_GONE)  # the mover went with the hand-over: not this instance's to log
         out.seqs.append(rec.seq)
         if out.gather:
             out.packed.append(pack_state(rec.id, rec.seq, result, core.collide_ids(result)))
     out.settled = i + 1
+    out.journaled = i + 1
     if core.movers.get(rec.id) is None:  # handed over: later items of that mover are not run here
         for j in range(i + 1, len(ids)):
             if recs[j] is rec:
                 recs[j] = movers[j] = None
+
+
+def _journal(core: ServiceCore, req: ColumnRequest, out: ColumnResults, upto: int) -> None:
+    """Items `out.journaled` .. `upto - 1` that resolved go to the state log as one MOVES record: their ids,
+    seqs and the states the engine wrote beside their rows."""
+    lo = out.journaled
+    if upto <= lo:
+        return
+    out.journaled = upto
+    log, states = core.log, out.rows.states
+    assert log is not None and states is not None
+    seqs = np.array(out.seqs[lo:upto], dtype=np.uint64)
+    ids = req.arrays["id"][lo:upto]
+    raw = states.getvalue()[lo * MOVER_STATE_BYTES:upto * MOVER_STATE_BYTES]
+    resolved = seqs != 0  # a resolved move's seq is at least 1
+    if not resolved.all():
+        raw = np.frombuffer(raw, dtype=f"V{MOVER_STATE_BYTES}")[resolved].tobytes()
+        ids, seqs = ids[resolved], seqs[resolved]
+    log.moved_rows(ids, seqs, raw)
 
 
 def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],

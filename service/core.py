@@ -23,6 +23,7 @@ from engine.world.types import MoverSpec, MoveResult
 from .codec import encode_mover_spec, encode_state, encode_vec, pack_state
 from .engine_errors import to_protocol_error
 from .errors import ProtocolError
+from .journal_records import HANDOVER_IN, REGISTER, UPDATE, MoverLog, apply_state, decode_state, mover_state_bytes
 from .messages import HANDOVER
 from .ownership import Ownership
 from .requests import HandoverRequest, ItemError, MoveBatch, MoveItem, RegisterRequest
@@ -141,6 +142,37 @@ class ServiceCore:
         self.refresh()
         # the core runs on one thread at a time (the engine thread, or a callback holding the engine lock)
         self._packer = msgpack.Packer(use_bin_type=True)
+        #: the state log's writer (`--state`, service/persistence.py): every resolved change is recorded
+        #: before its reply goes out; None: nothing is recorded
+        self.log: MoverLog | None = None
+        #: under `--state-sync always`, the States of the request running, published once its records are
+        #: synced (a subscriber never hears of a State a kill could take back); None otherwise
+        self._deferred: list[tuple[int, bytes]] | None = None
+
+    def attach_log(self, log: MoverLog | None) -> None:
+        """Record every resolved change in `log` from now on (None: stop recording)."""
+        self.log = log
+        self._deferred = [] if log is not None and log.always else None
+
+    def publish_state(self, mover_id: int, packed: bytes) -> None:
+        """Publish a State now, or once the request's records are synced (`--state-sync always`)."""
+        if self._deferred is not None:
+            self._deferred.append((mover_id, packed))
+        else:
+            self.bus.publish_state(mover_id, packed)
+
+    def commit(self) -> None:
+        """The request's changes are done: its records go to the log (synced under `always`), then the
+        States held back for it are published."""
+        log = self.log
+        if log is None:
+            return
+        log.commit()
+        deferred = self._deferred
+        if deferred:
+            self._deferred = []
+            for mover_id, packed in deferred:
+                self.bus.publish_state(mover_id, packed)
 
     def refresh(self) -> None:
         """Read again the snapshots other threads answer from; with accounts, the other users' cores too
@@ -217,6 +249,9 @@ class ServiceCore:
             self._next_id += 1  # taken only once the mover is in: a refused register leaves the next id free
         state = self._state(rec)
         self.refresh()  # a dat world loads the start landblock on demand
+        if self.log is not None:
+            self.log.movers(REGISTER, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(rec.spec))
+            self.commit()
         self.bus.publish_state(rec.id, self._packer.pack(state))
         return {"state": state}
 
@@ -228,6 +263,9 @@ class ServiceCore:
         except Exception as e:
             raise to_protocol_error(e, "mover", fields=_UPDATE_FIELDS) from None
         rec.spec = spec
+        if self.log is not None:
+            self.log.movers(UPDATE, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(spec))
+            self.commit()
         return {"state": self._state(rec)}
 
     def remove(self, mover_id: int) -> dict[str, Any]:
@@ -236,6 +274,9 @@ class ServiceCore:
             self._drop(rec)
         except Exception as e:
             raise to_protocol_error(e, "id") from None
+        if self.log is not None:
+            self.log.removed(mover_id)
+            self.commit()
         return {"id": mover_id, "removed": True}
 
     def get(self, mover_id: int) -> dict[str, Any]:
@@ -277,8 +318,11 @@ class ServiceCore:
             assert undo is not None
             # the new owner publishes this State: its next ones follow it on the same session
             self._hand_over(rec, prev, prev_seq, lb, packed if publish else None, undo)
-        elif publish:
-            self.bus.publish_state(rec.id, packed)
+            return packed, engine
+        if self.log is not None:
+            self.log.moved(rec.id, rec.seq, self.world.movers[rec.engine_id])
+        if publish:
+            self.publish_state(rec.id, packed)
         return packed, engine
 
     def _done(self, latency: list[float], engine: list[float]) -> None:
@@ -303,6 +347,8 @@ class ServiceCore:
         else:
             each, collect = self.bus.states_watched(), False
         packed, engine = self._move(item, each)
+        if self.log is not None:
+            self.commit()
         # `_done` for one sample, written out: this is every single-move request's path
         now = monotonic()
         self.stats.move_done(now - received, engine)
@@ -330,6 +376,8 @@ class ServiceCore:
             out.append(packed)
             latency.append(monotonic() - received)
             engine.append(t)
+        if self.log is not None:
+            self.commit()
         self._done(latency, engine)
         if collect and engine:
             self.bus.publish_batch([r for r in out if isinstance(r, bytes)])
@@ -357,6 +405,8 @@ class ServiceCore:
                 continue
             if collect:
                 collected.append(packed)
+        if self.log is not None:
+            self.commit()
         if collected:
             self.bus.publish_batch(collected)
 
@@ -406,6 +456,8 @@ class ServiceCore:
                 None, landblock=lb,
             ) from None
         self.stats.bump("handovers", "out")
+        if self.log is not None:
+            self.log.handed_over(rec.id, lb)
         self._drop(rec)
         self._forwarded[rec.id] = lb
         if len(self._forwarded) > FORWARD_MEMORY:
@@ -422,6 +474,10 @@ class ServiceCore:
                         req.sliding_normal, req.water_contact)
         self.stats.bump("handovers", "in")
         log.info("took mover %X from %s in %s", req.id, req.source, lb_hex(lb))
+        if self.log is not None:
+            # on disk before the sender hears that it was taken (and forgets it), whatever the policy
+            self.log.movers(HANDOVER_IN, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(rec.spec))
+            self.log.commit(durable=True)
         if req.state is not None and self.bus.states_watched():
             self.bus.publish_state(req.id, req.state)
         return {"id": rec.id, "accepted": True}
@@ -433,14 +489,18 @@ class ServiceCore:
         out = []
         for rec in self.movers.values():
             entry = self._handover_payload(rec)
+            mover = self.world.mover(rec.engine_id)
             entry["registered_mover"] = encode_mover_spec(rec.spec)
-            entry["velocity"] = encode_vec(self.world.mover(rec.engine_id).velocity)
+            entry["velocity"] = encode_vec(mover.velocity)
+            entry["engine_state"] = mover_state_bytes(mover)
             out.append(entry)
         return out
 
-    def restore_mover(self, req: HandoverRequest, spec: MoverSpec, velocity: Vec3 | None) -> None:
+    def restore_mover(self, req: HandoverRequest, spec: MoverSpec, velocity: Vec3 | None,
+                      engine_state: bytes | None = None) -> None:
         """Put back a mover read from a state file (before any request is served); ProtocolError if the
-        world or this instance's ownership cannot take it."""
+        world or this instance's ownership cannot take it. `engine_state` (service/journal_records.py):
+        the mover's whole state, put back exactly (velocity, time held over, every transient flag)."""
         self._check_owner(req.position.landblock, "the saved position")
         if req.id in self.movers:
             raise ProtocolError(ErrorKind.DUPLICATE_MOVER, f"mover {req.id:X} appears twice", "id")
@@ -449,8 +509,12 @@ class ServiceCore:
         rec = self._add(req.id, req.spec, req.position, req.contact_plane, req.contact_plane_cell, req.seq,
                         req.sliding_normal, req.water_contact)
         rec.spec = spec
-        if velocity is not None:
-            self.world.mover(rec.engine_id).set_velocity(velocity)
+        mover = self.world.mover(rec.engine_id)
+        if engine_state is not None:
+            apply_state(mover, decode_state(engine_state))
+            rec.last = self.world.mover_state(rec.engine_id)
+        elif velocity is not None:
+            mover.set_velocity(velocity)
         self.refresh()
 
     # -- landblocks -----------------------------------------------------------

@@ -1,11 +1,15 @@
-"""When an instance writes its movers to its state file, and how it reads them back at start.
+"""When an instance writes its movers to its state file and log, and how it reads them back at start.
 
-`--state FILE`: restored at start (before any key is declared), written
-every `--state-interval` seconds, right after a hand-over in or out (so a
-mover that changed instances is not restored on both after a crash), and
-at shutdown once every request is answered. A file that cannot be restored
-in full stops the start, unless `--state-discard-bad`, which sets the file
-aside (renamed, never deleted) and starts empty.
+`--state FILE`: restored at start (before any key is declared) from FILE
+and its logs (service/state_replay.py), which are then compacted: a new
+FILE holding every mover, a new empty log, the old logs deleted. From then
+on every resolved change is a record of the log (service/journal.py,
+service/journal_records.py), written by the `--state-sync` policy; FILE
+is written again every `--state-interval` seconds (and the log starts a
+new generation then) and at shutdown once every request is answered
+(and the log is closed and deleted). A FILE or log that cannot be
+restored in full stops the start, unless `--state-discard-bad`, which
+sets it aside (renamed, never deleted).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import sys
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 from collections.abc import Callable
 
@@ -23,26 +28,39 @@ import zenoh
 
 from .core import ServiceCore
 from .frames import pack
+from .journal import DEFAULT_POLICY, POLICIES, Journal, journal_files
+from .journal_records import MoverLog
 from .wire import Keys
-from .state_file import SavedMover, StateFileError, read_state, restore, set_aside, write_state
+from .state_file import SavedMover, StateFileError, restore, set_aside, write_state
 from .state_layout import user_state_path
+from .state_replay import Loaded, load_saved
 
-__all__ = ["Persistence", "add_state_arguments", "held_elsewhere", "user_state_path"]
+__all__ = ["Persistence", "add_state_arguments", "held_elsewhere", "user_state_path", "SYNC_HELP"]
 
 log = logging.getLogger("acphys.service")
 
 DEFAULT_INTERVAL = 10.0
+SYNC_HELP = ("when the log of --state reaches the disk: 'every-second' (default: records are written and "
+             "fsynced once a second; a SIGKILL, crash or power cut loses at most the changes answered in about "
+             "the last second), 'always' (each request's records are fsynced before its reply and its States "
+             "go out: nothing answered is ever lost; it costs one fsync per request), 'never' (written once a "
+             "second, synced when the OS chooses: a killed process loses at most about a second, a power cut "
+             "what the OS had not written). After any crash a mover's seq goes on above every seq answered")
 
 
 def add_state_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("state")
-    g.add_argument("--state", metavar="FILE", help="keep the movers in FILE: restored at start, written at "
-                   "shutdown, after hand-overs and every --state-interval seconds")
+    g.add_argument("--state", metavar="FILE", help="keep the movers in FILE and its log FILE.journal-N: restored "
+                   "at start, every change logged as it is answered (--state-sync), FILE written anew at shutdown "
+                   "and every --state-interval seconds")
+    g.add_argument("--state-sync", choices=POLICIES, default=DEFAULT_POLICY, help=SYNC_HELP)
     g.add_argument("--state-interval", type=float, default=DEFAULT_INTERVAL, metavar="S",
-                   help="seconds between writes of the state file (default %(default)s; 0: only at shutdown "
-                        "and after hand-overs)")
+                   help="seconds between writes of the state file, each starting a new log (default %(default)s; "
+                        "0: only at start and shutdown, the log grows until then)")
     g.add_argument("--state-discard-bad", action="store_true",
-                   help="start empty when the state file cannot be restored (it is renamed aside, not deleted)")
+                   help="start without what cannot be restored: a bad state file is set aside (renamed, not "
+                        "deleted) and the instance starts empty; a damaged log is set aside and the movers come "
+                        "back as of its last whole record")
 
 
 @dataclass(slots=True)
@@ -50,9 +68,12 @@ class Persistence:
     path: str | None = None
     interval: float = DEFAULT_INTERVAL
     discard_bad: bool = False
+    sync: str = DEFAULT_POLICY
+    #: the log being written (once the movers are restored)
+    journal: Journal | None = None
     _last_save: float = field(default_factory=time.monotonic)
-    _handovers_saved: int = 0
-    _saved: list[SavedMover] | None = None  # read at start, until restored
+    _loaded: Loaded | None = None  # read at start, until restored
+    _compact: bool = False  # write the state file at start even when no log was replayed
 
     @classmethod
     def from_args(cls, args: argparse.Namespace, user: str | None = None) -> Persistence:
@@ -61,10 +82,13 @@ class Persistence:
         interval = float(getattr(args, "state_interval", DEFAULT_INTERVAL))
         if not interval >= 0.0:
             raise ValueError(f"--state-interval must be >= 0, got {interval}")
+        sync = getattr(args, "state_sync", DEFAULT_POLICY) or DEFAULT_POLICY
+        if sync not in POLICIES:
+            raise ValueError(f"--state-sync must be one of {', '.join(POLICIES)}, got {sync!r}")
         path = getattr(args, "state", None)
         if path is not None and user is not None:
             path = user_state_path(path, user)
-        p = cls(path, interval, bool(getattr(args, "state_discard_bad", False)))
+        p = cls(path, interval, bool(getattr(args, "state_discard_bad", False)), sync)
         if p.path is not None:
             p._read()  # a bad file stops the start before anything is opened
         return p
@@ -74,29 +98,42 @@ class Persistence:
         """How often the serving loop wakes (to save on time)."""
         return 0.1 if self.path else 0.5
 
+    @property
+    def _saved(self) -> list[SavedMover] | None:
+        return self._loaded.movers if self._loaded is not None else None
+
     def _read(self) -> None:
         assert self.path is not None
         try:
-            self._saved = read_state(self.path)
+            self._loaded = load_saved(self.path, self.discard_bad)
         except StateFileError as e:
             if not self.discard_bad:
                 raise StateFileError(f"{e} (use --state-discard-bad to start without these movers)") from None
-            aside = set_aside(self.path)
-            log.warning("%s; set aside as %s, starting with no movers", e, aside)
-            self._saved = None
+            self._discard(str(e))
+
+    def _discard(self, why: str) -> None:
+        """Set FILE and its logs aside (renamed, kept) and start with no movers."""
+        assert self.path is not None
+        aside = [set_aside(p) for p in [Path(self.path), *journal_files(self.path).values()] if p.exists()]
+        log.warning("%s; set aside as %s, starting with no movers", why, ", ".join(str(a) for a in aside) or "-")
+        self._loaded = Loaded(None, 0)
 
     def restorer(self, node: Any) -> Callable[[ServiceCore], None]:
         """What ServiceNode.start runs before declaring any key: put the saved movers back, except those
-        another instance of the cluster holds now (handed over after this file was written)."""
+        another instance of the cluster holds now (handed over after this file was written), compact the
+        file and its logs, and start the log."""
 
         def run(core: ServiceCore) -> None:
-            if self._saved and node.options.accept_handovers:
-                elsewhere = held_elsewhere(node.session, node.keys, [m.handover.id for m in self._saved])
-                for m in self._saved:
+            loaded = self._loaded
+            if loaded is not None and loaded.movers and node.options.accept_handovers:
+                elsewhere = held_elsewhere(node.session, node.keys, [m.handover.id for m in loaded.movers])
+                for m in loaded.movers:
                     if m.handover.id in elsewhere:
                         log.warning("mover %X is held by another instance now: not restored here", m.handover.id)
-                self._saved = [m for m in self._saved if m.handover.id not in elsewhere]
+                loaded.movers = [m for m in loaded.movers if m.handover.id not in elsewhere]
+                self._compact = bool(elsewhere)  # the file no longer holds what this instance holds
             self.restore(core)
+            self.start_log(core)
 
         return run
 
@@ -112,53 +149,73 @@ class Persistence:
                 raise StateFileError(f"{e} (use --state-discard-bad to start without these movers)") from None
             for mover_id in list(core.movers):  # all or nothing
                 core.remove(mover_id)
-            aside = set_aside(self.path or "")
-            log.warning("%s; set aside as %s, starting with no movers", e, aside)
-        self._saved = None
+            self._discard(str(e))
+
+    def start_log(self, core: ServiceCore) -> None:
+        """Compact (when logs were replayed: a new FILE with every mover restored, the old logs deleted) and
+        open the log every change is recorded in from now on."""
+        if self.path is None:
+            return
+        loaded = self._loaded or Loaded(None, 0)
+        self._loaded = None
+        generation = loaded.generation
+        if loaded.replayed or loaded.jump or self._compact:
+            began = time.monotonic()
+            movers = core.snapshot_movers()
+            write_state(self.path, movers, core.instance, journal=generation)
+            log.info("state log replayed: %d record(s) of %s on %s%s; compacted: %d mover(s) to %s (%.1f ms)",
+                     loaded.records, ", ".join(p.name for p in loaded.replayed) or "no log", self.path,
+                     f", every seq raised by {loaded.jump} (moves answered after the last sync may be lost)"
+                     if loaded.jump else "", len(movers), self.path, (time.monotonic() - began) * 1000.0)
+        for p in [*loaded.replayed, *loaded.stale]:
+            p.unlink(missing_ok=True)
+        self.journal = Journal(self.path, generation, self.sync)
+        core.attach_log(MoverLog(self.journal))
+        self._last_save = time.monotonic()
 
     def save_locked(self, core: ServiceCore) -> None:
-        """Write the file from the engine thread (lock held), right after a hand-over came in."""
-        if self.path is None:
-            return
-        began = time.monotonic()
-        try:
-            movers = core.snapshot_movers()
-            write_state(self.path, movers, core.instance)
-        except Exception as e:  # the mover is held in memory all the same; the next save retries
-            log.error("cannot write the state file %s after a hand-over: %s", self.path, e)
-            return
-        _written(self.path, len(movers), "after a hand-over in", began)
-
-    def _handovers(self, node: Any) -> int:
-        h = node.stats.handovers
-        return int(h.get("in", 0) + h.get("out", 0))
+        """Right after a hand-over came in (engine lock held): its record is already synced in the log
+        (ServiceCore.handover_in), so there is nothing left to write."""
 
     def maybe_save(self, node: Any) -> None:
-        """Save when the interval has passed or a mover changed instances since the last save."""
-        if self.path is None:
+        """Write the state file (starting a new log) when the interval has passed."""
+        if self.path is None or self.journal is None:
             return
-        due = self.interval > 0 and time.monotonic() - self._last_save >= self.interval
-        if due or self._handovers(node) != self._handovers_saved:
-            self.save(node)
+        if self.interval > 0 and time.monotonic() - self._last_save >= self.interval:
+            self.save(node, final=False)
 
-    def save(self, node: Any) -> bool:
-        """Write the state file now; False (and the reason on stderr) when it could not be written."""
+    def save(self, node: Any, final: bool | None = None) -> bool:
+        """Write the state file now; False (and the reason on stderr) when it could not be written. `final`
+        (default: when the node is shut down): the log is closed and, once the file holds everything,
+        deleted; else a new log generation starts."""
         if self.path is None:
             return True
-        handovers = self._handovers(node)
+        if final is None:
+            final = getattr(node, "session", True) is None
+        journal = self.journal
         began = time.monotonic()
+
+        def take(core: ServiceCore) -> tuple[list[dict[str, Any]], int]:
+            movers = core.snapshot_movers()
+            if journal is None:
+                return movers, 0
+            return movers, journal.close() if final else journal.rotate()
+
         try:
-            movers = node.snapshot(lambda core: core.snapshot_movers())
-            if movers is None:
+            got = node.snapshot(take)
+            if got is None:
                 return True  # never started: nothing to write, and the old file stays as it was
-            write_state(self.path, movers, node.instance)
+            movers, generation = got
+            write_state(self.path, movers, node.instance, journal=generation)
         except Exception as e:
             print(f"acphys serve: cannot write the state file {self.path}: {e}", file=sys.stderr, flush=True)
             return False
         finally:
             self._last_save = time.monotonic()
-        _written(self.path, len(movers), "after a hand-over" if handovers != self._handovers_saved else "", began)
-        self._handovers_saved = handovers
+        for g, p in journal_files(self.path).items():
+            if g < generation:
+                p.unlink(missing_ok=True)  # wholly in the file now
+        _written(self.path, len(movers), "at shutdown" if final else "", began)
         return True
 
 

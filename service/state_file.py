@@ -3,13 +3,18 @@
 The file is one msgpack map:
 
     {"format": "acphys-state", "v": 1, "saved_at": unix seconds, "instance": zenoh id,
-     "count": number of movers, "sha256": hex digest of `movers`, "movers": bin}
+     "count": number of movers, "sha256": hex digest of `movers`, "movers": bin, "journal": generation}
 
 where `movers` is a msgpack array of maps, each a hand-over map
 (docs/protocol.md: id, seq, mover, position, contact_plane,
 contact_plane_cell, sliding_normal, water_contact) plus `registered_mover`
-(the spec as registered or last updated) and `velocity`. The digest makes a
-truncated or damaged file an error rather than a partial restore.
+(the spec as registered or last updated), `velocity` and `engine_state`
+(bin: the mover's whole engine state, service/journal_records.py; absent
+in files of earlier versions, whose movers come back from the hand-over
+map and velocity alone). The digest makes a truncated or damaged file an
+error rather than a partial restore. `journal` is the first generation of
+the state log (service/journal.py) that the file does not hold: a start
+replays the logs from that one on (absent: 0).
 
 It is written whole, to a temporary file in the same directory that is
 flushed and fsynced and then renamed over the old one (and the directory
@@ -31,6 +36,7 @@ from typing import Any
 import msgpack
 
 from engine.geometry import Vec3
+from engine.world.batch import MOVER_STATE_BYTES
 from engine.world.types import MoverSpec
 
 from .codec import decode_mover_spec
@@ -39,7 +45,8 @@ from .errors import ProtocolError
 from .requests import HandoverRequest, parse_handover
 from .validate import as_vec3
 
-__all__ = ["FORMAT", "VERSION", "SavedMover", "StateFileError", "write_state", "read_state", "restore", "set_aside"]
+__all__ = ["FORMAT", "VERSION", "SavedMover", "StateFileError", "write_state", "read_state", "read_snapshot", "restore",
+           "set_aside"]
 
 log = logging.getLogger("acphys.service")
 
@@ -59,15 +66,18 @@ class SavedMover:
     velocity: Vec3 | None
     #: the map as the file holds it (written back unchanged when movers move to another file)
     entry: dict[str, Any] = field(default_factory=dict, repr=False)
+    #: the mover's whole engine state (service/journal_records.py), when the file or log has it
+    engine_state: bytes | None = field(default=None, repr=False)
 
 
-def write_state(path: str | Path, movers: list[dict[str, Any]], instance: str) -> None:
-    """Write `movers` (ServiceCore.snapshot_movers) atomically: temp file, fsync, rename, fsync the dir."""
+def write_state(path: str | Path, movers: list[dict[str, Any]], instance: str, journal: int = 0) -> None:
+    """Write `movers` (ServiceCore.snapshot_movers) atomically: temp file, fsync, rename, fsync the dir.
+    `journal`: the first log generation the file does not hold."""
     path = Path(path)
     body = msgpack.packb(movers, use_bin_type=True)
     data = msgpack.packb({
         "format": FORMAT, "v": VERSION, "saved_at": time.time(), "instance": instance, "count": len(movers),
-        "sha256": hashlib.sha256(body).hexdigest(), "movers": body,
+        "sha256": hashlib.sha256(body).hexdigest(), "movers": body, "journal": journal,
     }, use_bin_type=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
@@ -88,12 +98,18 @@ def write_state(path: str | Path, movers: list[dict[str, Any]], instance: str) -
 
 def read_state(path: str | Path) -> list[SavedMover] | None:
     """The movers saved in `path`; None when there is no file (a first start); StateFileError when it
-    cannot be read in full."""
+    cannot be read in full. (Only the file: service/state_replay.py adds its logs.)"""
+    return read_snapshot(path)[0]
+
+
+def read_snapshot(path: str | Path) -> tuple[list[SavedMover] | None, int]:
+    """The movers saved in `path` and the first log generation the file does not hold; (None, 0) when
+    there is no file; StateFileError when it cannot be read in full."""
     path = Path(path)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
-        return None
+        return None, 0
     except OSError as e:
         raise StateFileError(f"state file {path}: {e}") from None
     what = f"state file {path}"
@@ -114,6 +130,9 @@ def read_state(path: str | Path) -> list[SavedMover] | None:
         raise StateFileError(f"{what}: movers unreadable: {type(e).__name__}: {e}") from None
     if not isinstance(raw, list) or len(raw) != top.get("count"):
         raise StateFileError(f"{what}: expected {top.get('count')!r} movers")
+    generation = top.get("journal", 0)
+    if not isinstance(generation, int) or isinstance(generation, bool) or generation < 0:
+        raise StateFileError(f"{what}: journal must be a generation number, got {generation!r}")
     out = []
     for i, entry in enumerate(raw):
         try:
@@ -123,17 +142,21 @@ def read_state(path: str | Path) -> list[SavedMover] | None:
             spec = decode_mover_spec(entry.get("registered_mover"), "registered_mover")
             vel = entry.get("velocity")
             velocity = None if vel is None else Vec3(*as_vec3(vel, "velocity"))
+            engine_state = entry.get("engine_state")
+            if engine_state is not None and (not isinstance(engine_state, bytes)
+                                             or len(engine_state) != MOVER_STATE_BYTES):
+                raise ProtocolError("bad_value", f"engine_state must be {MOVER_STATE_BYTES} bytes", "engine_state")
         except ProtocolError as e:
             raise StateFileError(f"{what}: mover {i}: {e.message}") from None
-        out.append(SavedMover(handover, spec, velocity, entry))
-    return out
+        out.append(SavedMover(handover, spec, velocity, entry, engine_state))
+    return out, generation
 
 
 def restore(core: ServiceCore, movers: list[SavedMover], source: str | Path) -> None:
     """Put every saved mover back; StateFileError (naming the mover) if one cannot be."""
     for m in movers:
         try:
-            core.restore_mover(m.handover, m.spec, m.velocity)
+            core.restore_mover(m.handover, m.spec, m.velocity, m.engine_state)
         except ProtocolError as e:
             raise StateFileError(f"state file {source}: mover {m.handover.id:X} cannot be restored: {e.message}") from None
     log.info("restored %d mover(s) from %s", len(movers), source)

@@ -5,12 +5,15 @@ its own `FILE.worker-I-of-N` (with accounts, each user's file of either
 kind ends in `.user-USER`). A restart with another worker count (or
 another `--own`, or a world whose split changed) finds the movers in the
 files of the old layout. Before any worker starts, `regroup_state` reads
-every file of every layout present, gives each mover to the file of the
+every file of every layout present (with its logs replayed:
+service/state_replay.py), gives each mover to the file of the
 worker that owns its landblock now, writes the new layout's files
 (atomically, as always) and only then renames the old layout's files
-aside (`<file>.regrouped-<time>-<pid>`, never deleted). A crash between
-the two leaves both layouts; the next start merges them again, keeping of
-a mover found twice the copy with the higher `seq` (then the newer file).
+aside (`<file>.regrouped-<time>-<pid>`, never deleted), their logs
+with them; a new file names a log generation past its old logs, which its
+instance then deletes. A crash between the two leaves both layouts; the
+next start merges them again, keeping of a mover found twice the copy with
+the higher `seq` (then the newer file).
 
 It refuses, changing no file, when a file of another layout cannot be
 read in full (unless `--state-discard-bad`: that file is set aside as
@@ -27,8 +30,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from .journal import journal_files
 from .ownership import Ownership
-from .state_file import SavedMover, StateFileError, read_state, set_aside, write_state
+from .state_file import SavedMover, StateFileError, set_aside, write_state
+from .state_replay import load_saved
 from .wire import lb_hex
 
 __all__ = ["Regrouped", "layout_paths", "regroup_state", "saved_files", "user_state_path", "worker_state_path"]
@@ -58,15 +63,21 @@ def layout_paths(state: str, count: int, workers: int, user: str | None = None) 
 
 def saved_files(state: str, user: str | None = None) -> list[Path]:
     """Every file of `state` present, whatever its layout: `FILE` and `FILE.worker-I-of-N` (each with
-    `.user-USER` for a user), sorted by name. Files set aside (`.bad-`, `.regrouped-`) are not among them."""
+    `.user-USER` for a user), sorted by name; one that has only logs (`FILE.journal-G`) is named too.
+    Files set aside (`.bad-`, `.regrouped-`) are not among them."""
     path = Path(state)
     suffix = re.escape(f".user-{user}") if user is not None else ""
-    pattern = re.compile(re.escape(path.name) + r"(?:\.worker-\d+-of-\d+)?" + suffix)
+    pattern = re.compile("(" + re.escape(path.name) + r"(?:\.worker-\d+-of-\d+)?" + suffix + r")(\.journal-\d+)?")
     try:
         names = os.listdir(path.parent)
     except FileNotFoundError:
         return []
-    return sorted(path.parent / n for n in names if pattern.fullmatch(n) and (path.parent / n).is_file())
+    found = set()
+    for n in names:
+        m = pattern.fullmatch(n)
+        if m and (path.parent / n).is_file():
+            found.add(path.parent / m.group(1))
+    return sorted(found)
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,17 +98,21 @@ def regroup_state(state: str, count: int, owners: Sequence[Ownership], *, user: 
     present = saved_files(state, user)
     others = [p for p in present if p not in targets]
     read: dict[Path, list[SavedMover]] = {}
+    generations: dict[Path, int] = {}
     hint = "use --state-discard-bad to start without that file's movers"
     for p in present:
         try:
-            read[p] = read_state(p) or []
+            loaded = load_saved(p)
+            read[p] = loaded.movers or []
+            generations[p] = loaded.generation
         except StateFileError as e:
             if not others:
                 return None  # the usual layout: the worker (or instance) reports its own file, as always
             if not discard_bad:
                 raise StateFileError(f"{e}; its movers would be redistributed to this start's "
                                      f"{_layout_name(count)}: {hint}") from None
-            log.warning("%s; set aside as %s, its movers are not restored", e, set_aside(p))
+            kept = [set_aside(q) for q in [p, *journal_files(p).values()] if q.exists()]
+            log.warning("%s; set aside as %s, its movers are not restored", e, ", ".join(map(str, kept)))
     chosen = _merge(read)
     home = {mover_id: _owner_of(m, owners) for mover_id, m in chosen.items()}
     held = [(p, m) for p in targets if p in read for m in read[p]]
@@ -119,13 +134,15 @@ def regroup_state(state: str, count: int, owners: Sequence[Ownership], *, user: 
     for m in chosen.values():
         by_file[targets[home[m.handover.id] or 0]].append(m)
     for p, movers in by_file.items():
-        write_state(p, [m.entry for m in movers], REGROUPED_BY)
+        # past its old logs (if any): they are in the movers now, and its instance deletes them
+        write_state(p, [m.entry for m in movers], REGROUPED_BY, journal=generations.get(p, 0))
     aside: dict[Path, Path] = {}
     stamp = f"{time.strftime('%Y%m%dT%H%M%S')}-{os.getpid()}"
     for p in others:
-        if p.exists():  # a bad file set aside above is gone already
-            aside[p] = p.with_name(f"{p.name}.regrouped-{stamp}")
-            os.replace(p, aside[p])
+        for q in [p, *journal_files(p).values()]:
+            if q.exists():  # a bad file set aside above is gone already
+                aside[q] = q.with_name(f"{q.name}.regrouped-{stamp}")
+                os.replace(q, aside[q])
     done = Regrouped({p: len(ms) for p, ms in by_file.items()}, sorted(read), aside)
     log.info("state: %d mover(s) from %s redistributed by landblock to %s (%s)%s", len(chosen),
              ", ".join(str(p) for p in done.sources), _layout_name(count),
@@ -143,7 +160,7 @@ def _merge(read: dict[Path, list[SavedMover]]) -> dict[int, SavedMover]:
     """One copy of each mover: the highest `seq`, then the most recently written file's."""
     chosen: dict[int, tuple[int, float, SavedMover]] = {}
     for p, movers in read.items():
-        mtime = p.stat().st_mtime if p.exists() else 0.0
+        mtime = max([q.stat().st_mtime for q in [p, *journal_files(p).values()] if q.exists()], default=0.0)
         for m in movers:
             rank = (m.handover.seq, mtime)
             had = chosen.get(m.handover.id)

@@ -14,6 +14,7 @@ from clients import Client, ServiceError
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.codec import encode_plane, encode_position
+from service.journal import DEFAULT_BUDGET, journal_files, read_journal
 from service.state_file import read_state
 from service_support import (
     DEMO_SCENE,
@@ -84,22 +85,29 @@ def test_restart_keeps_movers_seq_contact_and_velocity(tmp_path: Path) -> None:
             assert c.get(0x5002)[0].seq == 6 and c.get(0x5003)[0].seq == 7
 
 
-def test_state_is_written_at_the_interval_so_a_kill_loses_no_mover(tmp_path: Path) -> None:
+@pytest.mark.parametrize("sync", ["always", "every-second"])
+def test_a_kill_loses_no_answered_move_and_reuses_no_seq(tmp_path: Path, sync: str) -> None:
     state = tmp_path / "movers.state"
     cell, x, y = global_to_cell(40.0, 40.0)
-    with ServiceProcess(extra=_state_args(state, "--state-interval", "0.3")) as svc:
+    with ServiceProcess(extra=_state_args(state, "--state-sync", sync)) as svc:
         with Client([svc.endpoint]) as c:
             c.wait_ready()
             st = c.register(human(), Position.at(cell, Vec3(x, y, 60.0)), mover_id=0x6001)
             st = c.move(st.id, offset=(0.5, 0.0, 0.0))
-            assert wait_until(lambda: state.exists() and [m.handover.seq for m in read_state(state) or []] == [1],
-                              timeout=10.0)
+            if sync == "every-second":  # past the second's sync (the state file is written only every 10 s)
+                assert wait_until(lambda: sum(len(read_journal(p).records) for p in journal_files(state).values())
+                                  == 2, timeout=10.0)  # the register and the move
         svc.kill()  # SIGKILL: no shutdown save
     with ServiceProcess(extra=_state_args(state)) as svc:
         with Client([svc.endpoint]) as c:
             c.wait_ready()
             got, _ = c.get(0x6001)
-            assert got.seq == 1 and encode_position(got.position) == encode_position(st.position)
+            assert encode_position(got.position) == encode_position(st.position)
+            if sync == "always":  # nothing answered can have been lost: the seq goes on where it was
+                assert got.seq == 1
+            else:  # moves answered after the last sync could have been lost: seq goes on above any of them
+                assert got.seq == 1 + DEFAULT_BUDGET + 1
+            assert c.move(0x6001, offset=(0.5, 0.0, 0.0)).seq == got.seq + 1
 
 
 def _serve(state: Path, *more: str) -> subprocess.CompletedProcess[str]:

@@ -57,6 +57,9 @@ __all__ = [
     "run_batch",
     "append_row",
     "append_missing",
+    "MOVER_STATE_FIELDS",
+    "MOVER_STATE_BYTES",
+    "write_mover_state",
 ]
 
 #: The move kinds of a batch: every item of one call is of one kind.
@@ -76,6 +79,17 @@ _NO_VECTOR: Final = struct.pack("<3d", *[math.nan] * 3)
 _NO_PLANE: Final = struct.pack("<4d", *[math.nan] * 4)
 _NO_REALS: Final = struct.pack(f"<{REALS_PER_ROW}d", *[math.nan] * REALS_PER_ROW)
 _NO_INTS: Final = bytes(8 * INTS_PER_ROW)
+
+#: A mover's whole state as `write_mover_state` writes it: little-endian, four int64s then 24 float64s
+#: (vectors as x y z, the orientation as w x y z). `flags`: 1 missile, 2 colliding with the environment.
+#: With it a mover is put back exactly as it stood (a service's journal, service/journal_records.py).
+MOVER_STATE_FIELDS: Final = (
+    ("cell_id", 1), ("transient", 1), ("contact_plane_cell_id", 1), ("flags", 1),
+    ("origin", 3), ("orientation", 4), ("contact_plane_normal", 3), ("contact_plane_d", 1), ("sliding_normal", 3),
+    ("velocity", 3), ("acceleration", 3), ("held_time", 1), ("held_motion", 3),
+)
+MOVER_STATE_BYTES: Final = 8 * 28
+_NO_STATE: Final = bytes(MOVER_STATE_BYTES)
 
 
 class Status:
@@ -114,6 +128,9 @@ class BatchRows:
         #: when `run_batch` stopped at an item (`stop_if`): what puts that item's mover back as it was
         #: before the item (MoveUndo.restore), should its move be refused after all
         self.undo: MoveUndo | None = None
+        #: set by a caller that keeps each row's mover whole (write_mover_state after each row; zeros for a
+        #: missing row); None: not kept
+        self.states: BytesWriter | None = None
 
     def reals_le(self) -> bytes:
         """The real rows so far, `count` x REALS_PER_ROW float64s, little-endian."""
@@ -198,7 +215,40 @@ def append_missing(rows: BatchRows) -> None:
     """Add an empty row (an item that did not run)."""
     rows.reals.write(_NO_REALS)
     rows.ints.write(_NO_INTS)
+    states = rows.states
+    if states is not None:
+        states.write(_NO_STATE)
     rows.count += 1
+
+
+def write_mover_state(out: BytesWriter, mover: Mover) -> None:
+    """Append `mover`'s whole state (MOVER_STATE_FIELDS: place, contact, velocity, time held over...) to
+    `out`: what puts it back bit for bit after a restart."""
+    pos = mover.position
+    write_i64_le(out, pos.cell_id)
+    write_i64_le(out, mover.transient)
+    write_i64_le(out, mover.contact_plane_cell_id)
+    flags = 0
+    if mover.missile:
+        flags |= 1
+    if mover.colliding_with_environment:
+        flags |= 2
+    write_i64_le(out, flags)
+    frame = pos.frame
+    _write_vector(out, frame.origin)
+    q = frame.orientation
+    write_f64_le(out, q.w)
+    write_f64_le(out, q.x)
+    write_f64_le(out, q.y)
+    write_f64_le(out, q.z)
+    cp = mover.contact_plane
+    _write_vector(out, cp.normal)
+    write_f64_le(out, cp.d)
+    _write_vector(out, mover.sliding_normal)
+    _write_vector(out, mover.velocity)
+    _write_vector(out, mover.acceleration)
+    write_f64_le(out, mover.held_time)
+    _write_vector(out, mover.held_motion)
 
 
 _TRANSIENT_BIT: Final = {name: bit for name, bit in NAMED_BITS}
@@ -295,4 +345,7 @@ def run_batch(
             rows.undo = undo
             return i
         append_row(rows, result)
+        states = rows.states
+        if states is not None:
+            write_mover_state(states, mover)
     return n

@@ -1,0 +1,332 @@
+"""The append-only log beside a state file (`acphys serve --state FILE`): framing, writing, reading.
+
+Each request's resolved changes become one record (service/journal_records.py
+says what a record holds), appended to `FILE.journal-G`, where G is the
+log's generation: the state file names the first generation it does not
+already hold, so a start reads the state file, then every log of that
+generation and later, in order (service/persistence.py).
+
+A log file is a 28-byte header, then frames:
+
+    header: b"ACPHYSJ1", generation u64, seq budget u64, crc32 of those 24 bytes u32
+    frame:  length u32, crc32 of the payload u32, crc32 of the 8 bytes before it u32, payload
+
+all little-endian. The frame header's own checksum tells a damaged length
+(corruption) from a frame the kill cut off (a torn tail: its header is
+whole, its payload runs past the end of the file, or fewer than 12 bytes
+are left; a tail of zero bytes, as a power cut can leave, counts as torn
+too). A torn tail is dropped with a log line: its request was never
+answered under `always`, and it lies within the window otherwise. A frame
+that fails its checksum with records after it is corruption: reading
+refuses it (`JournalCorrupt`), never skips it.
+
+The writer's policy (`--state-sync`) says when records reach the disk:
+
+- `always`: each request's record is written and fdatasync'ed before its
+  reply goes out;
+- `every-second`: records are gathered in the process and written and
+  fdatasync'ed by a thread once a second (and at once when a megabyte is
+  waiting or `budget` moves are not yet synced);
+- `never`: as every-second, but only written, never synced: the OS writes
+  them back when it chooses.
+
+The seq budget: no more than `budget` moves are ever answered beyond what
+is durable (the writer syncs before answering more), so after a crash a
+restored mover's seq continues at its logged seq + budget + 1, above every
+seq answered (0 under `always`, where nothing answered is ever lost).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import struct
+import threading
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Final
+
+__all__ = [
+    "POLICIES", "DEFAULT_POLICY", "DEFAULT_BUDGET", "Journal", "JournalCorrupt", "JournalFile",
+    "journal_path", "journal_files", "read_journal", "frame",
+]
+
+log = logging.getLogger("acphys.service")
+
+POLICIES: Final = ("every-second", "always", "never")
+DEFAULT_POLICY: Final = "every-second"
+#: moves that may be answered beyond what is durable (every-second and never): far more than a second's
+#: worth on one process, so the limit is reached only when a sync stalls
+DEFAULT_BUDGET: Final = 1 << 20
+
+MAGIC: Final = b"ACPHYSJ1"
+_HEADER: Final = struct.Struct("<8sQQ")
+_HEADER_CRC: Final = struct.Struct("<I")
+HEADER_BYTES: Final = _HEADER.size + _HEADER_CRC.size  # 28
+_FRAME: Final = struct.Struct("<II")
+_FRAME_CRC: Final = struct.Struct("<I")
+FRAME_HEAD: Final = _FRAME.size + _FRAME_CRC.size  # 12
+#: the writer writes what is waiting once this much is gathered (every-second and never)
+WRITE_AT: Final = 1 << 20
+#: the largest payload a frame may declare (a longer one is damage, not a record)
+MAX_PAYLOAD: Final = 1 << 30
+
+
+class JournalCorrupt(ValueError):
+    """A log with a damaged record before its end (or a damaged header): it cannot be replayed in full."""
+
+    def __init__(self, path: Path, offset: int, reason: str, records: list[bytes]) -> None:
+        super().__init__(f"state log {path}: {reason} at byte {offset} (a damaged record with records after "
+                         "it: the log cannot be replayed in full)")
+        self.path = path
+        self.offset = offset
+        #: the payloads of the whole records before the damage
+        self.records = records
+
+
+def journal_path(state: str | Path, generation: int) -> Path:
+    """The log of `generation` beside state file `state`."""
+    return Path(f"{state}.journal-{generation}")
+
+
+def journal_files(state: str | Path) -> dict[int, Path]:
+    """Every log of `state` present, by generation."""
+    base = Path(state)
+    prefix = f"{base.name}.journal-"
+    try:
+        names = os.listdir(base.parent)
+    except FileNotFoundError:
+        return {}
+    out: dict[int, Path] = {}
+    for n in names:
+        if n.startswith(prefix) and n[len(prefix):].isdigit():
+            out[int(n[len(prefix):])] = base.parent / n
+    return dict(sorted(out.items()))
+
+
+def frame(payload: bytes) -> bytes:
+    """One frame: the header (length, the payload's crc32, the header's own crc32) and the payload."""
+    head = _FRAME.pack(len(payload), zlib.crc32(payload))
+    return head + _FRAME_CRC.pack(zlib.crc32(head)) + payload
+
+
+def _header(generation: int, budget: int) -> bytes:
+    head = _HEADER.pack(MAGIC, generation, budget)
+    return head + _HEADER_CRC.pack(zlib.crc32(head))
+
+
+@dataclass(slots=True)
+class JournalFile:
+    """One log as read: its header's values, the payloads of its whole records, and what was dropped."""
+
+    path: Path
+    generation: int
+    budget: int
+    records: list[bytes] = field(default_factory=list)
+    #: why a torn tail was dropped (None: the log ended cleanly), and how many bytes it held
+    torn: str | None = None
+    torn_bytes: int = 0
+    size: int = 0
+
+
+def read_journal(path: Path) -> JournalFile:
+    """Read a log whole: JournalCorrupt for damage before its end; a torn tail is dropped (and said)."""
+    data = path.read_bytes()
+    size = len(data)
+    if size < HEADER_BYTES:
+        # killed while the file was being made: it holds no record
+        return JournalFile(path, -1, 0, [], f"a header cut off ({size} of {HEADER_BYTES} bytes)", size, size)
+    magic, generation, budget = _HEADER.unpack_from(data, 0)
+    (crc,) = _HEADER_CRC.unpack_from(data, _HEADER.size)
+    if magic != MAGIC:
+        raise JournalCorrupt(path, 0, "not an acphys state log (wrong magic)", [])
+    if crc != zlib.crc32(data[:_HEADER.size]):
+        raise JournalCorrupt(path, 0, "the header fails its checksum", [])
+    out = JournalFile(path, generation, budget, size=size)
+    records = out.records
+    view = memoryview(data)
+    off = HEADER_BYTES
+    unpack_frame = _FRAME.unpack_from
+    unpack_crc = _FRAME_CRC.unpack_from
+    crc32 = zlib.crc32
+    while off < size:
+        if size - off < FRAME_HEAD:
+            _torn(out, off, f"a frame header cut off ({size - off} of {FRAME_HEAD} bytes)")
+            return out
+        length, payload_crc = unpack_frame(data, off)
+        (head_crc,) = unpack_crc(data, off + 8)
+        if head_crc != crc32(view[off:off + 8]) or length > MAX_PAYLOAD:
+            if _zeros(data, off):  # a power cut can leave the end of a file zeroed
+                _torn(out, off, "a tail of zero bytes")
+                return out
+            raise JournalCorrupt(path, off, "a record's header fails its checksum", records)
+        end = off + FRAME_HEAD + length
+        if end > size:
+            _torn(out, off, f"a record cut off ({size - off - FRAME_HEAD} of {length} bytes)")
+            return out
+        payload = data[off + FRAME_HEAD:end]
+        if crc32(payload) != payload_crc:
+            if _zeros(data, end):  # the last record, its write cut short
+                _torn(out, off, "the last record fails its checksum")
+                return out
+            raise JournalCorrupt(path, off, "a record fails its checksum", records)
+        records.append(payload)
+        off = end
+    return out
+
+
+def _zeros(data: bytes, offset: int) -> bool:
+    """Whether everything from `offset` to the end is zero bytes (or nothing)."""
+    return data.count(0, offset) == len(data) - offset
+
+
+def _torn(out: JournalFile, offset: int, reason: str) -> None:
+    out.torn = f"{reason} at byte {offset}"
+    out.torn_bytes = out.size - offset
+
+
+class Journal:
+    """The log being written: one file at a time, records appended by the engine thread (one `append`s
+    per request, then `commit`), written and synced by the policy; `rotate` starts the next generation."""
+
+    def __init__(self, state: str | Path, generation: int, policy: str = DEFAULT_POLICY,
+                 budget: int = DEFAULT_BUDGET, interval: float = 1.0) -> None:
+        if policy not in POLICIES:
+            raise ValueError(f"--state-sync must be one of {', '.join(POLICIES)}, got {policy!r}")
+        self.state = Path(state)
+        self.policy = policy
+        self.always = policy == "always"
+        #: moves answered beyond what is durable, at most (0 under always)
+        self.budget = 0 if self.always else budget
+        self.interval = interval
+        self.generation = generation
+        self._lock = threading.Lock()  # the pending frames and counters
+        self._io = threading.Lock()  # the file: one writer at a time, in order
+        self._pending: list[bytes] = []
+        self._pending_bytes = 0
+        self._pending_moves = 0
+        self._unsynced_moves = 0  # written, not yet synced
+        self._fd = -1
+        self._failed: str | None = None
+        self._open(generation)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        if not self.always:
+            self._thread = threading.Thread(target=self._flush_loop, name="acphys-journal", daemon=True)
+            self._thread.start()
+        #: counters for the stats and the benchmark
+        self.records = 0
+        self.syncs = 0
+
+    @property
+    def path(self) -> Path:
+        return journal_path(self.state, self.generation)
+
+    def _open(self, generation: int) -> None:
+        path = journal_path(self.state, generation)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o600)
+        try:
+            os.write(fd, _header(generation, self.budget))
+            os.fsync(fd)
+            _fsync_dir(path.parent)
+        except BaseException:
+            os.close(fd)
+            raise
+        self._fd = fd
+        self.generation = generation
+
+    # -- the engine thread -----------------------------------------------------------------------------
+    def append(self, payload: bytes, moves: int = 0) -> None:
+        """Queue one record (written by `commit` or the policy's thread, in order)."""
+        f = frame(payload)
+        with self._lock:
+            self._pending.append(f)
+            self._pending_bytes += len(f)
+            self._pending_moves += moves
+        self.records += 1
+
+    def commit(self, durable: bool = False) -> None:
+        """The end of a request, before its reply: under `always` (or when `durable`, whatever the policy: a
+        hand-over taken) its records are written and synced when this returns; else they are written when
+        enough wait, and synced when the seq budget is spent."""
+        if self.always or durable:
+            self._write(sync=True)
+            return
+        if self._pending_bytes >= WRITE_AT:
+            self._write(sync=False)
+        if self._pending_moves + self._unsynced_moves >= self.budget:
+            self._write(sync=self.policy != "never")
+
+    def sync(self) -> None:
+        """Write and fdatasync everything appended so far."""
+        self._write(sync=True)
+
+    # -- writing ---------------------------------------------------------------------------------------
+    def _write(self, sync: bool) -> None:
+        with self._io:
+            with self._lock:
+                chunks, self._pending = self._pending, []
+                moves, self._pending_moves = self._pending_moves, 0
+                self._pending_bytes = 0
+            if self._fd < 0:
+                return
+            try:
+                if chunks:
+                    data = b"".join(chunks)
+                    view = memoryview(data)
+                    while view:
+                        view = view[os.write(self._fd, view):]
+                self._unsynced_moves += moves
+                if sync:
+                    os.fdatasync(self._fd)
+                    self._unsynced_moves = 0
+                    self.syncs += 1
+            except OSError as e:
+                if self._failed is None:
+                    log.error("cannot write the state log %s: %s", self.path, e)
+                self._failed = str(e)
+                raise
+
+    def _flush_loop(self) -> None:
+        while not self._stop.wait(self.interval):
+            try:
+                self._write(sync=self.policy == "every-second")
+            except OSError:
+                pass  # said once by _write; the next second tries again
+
+    # -- generations -------------------------------------------------------------------------------------
+    def rotate(self) -> int:
+        """Finish this generation (written and synced whatever the policy) and start the next; its number.
+        Called between two requests (the engine lock held), so that a snapshot taken then holds exactly the
+        records of the generations before it."""
+        self._write(sync=True)
+        with self._io:
+            old = self._fd
+            self._fd = -1
+            os.close(old)
+            self._open(self.generation + 1)
+        return self.generation
+
+    def close(self) -> int:
+        """Write and sync what is left, stop the thread, close the file; the next generation's number (the
+        one a final snapshot names: this generation is then wholly in it)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+        try:
+            self._write(sync=True)
+        finally:
+            with self._io:
+                if self._fd >= 0:
+                    os.close(self._fd)
+                self._fd = -1
+        return self.generation + 1
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

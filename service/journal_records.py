@@ -1,0 +1,187 @@
+"""What one record of the state log (service/journal.py) holds, and the core's side of writing them.
+
+A record is one request's resolved changes, one kind per record:
+
+    kind u8, n u32, then by kind:
+    MOVES        ids n x u64, seqs n x u64, states n x MOVER_STATE_BYTES
+    REGISTER     as MOVES, then a msgpack array of n mover maps (the spec as registered)
+    UPDATE       as REGISTER (the spec as updated)
+    HANDOVER_IN  as REGISTER (a mover taken from another instance)
+    REMOVE       ids n x u64
+    HANDOVER_OUT ids n x u64, then landblocks n x u32 (where each went)
+
+all little-endian. A state is the mover's whole engine state as
+engine.world.batch.write_mover_state writes it (place, contact plane and
+cell, transient flags, sliding normal, velocity, acceleration, time and
+motion held over), so a replayed mover is the one that answered, bit for
+bit. A MOVES record holds each mover's state after the request's last move
+of it (replay keeps the last row of each id).
+"""
+
+from __future__ import annotations
+
+import struct
+from array import array
+from typing import Any, Final
+
+import msgpack
+import numpy as np
+from librt.strings import BytesWriter
+
+from engine.geometry import Plane, Position, Quat, Vec3
+from engine.world.batch import MOVER_STATE_BYTES, write_mover_state
+from engine.world.mover import Mover
+from engine.world.transient import TS
+
+from .journal import Journal
+
+__all__ = [
+    "MOVES", "REGISTER", "UPDATE", "HANDOVER_IN", "REMOVE", "HANDOVER_OUT", "KIND_NAMES", "RECORD_HEAD",
+    "MoverLog", "MoverState", "decode_state", "apply_state", "mover_state_bytes",
+]
+
+MOVES: Final = 1
+REGISTER: Final = 2
+UPDATE: Final = 3
+HANDOVER_IN: Final = 4
+REMOVE: Final = 5
+HANDOVER_OUT: Final = 6
+KIND_NAMES: Final = {MOVES: "moves", REGISTER: "register", UPDATE: "update", HANDOVER_IN: "handover-in",
+                     REMOVE: "remove", HANDOVER_OUT: "handover-out"}
+RECORD_HEAD: Final = struct.Struct("<BI")
+_STATE: Final = struct.Struct("<4q24d")
+assert _STATE.size == MOVER_STATE_BYTES
+
+
+def mover_state_bytes(mover: Mover) -> bytes:
+    """`mover`'s whole state (engine.world.batch.write_mover_state) as bytes."""
+    w = BytesWriter()
+    write_mover_state(w, mover)
+    return w.getvalue()
+
+
+class MoverState:
+    """A mover's state decoded from MOVER_STATE_BYTES bytes."""
+
+    __slots__ = ("cell_id", "transient", "contact_plane_cell_id", "missile", "colliding_with_environment",
+                 "position", "contact_plane", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion")
+
+    def __init__(self, raw: bytes) -> None:
+        v = _STATE.unpack(raw)
+        self.cell_id: int = v[0]
+        self.transient: int = v[1]
+        self.contact_plane_cell_id: int = v[2]
+        self.missile = bool(v[3] & 1)
+        self.colliding_with_environment = bool(v[3] & 2)
+        self.position = Position.at(v[0], Vec3(v[4], v[5], v[6]), Quat(v[7], v[8], v[9], v[10]))
+        self.contact_plane = Plane(Vec3(v[11], v[12], v[13]), v[14])
+        self.sliding_normal = Vec3(v[15], v[16], v[17])
+        self.velocity = Vec3(v[18], v[19], v[20])
+        self.acceleration = Vec3(v[21], v[22], v[23])
+        self.held_time: float = v[24]
+        self.held_motion = Vec3(v[25], v[26], v[27])
+
+    @property
+    def contact(self) -> bool:
+        return bool(self.transient & TS.CONTACT)
+
+    @property
+    def on_walkable(self) -> bool:
+        return bool(self.transient & TS.ON_WALKABLE)
+
+    @property
+    def sliding(self) -> bool:
+        return bool(self.transient & TS.SLIDING)
+
+    @property
+    def water_contact(self) -> bool:
+        return bool(self.transient & TS.WATER_CONTACT)
+
+
+def decode_state(raw: bytes) -> MoverState:
+    if len(raw) != MOVER_STATE_BYTES:
+        raise ValueError(f"a mover state is {MOVER_STATE_BYTES} bytes, not {len(raw)}")
+    return MoverState(raw)
+
+
+def apply_state(mover: Mover, state: MoverState) -> None:
+    """Give an engine mover (added at `state.position`) the rest of `state`: it then moves on as the one
+    that wrote it would have."""
+    mover.transient = state.transient
+    mover.contact_plane = state.contact_plane
+    mover.contact_plane_cell_id = state.contact_plane_cell_id
+    mover.sliding_normal = state.sliding_normal
+    mover.velocity = state.velocity
+    mover.acceleration = state.acceleration
+    mover.held_time = state.held_time
+    mover.held_motion = state.held_motion
+    mover.missile = state.missile
+    mover.colliding_with_environment = state.colliding_with_environment
+
+
+class MoverLog:
+    """The core's writer of records: the moves of the request running are gathered (`moved`, `moved_rows`)
+    and become one MOVES record at `commit` (or before a record of another kind, keeping the order)."""
+
+    __slots__ = ("journal", "_ids", "_seqs", "_states", "_count")
+
+    def __init__(self, journal: Journal) -> None:
+        self.journal = journal
+        self._ids = array("Q")
+        self._seqs = array("Q")
+        self._states = BytesWriter()
+        self._count = 0
+
+    @property
+    def always(self) -> bool:
+        """Whether each request's records are synced before its reply (and its States published after)."""
+        return self.journal.always
+
+    # -- moves -----------------------------------------------------------------------------------------
+    def moved(self, mover_id: int, seq: int, mover: Mover) -> None:
+        """One resolved move of the map form: the mover as it stands after it."""
+        self._ids.append(mover_id)
+        self._seqs.append(seq)
+        write_mover_state(self._states, mover)
+        self._count += 1
+
+    def moved_rows(self, ids: np.ndarray[Any, Any], seqs: np.ndarray[Any, Any], states: bytes) -> None:
+        """Resolved moves of a column batch: ids, seqs (uint64) and their states (engine rows), one each."""
+        n = len(ids)
+        if n:
+            self._flush()
+            self.journal.append(b"".join((RECORD_HEAD.pack(MOVES, n), np.ascontiguousarray(ids, "<u8").tobytes(),
+                                          np.ascontiguousarray(seqs, "<u8").tobytes(), states)), n)
+
+    def _flush(self) -> None:
+        n = self._count
+        if not n:
+            return
+        payload = b"".join((RECORD_HEAD.pack(MOVES, n), self._ids.tobytes(), self._seqs.tobytes(),
+                            self._states.getvalue()))
+        self._ids = array("Q")
+        self._seqs = array("Q")
+        self._states = BytesWriter()
+        self._count = 0
+        self.journal.append(payload, n)
+
+    # -- other changes ---------------------------------------------------------------------------------
+    def movers(self, kind: int, mover_id: int, seq: int, mover: Mover, spec: dict[str, Any]) -> None:
+        """A register, update or hand-over in: the mover's state and its spec (as a map)."""
+        self._flush()
+        head = RECORD_HEAD.pack(kind, 1) + struct.pack("<QQ", mover_id, seq)
+        self.journal.append(head + mover_state_bytes(mover) + msgpack.packb([spec], use_bin_type=True))
+
+    def removed(self, mover_id: int) -> None:
+        self._flush()
+        self.journal.append(RECORD_HEAD.pack(REMOVE, 1) + struct.pack("<Q", mover_id))
+
+    def handed_over(self, mover_id: int, landblock: int) -> None:
+        """The mover left for `landblock`'s owner (after its moves so far in this request)."""
+        self._flush()
+        self.journal.append(RECORD_HEAD.pack(HANDOVER_OUT, 1) + struct.pack("<QI", mover_id, landblock))
+
+    def commit(self, durable: bool = False) -> None:
+        """The request is done: its records go to the journal, synced now under `always` or `durable`."""
+        self._flush()
+        self.journal.commit(durable)
