@@ -21,11 +21,15 @@ NOT_COMPILED = {"engine/objects/setup.py"}
 # The world's per-move part: the mover, its shadows, the move itself, the batch entry point and the
 # MoveResult every move builds (types: a compiled dataclass is built and read natively).
 WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch", "types")
+# Navigation's per-edge path: the walk that proves every edge and path, the graph that samples and links
+# nodes, the search (a graph build walks some 70,000 edges a landblock; their glue is as hot as the moves)
+NAVIGATION_HOT = ("walk", "graph", "search", "sampling")
 
 
 def hot_modules() -> list[str]:
     # limits: the checks every move passes at the door
     mods = ["engine/constants.py", "engine/limits.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
+    mods += [f"engine/navigation/{name}.py" for name in NAVIGATION_HOT]
     for pkg in HOT_PACKAGES:
         for path in sorted(glob.glob(f"engine/{pkg}/*.py")):
             if not path.endswith("__init__.py") and path not in NOT_COMPILED:

@@ -101,7 +101,7 @@ def _time_paths(world: Any, pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
     return out
 
 
-def _chase(world: Any, start: Any, goal: Any, stride: float = 2.0, tolerance: float = 0.25) -> bool:
+def _chase(world: Any, start: Any, goal: Any, stride: float = 3.0, tolerance: float = 0.25) -> bool:
     """A straight chase: walk at the goal in strides, sliding as the transition does, for three times the
     moves the distance needs; reached when standing within the tolerance of it."""
     from engine import Position
@@ -123,7 +123,7 @@ def _chase(world: Any, start: Any, goal: Any, stride: float = 2.0, tolerance: fl
         world.remove_mover(mover)
 
 
-def _walks(world: Any, path: Any, stride: float = 2.0, tolerance: float = 0.25) -> bool:
+def _walks(world: Any, path: Any, stride: float = 3.0, tolerance: float = 0.25) -> bool:
     from engine import Position
 
     mover = world.add_mover(_player(), path.waypoints[0], placement="enter_world")

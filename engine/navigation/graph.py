@@ -111,6 +111,8 @@ class NavGraph:
         self._env_boxes: dict[int, list[tuple[int, float, float, float, float, float, float]]] = {}
         #: walks made building edges (a measure of the work done)
         self.walks = 0
+        #: (global x, y) // resolution -> the keys of the nodes there: the spatial index of nodes_near
+        self._grid: dict[tuple[int, int], list[int]] = {}
 
     # -- keeping up with the world --------------------------------------------------
     def refresh(self) -> None:
@@ -125,7 +127,11 @@ class NavGraph:
         around = {((x + dx) << 8) | (y + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)
                   if 0 <= x + dx <= 0xFF and 0 <= y + dy <= 0xFF}
         for cell_id in [c for c in self.tiles if (c >> 16) in around]:
-            del self.tiles[cell_id]
+            tile = self.tiles.pop(cell_id)
+            for i in range(len(tile)):
+                bucket = self._grid.get(self._bucket(tile.gx[i], tile.gy[i]))
+                if bucket is not None:
+                    bucket.remove((cell_id << 16) | i)
         for lb in around:
             self._seen.pop(lb, None)
             self._env_boxes.pop(lb, None)
@@ -165,6 +171,8 @@ class NavGraph:
             candidates = []
         bx, by = block_xy(cell_id)
         merge = (_MERGE_SPACINGS * spacing) ** 2
+        #: bucket -> indices of this tile's nodes in and around it (the merge test's neighbours)
+        taken: dict[tuple[int, int], list[int]] = {}
         probe = self.probe
         for _, x, y, z in candidates:
             self._fresh.restore()
@@ -175,13 +183,26 @@ class NavGraph:
                 continue  # the node belongs to another cell's tile, which samples it itself
             o = where.frame.origin
             gx, gy = bx + o.x, by + o.y
-            if any((gx - tile.gx[i]) ** 2 + (gy - tile.gy[i]) ** 2 + (o.z - tile.z[i]) ** 2 < merge for i in range(len(tile))):
+            if any((gx - tile.gx[i]) ** 2 + (gy - tile.gy[i]) ** 2 + (o.z - tile.z[i]) ** 2 < merge
+                   for i in taken.get(self._bucket(gx, gy), ())):
                 continue
+            for near in self._around(gx, gy):
+                taken.setdefault(near, []).append(len(tile))
             tile.gx.append(gx)
             tile.gy.append(gy)
             tile.z.append(o.z)
+        for i in range(len(tile)):
+            self._grid.setdefault(self._bucket(tile.gx[i], tile.gy[i]), []).append((cell_id << 16) | i)
         self.tiles[cell_id] = tile
         return tile
+
+    def _bucket(self, gx: float, gy: float) -> tuple[int, int]:
+        s = self.nav.resolution
+        return math.floor(gx / s), math.floor(gy / s)
+
+    def _around(self, gx: float, gy: float) -> list[tuple[int, int]]:
+        bx, by = self._bucket(gx, gy)
+        return [(bx + dx, by + dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
 
     def position(self, key: int) -> Position:
         """A node's Position."""
@@ -233,13 +254,18 @@ class NavGraph:
         """(horizontal distance, key) of the nodes within `radius` horizontally and `max_dz` vertically, nearest first."""
         found: list[tuple[float, int]] = []
         r2 = radius * radius
-        for tile in self.tiles_near(gx, gy, radius):
-            base = tile.cell_id << 16
-            txs, tys, tzs = tile.gx, tile.gy, tile.z
-            for i in range(len(txs)):
-                d2 = (txs[i] - gx) ** 2 + (tys[i] - gy) ** 2
-                if d2 <= r2 and abs(tzs[i] - z) <= max_dz:
-                    found.append((math.sqrt(d2), base | i))
+        self.tiles_near(gx, gy, radius)  # (sampled now where they were not)
+        s = self.nav.resolution
+        grid = self._grid
+        tiles = self.tiles
+        for bx in range(math.floor((gx - radius) / s), math.floor((gx + radius) / s) + 1):
+            for by in range(math.floor((gy - radius) / s), math.floor((gy + radius) / s) + 1):
+                for key in grid.get((bx, by), ()):
+                    tile = tiles[key >> 16]
+                    i = key & 0xFFFF
+                    d2 = (tile.gx[i] - gx) ** 2 + (tile.gy[i] - gy) ** 2
+                    if d2 <= r2 and abs(tile.z[i] - z) <= max_dz:
+                        found.append((math.sqrt(d2), key))
         found.sort()
         return found
 
@@ -272,8 +298,9 @@ class NavGraph:
 
             for target in self._near(key, gx, gy, z):
                 attempt(target)
-            for ux, uy in _DIRECTIONS:
-                if not self._goes(targets, gx, gy, ux, uy):
+            gone = self._directions(targets, gx, gy)
+            for d, (ux, uy) in enumerate(_DIRECTIONS):
+                if not gone[d]:
                     far = self._first_along(key, gx, gy, z, ux, uy)
                     if far is not None and far not in targets:
                         attempt(far)
@@ -284,15 +311,18 @@ class NavGraph:
         radius = self.nav.link_radius
         return [k for _, k in self.nodes_near(gx, gy, z, radius, 2.0 * radius + self.walker.step_up_height) if k != key]
 
-    def _goes(self, targets: array[int], gx: float, gy: float, ux: float, uy: float) -> bool:
-        """Whether one of `targets` lies in lattice direction (ux, uy) from (gx, gy)."""
+    def _directions(self, targets: array[int], gx: float, gy: float) -> list[bool]:
+        """For each lattice direction, whether one of `targets` lies that way (within 23 degrees) from (gx, gy)."""
+        gone = [False] * 8
         for k in targets:
             nx, ny, _ = self.coords(k)
             dx, dy = nx - gx, ny - gy
             d = math.hypot(dx, dy)
-            if d > 0.0 and (dx * ux + dy * uy) / d > 0.92:
-                return True
-        return False
+            if d > 0.0:
+                for j, (ux, uy) in enumerate(_DIRECTIONS):
+                    if (dx * ux + dy * uy) / d > 0.92:
+                        gone[j] = True
+        return gone
 
     def _first_along(self, key: int, gx: float, gy: float, z: float, ux: float, uy: float) -> int | None:
         """The first node beyond the link radius along direction (ux, uy), up to LONG_LINK_SPAN."""

@@ -22,8 +22,9 @@ class NavSettings:
 
     #: metres between the samples of the walkable lattice (a setting: finer finds narrower gaps, costs more)
     resolution: float = 2.0
-    #: the longest single move of the walk, metres (one World.move each)
-    stride: float = 2.0
+    #: the longest single move of the walk, metres (one World.move each): 3 m walks every lattice edge,
+    #: the diagonals' 2.83 m too, in one move
+    stride: float = 3.0
     #: how close (3-D, metres) the walker must come to a waypoint to have reached it
     arrival_tolerance: float = 0.25
     #: graph edges join nodes at most this many lattice spacings apart (1.5: the eight lattice neighbours)

@@ -40,6 +40,8 @@ __all__ = ["EXTRA_STRIDES", "ProbeState", "walk_toward", "stands_at", "leg_strid
 
 #: moves a leg may take beyond its length in strides
 EXTRA_STRIDES: Final = 3
+#: how far a move may carry the walker up while it is off the ground (a step's lift is taken in contact)
+_RISE: Final = 1e-3
 
 
 class ProbeState:
@@ -82,7 +84,10 @@ def walk_toward(landscape: Landscape, probe: Mover, waypoint: Position, nav: Nav
     The second condition is the search's own, stricter than the contract: a
     leg the walker only completes by sliding along a wall or round a corner
     is not taken, so that a path's waypoints are the track walked (to the
-    tolerance), not just points the walk happens to reach."""
+    tolerance), not just points the walk happens to reach. Nor is one that
+    carries it up while it is off the ground: a move's target may lie above a
+    slope too steep to stand on, and World.move, which has no gravity, would
+    fly it there."""
     max_lateral = nav.arrival_tolerance
     stride = nav.stride
     tolerance = nav.arrival_tolerance
@@ -106,6 +111,10 @@ def walk_toward(landscape: Landscape, probe: Mover, waypoint: Position, nav: Nav
         after = probe.position
         if after.cell_id == here.cell_id and after.frame.origin == here.frame.origin and probe.transient == before:
             return False  # stuck: every further move would be this one again
+        if not probe.transient & TS.CONTACT and here.get_offset(after).z > _RISE:
+            # off the ground and going up: a move's target carries it through the air where a walker would
+            # fall (World.move has no gravity), so a slope too steep to climb could be flown up
+            return False
         if line is not None:
             walked = start.get_offset(after)
             if abs(walked.x * line[1] - walked.y * line[0]) > max_lateral:

@@ -330,7 +330,7 @@ class World:
         stands) can walk from `start` to `goal`: a PathResult.
 
         The guarantee: walk the waypoints in turn as engine.navigation.walk says (World.move, moves of
-        at most NavSettings.stride metres, default 2, straight toward the next waypoint, until within
+        at most NavSettings.stride metres, default 3, straight toward the next waypoint, until within
         NavSettings.arrival_tolerance, default 0.25 m) and the walker reaches every waypoint, standing on
         walkable ground in the waypoint's cell, the goal last. A MoverSpec walker starts as
         `add_mover(spec, waypoints[0], placement="enter_world")` places it. Other movers are not

@@ -15,7 +15,7 @@ import engine
 from engine import Position
 
 #: NavSettings' defaults, as documented
-STRIDE = 2.0
+STRIDE = 3.0
 TOLERANCE = 0.25
 
 
