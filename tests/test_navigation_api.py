@@ -120,7 +120,8 @@ def test_a_graph_forgets_an_unloaded_landblock() -> None:
     add_box(b, 100.0, 100.0, 104.0, 104.0, 2.0)
     world = b.world()
     stats = world.build_navigation(PLAYER, [0xA9B4])
-    assert stats.nodes > 1000 and stats.edges > 4 * stats.nodes and stats.expanded_nodes == stats.nodes
+    # flat ground: every node linked to its four lattice neighbours (the diagonals go through them)
+    assert stats.nodes > 1000 and stats.edges > 3.9 * stats.nodes and stats.expanded_nodes == stats.nodes
     # no node on the ground under the box, nor within the walker's radius of it; some on its top
     graph = next(iter(world.navigation.graphs.values()))
     on_top = 0
