@@ -385,7 +385,7 @@ class ServiceNode:
                     return
                 except Exception as e:
                     log.exception("%s failed", op)
-                    self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error: {type(e).__name__}: {e}"))
+                    self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error (a fault in the service, logged there): {str(e) or 'no message'}"))
                     return
                 self._reply_ok(query, content)
 
@@ -413,7 +413,7 @@ class ServiceNode:
                 return
             except Exception as e:
                 log.exception("move failed")
-                self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error: {type(e).__name__}: {e}"))
+                self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error (a fault in the service, logged there): {str(e) or 'no message'}"))
                 return
             try:
                 query.reply(query.key_expr, STATE_HEAD + packed)  # frames.state_message, inlined

@@ -61,7 +61,7 @@ def decode_envelope(payload: bytes | None, *, allow_empty: bool = False) -> dict
     try:
         msg = msgpack.unpackb(payload, raw=False, strict_map_key=False)
     except Exception as e:  # msgpack raises several unrelated types (ExtraData, ValueError, ...)
-        raise ProtocolError(ErrorKind.MALFORMED, f"payload is not valid msgpack: {type(e).__name__}: {e}") from None
+        raise ProtocolError(ErrorKind.MALFORMED, f"payload is not valid msgpack: {str(e) or 'it cannot be decoded'}") from None
     if not isinstance(msg, dict):
         raise ProtocolError(ErrorKind.MALFORMED, f"payload is msgpack but not a map ({type(msg).__name__})")
     msg = as_map(msg, "")
