@@ -180,6 +180,10 @@ class Client(SpatialQueries):
             session = zenoh.open(make_config(config_file=config_file, connect=list(connect or []),
                                              user=user, password=password))
         self.session = session
+        #: where the client looked, for a NoServiceError to say
+        self._tried = (f"connected {'by ' + config_file if config_file else 'to ' + ', '.join(connect or [])}"
+                       if not (session is not None and not self._own_session) else "on the session given")
+        self._tried += f", prefix '{prefix}'" + (f", user '{user}'" if user is not None else "")
         self._opened = time.monotonic()  # a young session may not have met every instance yet (SETTLE_S)
         self._where: dict[int, int] = {}
         # fire-and-forget keeps one route per mover: the old owner forwards after a hand-over,
@@ -243,7 +247,7 @@ class Client(SpatialQueries):
                 return self.get(mover_id, timeout)[0]
         if errors:
             raise errors[0]
-        raise NoServiceError(f"no service instance answers for mover {mover_id:X}")
+        raise NoServiceError(f"no service instance answers for mover {mover_id:X} ({self._tried})")
 
     def _lb_key(self, lb: int, op: str) -> zenoh.KeyExpr:
         """`P/lb/XXYY/op`, parsed once."""
@@ -271,7 +275,8 @@ class Client(SpatialQueries):
         key, timeout = pending.key, pending.timeout
         replies = list(pending.replies)
         if not replies:
-            raise NoServiceError(f"no service answers on {key}")
+            hint = "" if self.user is not None else "; a service run with accounts also needs user= and password="
+            raise NoServiceError(f"no service answers on {key} ({self._tried}{hint})")
         r = replies[0]
         if r.ok is not None:
             msg = _unpack(r.ok.payload.to_bytes())
