@@ -25,9 +25,11 @@ def describe_service(instances: Sequence[str], connect: Sequence[str] | None, pr
                      config_file: str | None = None) -> str:
     """`service: instance <zid> via tcp/... prefix ...`, plus a hint when the defaults were used."""
     where = f"config {config_file}" if config_file else ", ".join(connect or [DEFAULT_ENDPOINT])
-    who = ", ".join(instances) if instances else "?"
-    noun = "instance" if len(instances) <= 1 else "instances"
-    line = f"service: {noun} {who} via {where}, prefix {prefix!r}"
+    if not instances:
+        line = f"service: no instance answered yet via {where}, prefix {prefix!r}"
+    else:
+        noun = "instance" if len(instances) == 1 else "instances"
+        line = f"service: {noun} {', '.join(instances)} via {where}, prefix {prefix!r}"
     if not config_file and not connect and prefix == DEFAULT_PREFIX:
         line += f" ({_SHARED_HINT})"
     return line

@@ -84,6 +84,10 @@ def test_the_default_endpoint_is_called_shared() -> None:
     assert line.startswith("service: instance abc via tcp/127.0.0.1:7447, prefix 'acphys'")
     assert "shared by every user" in line and "--connect" in line and "--prefix" in line
     assert "shared" not in describe_service(["abc"], None, "mine")
+    # no instance heard yet (the live map starts before the service): said so, not as an instance called "?"
+    none = describe_service([], ["tcp/127.0.0.1:7500"], "mine")
+    assert none == "service: no instance answered yet via tcp/127.0.0.1:7500, prefix 'mine'"
+    assert describe_service(["a", "b"], None, "mine").startswith("service: instances a, b via")
 
 
 def test_move_reports_service_errors(service: ServiceProcess) -> None:
