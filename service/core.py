@@ -443,10 +443,14 @@ class ServiceCore:
         """Pass the mover to `lb`'s owner (which publishes `state`, the crossing move's State, when given),
         or take the move back (`undo`, taken before it: the mover, its velocity, its time held over and its
         shadows exactly as they were; its record's last result and seq too) and refuse it."""
+        if self.log is not None:
+            self.log.handing_over(rec.id, lb)
         try:
             self.bus.handover(lb, self._handover_payload(rec, state))
         except ProtocolError as e:
             self.stats.bump("handovers", "failed")
+            if self.log is not None:
+                self.log.handover_failed(rec.id)
             undo.restore()
             rec.last, rec.seq = prev, prev_seq
             raise ProtocolError(

@@ -8,7 +8,9 @@ A record is one request's resolved changes, one kind per record:
     UPDATE       as REGISTER (the spec as updated)
     HANDOVER_IN  as REGISTER (a mover taken from another instance)
     REMOVE       ids n x u64
-    HANDOVER_OUT ids n x u64, then landblocks n x u32 (where each went)
+    HANDING_OVER ids n x u64, then landblocks n x u32: a hand-over about to be sent (synced first)
+    HANDOVER_OUT as HANDING_OVER: the owner of the landblock took the mover
+    HANDOVER_FAILED ids n x u64: no owner took it; it stays here
 
 all little-endian. A state is the mover's whole engine state as
 engine.world.batch.write_mover_state writes it (place, contact plane and
@@ -36,7 +38,8 @@ from engine.world.transient import TS
 from .journal import Journal
 
 __all__ = [
-    "MOVES", "REGISTER", "UPDATE", "HANDOVER_IN", "REMOVE", "HANDOVER_OUT", "KIND_NAMES", "RECORD_HEAD",
+    "MOVES", "REGISTER", "UPDATE", "HANDOVER_IN", "REMOVE", "HANDOVER_OUT", "HANDING_OVER", "HANDOVER_FAILED",
+    "KIND_NAMES", "RECORD_HEAD",
     "MoverLog", "MoverState", "decode_state", "apply_state", "mover_state_bytes",
 ]
 
@@ -46,8 +49,11 @@ UPDATE: Final = 3
 HANDOVER_IN: Final = 4
 REMOVE: Final = 5
 HANDOVER_OUT: Final = 6
+HANDING_OVER: Final = 7
+HANDOVER_FAILED: Final = 8
 KIND_NAMES: Final = {MOVES: "moves", REGISTER: "register", UPDATE: "update", HANDOVER_IN: "handover-in",
-                     REMOVE: "remove", HANDOVER_OUT: "handover-out"}
+                     REMOVE: "remove", HANDOVER_OUT: "handover-out", HANDING_OVER: "handing-over",
+                     HANDOVER_FAILED: "handover-failed"}
 RECORD_HEAD: Final = struct.Struct("<BI")
 _STATE: Final = struct.Struct("<4q24d")
 assert _STATE.size == MOVER_STATE_BYTES
@@ -176,10 +182,23 @@ class MoverLog:
         self._flush()
         self.journal.append(RECORD_HEAD.pack(REMOVE, 1) + struct.pack("<Q", mover_id))
 
+    def handing_over(self, mover_id: int, landblock: int) -> None:
+        """A hand-over to `landblock`'s owner is about to be sent: on disk before it goes (after the mover's
+        moves so far in this request), so that a start after a kill knows to ask that owner whether it
+        took the mover, rather than hold it twice."""
+        self._flush()
+        self.journal.append(RECORD_HEAD.pack(HANDING_OVER, 1) + struct.pack("<QI", mover_id, landblock))
+        self.journal.commit(durable=True)
+
     def handed_over(self, mover_id: int, landblock: int) -> None:
-        """The mover left for `landblock`'s owner (after its moves so far in this request)."""
+        """The mover left for `landblock`'s owner."""
         self._flush()
         self.journal.append(RECORD_HEAD.pack(HANDOVER_OUT, 1) + struct.pack("<QI", mover_id, landblock))
+
+    def handover_failed(self, mover_id: int) -> None:
+        """No owner took the mover: it stays here, as before the move."""
+        self._flush()
+        self.journal.append(RECORD_HEAD.pack(HANDOVER_FAILED, 1) + struct.pack("<Q", mover_id))
 
     def commit(self, durable: bool = False) -> None:
         """The request is done: its records go to the journal, synced now under `always` or `durable`."""

@@ -24,13 +24,14 @@ from pathlib import Path
 from typing import Any
 from collections.abc import Callable
 
+import msgpack
 import zenoh
 
 from .core import ServiceCore
 from .frames import pack
 from .journal import DEFAULT_POLICY, POLICIES, Journal, journal_files
 from .journal_records import MoverLog
-from .wire import Keys
+from .wire import Keys, lb_hex
 from .state_file import SavedMover, StateFileError, restore, set_aside, write_state
 from .state_layout import user_state_path
 from .state_replay import Loaded, load_saved
@@ -40,6 +41,8 @@ __all__ = ["Persistence", "add_state_arguments", "held_elsewhere", "user_state_p
 log = logging.getLogger("acphys.service")
 
 DEFAULT_INTERVAL = 10.0
+#: how long a start waits for the owner of a landblock a hand-over was being sent to, to hear whether it took it
+IN_DOUBT_WAIT = 10.0
 SYNC_HELP = ("when the log of --state reaches the disk: 'every-second' (default: records are written and "
              "fsynced once a second; a SIGKILL, crash or power cut loses at most the changes answered in about "
              "the last second), 'always' (each request's records are fsynced before its reply and its States "
@@ -125,6 +128,10 @@ class Persistence:
 
         def run(core: ServiceCore) -> None:
             loaded = self._loaded
+            if loaded is not None and loaded.movers and loaded.in_doubt and node.options.accept_handovers:
+                taken = _taken_elsewhere(node.session, node.keys, loaded.in_doubt)
+                loaded.movers = [m for m in loaded.movers if m.handover.id not in taken]
+                self._compact = self._compact or bool(taken)
             if loaded is not None and loaded.movers and node.options.accept_handovers:
                 elsewhere = held_elsewhere(node.session, node.keys, [m.handover.id for m in loaded.movers])
                 for m in loaded.movers:
@@ -222,6 +229,43 @@ class Persistence:
 def _written(path: str, movers: int, why: str, began: float) -> None:
     log.info("state written: %d mover(s) to %s%s (%.1f ms)", movers, path, f" {why}" if why else "",
              (time.monotonic() - began) * 1000.0)
+
+
+def _taken_elsewhere(session: zenoh.Session, keys: Keys, in_doubt: dict[int, int]) -> set[int]:
+    """Of the movers whose hand-over was sent just before the stop (its outcome not logged), those the
+    landblock's owner took: each owner is asked (a Get of the mover on its landblock's key) until it answers,
+    for up to IN_DOUBT_WAIT seconds, since after a restart the other instances may take a moment to connect
+    again. One that does not answer in time, or answers that it does not hold the mover (`unknown_mover`, or
+    `moved`: it passed the mover on, perhaps long before): the mover stays here (if the owner did take it,
+    its own start asks this instance, finds the mover here, and does not restore it; an instance the mover
+    was passed on to is asked by `held_elsewhere` like every other)."""
+    taken: set[int] = set()
+    deadline = time.monotonic() + IN_DOUBT_WAIT
+    for mover_id, lb in in_doubt.items():
+        answer = None
+        while answer is None and time.monotonic() < deadline:
+            for r in session.get(keys.lb(lb_hex(lb), "get"), payload=pack({"id": mover_id}), timeout=2.0):
+                if r.ok is not None:
+                    answer = "held"
+                elif r.err is not None:
+                    try:
+                        answer = str(msgpack.unpackb(r.err.payload.to_bytes(), raw=False)["error"]["kind"])
+                    except Exception:  # an answer all the same
+                        answer = "unreadable"
+                break
+            if answer is None:
+                time.sleep(0.2)
+        if answer == "held":
+            taken.add(mover_id)
+            log.warning("mover %X was being handed over to %s when this instance stopped: the owner took it, so "
+                        "it is not restored here", mover_id, lb_hex(lb))
+        elif answer is None:
+            log.warning("mover %X was being handed over to %s when this instance stopped, and no owner answered "
+                        "within %.0f s: restored here", mover_id, lb_hex(lb), IN_DOUBT_WAIT)
+        else:
+            log.info("mover %X was being handed over to %s when this instance stopped; the owner does not hold it "
+                     "(%s): restored here", mover_id, lb_hex(lb), answer)
+    return taken
 
 
 def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:

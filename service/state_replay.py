@@ -35,6 +35,8 @@ from .codec import decode_mover_spec, encode_mover_spec, encode_vec
 from .errors import ProtocolError
 from .journal import DEFAULT_BUDGET, JournalCorrupt, journal_files, read_journal
 from .journal_records import (
+    HANDING_OVER,
+    HANDOVER_FAILED,
     HANDOVER_IN,
     HANDOVER_OUT,
     KIND_NAMES,
@@ -72,6 +74,9 @@ class Loaded:
     #: what every mover's seq was raised by (0: no log, or every log written under `always`)
     jump: int = 0
     records: int = 0
+    #: movers whose last record is a hand-over sent with no outcome logged: mover -> the landblock it was
+    #: sent to (whose owner the start asks whether it took it)
+    in_doubt: dict[int, int] = field(default_factory=dict)
 
 
 class _Replay:
@@ -83,6 +88,7 @@ class _Replay:
         #: the latest row of a mover a record changed: (payload, n, index)
         self.rows: dict[int, tuple[bytes, int, int]] = {}
         self.specs: dict[int, MoverSpec] = {}
+        self.in_doubt: dict[int, int] = {}
 
     def apply(self, payload: bytes) -> None:
         kind, n = RECORD_HEAD.unpack_from(payload, 0)
@@ -101,6 +107,9 @@ class _Replay:
                 raise ValueError(f"a {KIND_NAMES[kind]} record changes mover "
                                  f"{min(set(ids) - self.alive):X}, which is not held")
             self.rows.update(zip(ids, zip(repeat(payload), repeat(n), range(n))))
+            if self.in_doubt:
+                for mover_id in ids:  # changed here after a hand-over was sent: it stayed here
+                    self.in_doubt.pop(mover_id, None)
             if kind != MOVES:
                 specs = msgpack.unpackb(payload[need:], raw=False, strict_map_key=False)
                 if not isinstance(specs, list) or len(specs) != n:
@@ -110,12 +119,23 @@ class _Replay:
                         self.specs[mover_id] = decode_mover_spec(spec, "mover")
                     except ProtocolError as e:
                         raise ValueError(f"mover {mover_id:X}: {e.message}") from None
+        elif kind == HANDING_OVER or kind == HANDOVER_FAILED:
+            if not self.alive.issuperset(ids):
+                raise ValueError(f"a {KIND_NAMES[kind]} record names mover {min(set(ids) - self.alive):X}, "
+                                 "which is not held")
+            if kind == HANDING_OVER:
+                lbs = struct.unpack_from(f"<{n}I", payload, at + 8 * n)
+                self.in_doubt.update(zip(ids, lbs))
+            else:
+                for mover_id in ids:
+                    self.in_doubt.pop(mover_id, None)
         elif kind == REMOVE or kind == HANDOVER_OUT:
             if not self.alive.issuperset(ids):
                 raise ValueError(f"a {KIND_NAMES[kind]} record takes mover {min(set(ids) - self.alive):X}, "
                                  "which is not held")
             for mover_id in ids:
                 self.alive.discard(mover_id)
+                self.in_doubt.pop(mover_id, None)
                 self.rows.pop(mover_id, None)
                 self.specs.pop(mover_id, None)
                 self.base.pop(mover_id, None)
@@ -226,4 +246,4 @@ def load_saved(path: str | Path, discard_bad: bool = False) -> Loaded:
         replayed = replayed[:-1]
         break
     generation = max([first] + [g + 1 for g, _p in todo])
-    return Loaded(state.movers(jump), generation, replayed, stale, jump, records)
+    return Loaded(state.movers(jump), generation, replayed, stale, jump, records, dict(state.in_doubt))

@@ -257,7 +257,8 @@ class WorkerSupervisor:
             # each worker keeps its own movers: one file per worker of this split (regroup_state, at start,
             # has put every saved mover in the file of its landblock's worker)
             argv += ["--state", worker_state_path(a.state, index, self.wanted),
-                     "--state-interval", str(a.state_interval)]
+                     "--state-interval", str(a.state_interval),
+                     "--state-sync", getattr(a, "state_sync", None) or "every-second"]
             if a.state_discard_bad:
                 argv.append("--state-discard-bad")
         return argv

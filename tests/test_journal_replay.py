@@ -239,3 +239,23 @@ def test_record_specs_are_msgpack_maps(tmp_path: Path) -> None:
     mover_id, seq = struct.unpack_from("<QQ", data, 5)
     specs = msgpack.unpackb(data[5 + 16 + 224:], raw=False)
     assert (kind, n, mover_id, seq) == (2, 1, 0xA1, 0) and specs[0]["step_up_height"] == 0.6
+
+
+def test_a_hand_over_sent_with_no_outcome_logged_is_in_doubt(tmp_path: Path) -> None:
+    state = tmp_path / "m.state"
+    core = _core()
+    log = MoverLog(Journal(state, 0, "always"))
+    core.attach_log(log)
+    for mover_id, gx in ((0xA1, 60.0), (0xB2, 100.0), (0xC3, 140.0), (0xD4, 20.0)):
+        _register(core, mover_id, gx, 60.0)
+    log.handing_over(0xA1, 0xAAB4)  # sent, then the kill: did AAB4's owner take it?
+    log.handing_over(0xB2, 0xAAB4)
+    log.handover_failed(0xB2)  # refused: it stayed
+    log.handing_over(0xC3, 0xAAB4)
+    log.handed_over(0xC3, 0xAAB4)  # taken: gone from here
+    log.handing_over(0xD4, 0xAAB4)
+    _step(core, 0xD4, (0.0, 0.5, 0.0), 0.2)  # moved here afterwards: it stayed
+    log.journal.close()
+    loaded = load_saved(state)
+    assert loaded.movers is not None and sorted(m.handover.id for m in loaded.movers) == [0xA1, 0xB2, 0xD4]
+    assert loaded.in_doubt == {0xA1: 0xAAB4}

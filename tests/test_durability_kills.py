@@ -1,0 +1,101 @@
+"""SIGKILL at random moments (benchmarks/durability_kills.py): each `--state-sync` policy keeps its promise
+(docs/protocol.md, "Durability"). A dozen kills here, bounded in time; the benchmark (`python3 -m benchmarks
+--only durability`) runs many more. And a hand-over pair killed in turn mid-traffic: every mover exists
+exactly once afterwards, and no seq is answered twice."""
+
+from __future__ import annotations
+
+import random
+import threading
+import time
+from pathlib import Path
+
+import msgpack
+import pytest
+import zenoh
+
+from benchmarks.durability_kills import WINDOW_S, run_kills
+from clients import Client
+from clients.demo_world import global_to_cell
+from clients.errors import AcphysError
+from cluster_support import cluster_pair
+from service_support import ServiceProcess, demo_world, human, raw_session, start_on_ground
+
+
+def test_always_loses_nothing_answered_across_random_kills() -> None:
+    run = run_kills("always", kills=5, seed=11)
+    assert run.violations == []
+    assert run.kills == 5 and run.requests > 50  # each round answered requests before its kill
+    assert run.lost_moves == [0] * 5
+
+
+@pytest.mark.parametrize("policy", ["every-second", "never"])
+def test_every_second_and_never_lose_nothing_older_than_the_window(policy: str) -> None:
+    run = run_kills(policy, kills=4, seed=12 if policy == "every-second" else 13)
+    assert run.violations == []  # among them: nothing answered more than WINDOW_S before a kill is lost
+    assert run.kills == 4 and run.requests > 40
+    assert max(run.lost_age_s) <= WINDOW_S
+
+
+def _holders(session: zenoh.Session, mover_id: int) -> int:
+    """How many instances answer a Get of the mover (by Zenoh id: an instance owning two keys counts once)."""
+    replies = session.get("acphys/lb/*/get", payload=msgpack.packb({"v": 1, "id": mover_id}),
+                          target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE, timeout=3.0)
+    return len({str(r.replier_id.zid) for r in replies if r.ok is not None})
+
+
+def test_a_hand_over_pair_killed_in_turn_keeps_every_mover_once(tmp_path: Path) -> None:
+    a_cluster, b_cluster = cluster_pair(tmp_path)
+    a_args = [*a_cluster, "--state", str(tmp_path / "a.state"), "--state-interval", "3600"]
+    b_args = [*b_cluster, "--state", str(tmp_path / "b.state"), "--state-interval", "3600"]
+    world = demo_world()
+    rng = random.Random(21)
+    procs = {"a": ServiceProcess(own="A9B4,A9B5", extra=a_args), "b": ServiceProcess(own="AAB4,AAB5", extra=b_args)}
+    procs["a"].start()
+    procs["b"].start()
+    session = raw_session(procs["a"].endpoint, procs["b"].endpoint)
+    answered: dict[int, int] = {}  # the highest seq answered for each mover
+    try:
+        with Client(session=session, timeout=3.0) as c:
+            c.wait_ready(instances=2, timeout=20.0)
+            movers = []
+            for k in range(4):  # on A's side of the A9B4 | AAB4 border (x 192), 6 m apart
+                cell, x, y = global_to_cell(190.0, 30.0 + 6.0 * k)
+                movers.append(c.register(human(), start_on_ground(world, cell, x, y)).id)
+            time.sleep(WINDOW_S)  # the registers synced: every kill from here on must keep every mover
+            for kill in range(4):
+                stop = threading.Event()
+
+                def traffic(stop: threading.Event = stop) -> None:  # over the border and back, each in turn
+                    for step in range(100000):
+                        if stop.is_set():
+                            return
+                        mover_id = movers[step % len(movers)]
+                        dx = 1.5 if (step // len(movers)) % 4 < 2 else -1.5
+                        try:
+                            st = c.move(mover_id, offset=(dx, 0.0, 0.0), velocity=(0.0, 0.0, 0.0))
+                        except AcphysError:
+                            return
+                        answered[mover_id] = max(answered.get(mover_id, 0), st.seq)
+
+                runner = threading.Thread(target=traffic, daemon=True)
+                runner.start()
+                time.sleep(rng.uniform(0.5, 1.5))
+                victim = procs["a" if kill % 2 == 0 else "b"]
+                victim.kill()  # SIGKILL, mid-traffic: often mid-hand-over
+                stop.set()
+                runner.join(30.0)
+                assert not runner.is_alive()
+                victim.start()
+                c.wait_ready(instances=2, timeout=20.0)
+                for mover_id in movers:
+                    assert _holders(session, mover_id) == 1, (kill, hex(mover_id))
+                    c.find(mover_id)
+                    # the first answer after the kill is above every seq answered before it
+                    seq = c.move(mover_id, offset=(0.0, 0.1, 0.0)).seq
+                    assert seq > answered[mover_id], (kill, hex(mover_id))
+                    answered[mover_id] = seq
+    finally:
+        session.close()
+        for p in procs.values():
+            p.kill()
