@@ -50,7 +50,7 @@ from .requests import (
     parse_update,
 )
 from .stats import ServiceStats
-from .queries import QUERY_OPS, query_count, query_work
+from .queries import BATCH_FIELDS, QUERY_OPS, query_count, query_work
 from .wire import LB_QUERY_OPS, ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
@@ -485,9 +485,22 @@ class ServiceNode:
             handover = parse_handover(msg)
             return lambda: core.handover_in(handover)
         if op in QUERY_OPS:
-            return query_work(op, lb, msg, core.world, lambda i, path: core._record(i, path).engine_id,
+            work = query_work(op, lb, msg, core.world, lambda i, path: core._record(i, path).engine_id,
                               lambda e: core._by_engine.get(e, 0))
+            return lambda: self._query_item_errors(op, lb, work())
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
+
+    def _query_item_errors(self, op: str, lb: int | None, content: dict[str, Any]) -> dict[str, Any]:
+        """A query batch's reply, its failed items logged (a WARNING each, as every error answered is):
+        `{"error": ...}` in the map form's list, the `errors` of the column form."""
+        failed = [(i, item["error"]) for i, item in enumerate(content.get(BATCH_FIELDS[op]) or ())
+                  if isinstance(item, dict) and "error" in item]
+        failed += [(e["index"], e["error"]) for e in content.get("errors") or ()]
+        if failed:
+            key = self.keys.lb(lb_hex(lb) if lb is not None else "*", op)
+            for index, err in failed:
+                ERRORS.error(str(err.get("kind")), op, key, str(err.get("message")), item=index, path=err.get("path"))
+        return content
 
     def _item_error(self, op: str, lb: int | None, err: ProtocolError, index: int, mover_id: int | None) -> None:
         """The WARNING line of one failed item of a batch (service/request_log.py)."""

@@ -124,6 +124,11 @@ def test_a_service_logs_requests_errors_state_and_stop_as_json(tmp_path: Path) -
             assert ok and reply["results"][1]["error"]["kind"] == "unknown_mover"
             ok, reply = raw_query(session, "acphys/lb/A9B4/move", msgpack.packb({"v": 1, "move": {"id": 0x777}}))
             assert not ok and reply["error"]["kind"] == "missing_field"
+            # a query batch answers each item: an indoor cell the landblock lacks is an error answered too
+            grounds = {"v": 1, "grounds": [{"position": {"cell": cell, "origin": [x, y, z]}},
+                                           {"position": {"cell": 0xA9B40999, "origin": [1.0, 1.0, 1.0]}}]}
+            ok, reply = raw_query(session, "acphys/lb/A9B4/ground", msgpack.packb(grounds))
+            assert ok and reply["grounds"][1]["error"]["kind"] == "unknown_cell"
         finally:
             session.close()
         assert svc.stop(signal.SIGTERM) == 0
@@ -140,7 +145,9 @@ def test_a_service_logs_requests_errors_state_and_stop_as_json(tmp_path: Path) -
     assert [o["result"] for o in requests if o["op"] == "register"] == ["ok"]
     errors = [o for o in logs if o.get("event") == "error"]
     assert [(o["level"], o["op"], o["kind"]) for o in errors] == [("WARNING", "move", "unknown_mover"),
-                                                                 ("WARNING", "move", "missing_field")]
+                                                                 ("WARNING", "move", "missing_field"),
+                                                                 ("WARNING", "ground", "unknown_cell")]
+    assert errors[2]["item"] == 1 and errors[2]["key"] == "acphys/lb/A9B4/ground"
     assert errors[0]["id"] == 0x999 and errors[0]["item"] == 1 and "999" in errors[0]["error"]
     assert errors[1]["key"] == "acphys/lb/A9B4/move"
     infos = [o["message"] for o in logs if o["level"] == "INFO"]
