@@ -230,7 +230,8 @@ class Client(SpatialQueries):
         """Ask every instance for mover `mover_id` (a `get` on every landblock key) and return its
         current State; the client remembers its landblock. Raises ServiceError (`unknown_mover`) when the
         instances answer that they hold no such mover, NoServiceError when no instance answers at all;
-        `timeout` in seconds."""
+        `timeout` in seconds. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
+        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
         errors: list[ServiceError] = []
         self._settle()
         for r in self._replies_of_all(self.keys.lb("*", "get"), {"id": mover_id}, timeout):
@@ -669,20 +670,23 @@ class Client(SpatialQueries):
         """Every instance's owned and loaded landblocks: one `InstanceInfo` per instance that answered
         within `timeout` seconds, with `owned` (`"*"`, a list of 0xXXYY landblocks, or an x range) and
         `loaded` (docs/protocol.md, "List"). An empty list when none answered; raises nothing of its
-        own."""
+        own. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
+        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
         return self._all(self.keys.landblocks, timeout)
 
     def health(self, timeout: float | None = None) -> list[InstanceInfo]:
         """Every instance's Health: one `InstanceInfo` per instance that answered within `timeout`
         seconds, with `status` ("ok", "draining", "degraded"), `protocol`, `movers`, `queue_depth`,
-        `move_forms`, `queries`, ... (docs/protocol.md, "Health"). An empty list when none answered."""
+        `move_forms`, `queries`, ... (docs/protocol.md, "Health"). An empty list when none answered. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
+        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
         return self._all(self.keys.health, timeout)
 
     def stats(self, timeout: float | None = None) -> list[InstanceInfo]:
         """Every instance's Stats: one `InstanceInfo` per instance that answered within `timeout`
         seconds, with `requests` and `errors` counted by kind, `moves`, `latency_ms`, `engine_ms`
         (milliseconds), `loaded_landblocks`, ... (docs/protocol.md, "Stats"). An empty list when none
-        answered."""
+        answered. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
+        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
         return self._all(self.keys.stats, timeout)
 
     def wait_ready(self, instances: int = 1, timeout: float = 10.0) -> list[InstanceInfo]:
