@@ -26,6 +26,8 @@ from .transition.settings import ACE_COMPAT, RETAIL, EngineSettings
 from .world.types import CylSphereSpec, MoveResult, MoverSpec, ObjectState, SphereSpec
 
 if TYPE_CHECKING:
+    from .navigation.results import PathResult
+    from .navigation.settings import NavSettings
     from .formats.dat_world import open_dat_world
     from .formats.load import load_scene
     from .formats.scene import world_from_scene_dict
@@ -37,6 +39,8 @@ __getattr__ = lazy_getattr(
     __name__,
     {
         "World": ".world.world",
+        "PathResult": ".navigation.results",
+        "NavSettings": ".navigation.settings",
         "load_scene": ".formats.load",
         "open_dat_world": ".formats.dat_world",
         "world_from_scene_dict": ".formats.scene",
@@ -55,9 +59,11 @@ __all__ = [
     "LandblockNotLoadedError",
     "MoveResult",
     "MoverSpec",
+    "NavSettings",
     "NonFiniteError",
     "ObjectState",
     "OutOfRangeError",
+    "PathResult",
     "PlacementFailedError",
     "Plane",
     "Position",
