@@ -23,6 +23,7 @@ benchmarks/bench_durability.py many more.
 
 from __future__ import annotations
 
+import os
 import random
 import signal
 import struct
@@ -54,7 +55,7 @@ from service.requests import MoveItem, parse_moves
 from service.state_file import SavedMover, read_state, restore
 from service.stats import ServiceStats
 
-__all__ = ["WINDOW_S", "KillRun", "run_kills"]
+__all__ = ["WINDOW_S", "KillRun", "Service", "run_kills"]
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
@@ -66,7 +67,7 @@ SPOTS = [(20.0 + 30.0 * (k % 5), 20.0 + 40.0 * (k // 5)) for k in range(12)]
 START_TIMEOUT = 60.0
 
 
-def _human() -> MoverSpec:
+def player_spec() -> MoverSpec:
     return MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.48), 0.48), SphereSpec((0.0, 0.0, 1.35), 0.48)],
                      step_up_height=0.6, step_down_height=0.4, state=["IsPlayer"])
 
@@ -112,7 +113,7 @@ class Mirror:
         return seqs
 
     def register(self, mover_id: int, position: Position) -> dict[int, int]:
-        self.core.register(RegisterRequest(mover_id, _human(), position, None, None))
+        self.core.register(RegisterRequest(mover_id, player_spec(), position, None, None))
         return self._keep([mover_id])
 
     def single(self, mover_id: int, kind: str, v: tuple[float, float, float], dt: float) -> dict[int, int]:
@@ -170,9 +171,11 @@ class KillRun:
     violations: list[str] = field(default_factory=list)
 
 
-class _Service:
-    def __init__(self, state: Path, policy: str, engine_root: Path | None = None) -> None:
-        import os
+class Service:
+    """`python -m service` on the demo world on a free loopback port; with `state`, `--state` and the policy."""
+
+    def __init__(self, state: Path | None, policy: str, engine_root: Path | None = None,
+                 interval: float = 3600.0) -> None:
         import socket
 
         with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
@@ -184,8 +187,9 @@ class _Service:
         env["PYTHONPATH"] = os.pathsep.join([*first, str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
         env["PYTHONUNBUFFERED"] = "1"
         self.args = [sys.executable, "-m", "service", "--scene", str(DEMO_SCENE), "--listen", self.endpoint,
-                     "--log-level", "WARNING", "--state", str(state), "--state-sync", policy,
-                     "--state-interval", "3600"]
+                     "--log-level", "WARNING"]
+        if state is not None:
+            self.args += ["--state", str(state), "--state-sync", policy, "--state-interval", str(interval)]
         self.env, self.cwd = env, engine_root or ROOT
         self.proc: subprocess.Popen[str] | None = None
         self.output: list[str] = []
@@ -210,6 +214,13 @@ class _Service:
             if proc.poll() is not None or time.monotonic() > deadline:
                 self.kill()
                 raise RuntimeError("the service did not start:\n" + "".join(self.output[-30:]))
+
+    def cpu_seconds(self) -> float:
+        """The process's user + system CPU time so far (all its threads), from /proc."""
+        assert self.proc is not None
+        with open(f"/proc/{self.proc.pid}/stat", encoding="ascii") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def kill(self) -> None:
         if self.proc is not None and self.proc.poll() is None:
@@ -289,7 +300,7 @@ def run_kills(policy: str, kills: int, seed: int = 1, engine_root: Path | None =
     jump = 0 if policy == "always" else DEFAULT_BUDGET + 1
     with tempfile.TemporaryDirectory(prefix="acphys-kills-", dir=workdir) as tmp:
         state = Path(tmp) / "movers.state"
-        svc = _Service(state, policy, engine_root)
+        svc = Service(state, policy, engine_root)
         mirror = Mirror()
         acked: dict[int, list[Ack]] = {}
         svc.start()
@@ -301,7 +312,7 @@ def run_kills(policy: str, kills: int, seed: int = 1, engine_root: Path | None =
                     pos = Position.at(cell, Vec3(x, y, mirror.core.world.terrain_height(cell, x, y) + 0.5))
                     mover_id = 0xD000 + k
                     mirror.register(mover_id, pos)
-                    st = c.register(_human(), pos, mover_id=mover_id)
+                    st = c.register(player_spec(), pos, mover_id=mover_id)
                     acked[mover_id] = [Ack(st.seq, time.monotonic())]
             if policy != "always":
                 time.sleep(WINDOW_S)  # the registers are past the window: every kill must keep every mover
@@ -314,7 +325,7 @@ def run_kills(policy: str, kills: int, seed: int = 1, engine_root: Path | None =
     return run
 
 
-def _one_kill(svc: _Service, state: Path, mirror: Mirror, acked: dict[int, list[Ack]], rng: random.Random,
+def _one_kill(svc: Service, state: Path, mirror: Mirror, acked: dict[int, list[Ack]], rng: random.Random,
               run: KillRun, jump: int, load_s: tuple[float, float]) -> None:
     inflight: dict[int, int] = {}
     stop = threading.Event()

@@ -556,6 +556,10 @@ def write(results: dict[str, Any]) -> None:
         from .bench_navigation import section as navigation_section
 
         lines += navigation_section(results["navigation"], meta_line(results["navigation"]))
+    if "durability" in results:
+        from .bench_durability import section as durability_section
+
+        lines += durability_section(results["durability"], meta_line(results["durability"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

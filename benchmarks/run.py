@@ -26,7 +26,7 @@ from typing import Any
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation")
+SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation", "durability")
 
 
 def _git_commit() -> str:
@@ -167,6 +167,19 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 data = bench_queries.run(args.quick)
             except Exception as e:  # noqa: BLE001 - the doc says why instead
+                data = {"failed": f"{type(e).__name__}: {e}"}
+        elif section == "durability":
+            from . import bench_durability
+
+            try:
+                root = None
+                if _variant(args) == "compiled":  # the working tree's engine is interpreted: the compiled copy's
+                    from . import pure
+
+                    root = pure.build_compiled()
+                data = bench_durability.run(args.quick, engine_root=root)
+            except Exception as e:  # noqa: BLE001 - the doc says why instead
+                log(f"durability benchmark failed: {type(e).__name__}: {e}")
                 data = {"failed": f"{type(e).__name__}: {e}"}
         elif section == "navigation":
             from . import bench_navigation

@@ -12,6 +12,7 @@ move. Runs on the engine thread, with the engine lock held, as the map form.
 from __future__ import annotations
 
 import logging
+from array import array
 from itertools import repeat
 from operator import is_not
 from dataclasses import dataclass, field
@@ -238,14 +239,19 @@ def _journal(core: ServiceCore, req: ColumnRequest, out: ColumnResults, upto: in
     out.journaled = upto
     log, states = core.log, out.rows.states
     assert log is not None and states is not None
-    seqs = np.array(out.seqs[lo:upto], dtype=np.uint64)
+    seqs = out.seqs[lo:upto]
     ids = req.arrays["id"][lo:upto]
-    raw = states.getvalue()[lo * MOVER_STATE_BYTES:upto * MOVER_STATE_BYTES]
-    resolved = seqs != 0  # a resolved move's seq is at least 1
-    if not resolved.all():
+    raw = states.getvalue()
+    if lo or len(raw) != upto * MOVER_STATE_BYTES:
+        raw = raw[lo * MOVER_STATE_BYTES:upto * MOVER_STATE_BYTES]
+    if 0 in seqs:  # some did not resolve (a resolved move's seq is at least 1): their rows are left out
+        seq_array = np.array(seqs, dtype="<u8")
+        resolved = seq_array != 0
         raw = np.frombuffer(raw, dtype=f"V{MOVER_STATE_BYTES}")[resolved].tobytes()
-        ids, seqs = ids[resolved], seqs[resolved]
-    log.moved_rows(ids, seqs, raw)
+        log.moved_rows(np.ascontiguousarray(ids[resolved], "<u8").tobytes(), seq_array[resolved].tobytes(), raw,
+                       int(resolved.sum()))
+    else:
+        log.moved_rows(np.ascontiguousarray(ids, "<u8").tobytes(), array("Q", seqs).tobytes(), raw, len(seqs))
 
 
 def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],

@@ -39,17 +39,20 @@ seq answered (0 under `always`, where nothing answered is ever lost).
 from __future__ import annotations
 
 import logging
+import mmap
 import os
 import struct
 import threading
+import time
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
 
 __all__ = [
     "POLICIES", "DEFAULT_POLICY", "DEFAULT_BUDGET", "Journal", "JournalCorrupt", "JournalFile",
-    "journal_path", "journal_files", "read_journal", "frame",
+    "JournalScan", "journal_path", "journal_files", "read_journal", "frame",
 ]
 
 log = logging.getLogger("acphys.service")
@@ -107,8 +110,17 @@ def journal_files(state: str | Path) -> dict[int, Path]:
 
 def frame(payload: bytes) -> bytes:
     """One frame: the header (length, the payload's crc32, the header's own crc32) and the payload."""
-    head = _FRAME.pack(len(payload), zlib.crc32(payload))
-    return head + _FRAME_CRC.pack(zlib.crc32(head)) + payload
+    return b"".join(_framed((payload,)))
+
+
+def _framed(parts: tuple[bytes, ...]) -> tuple[bytes, ...]:
+    """A frame of the payload `parts` (joined), as pieces: the header, its checksum, the parts."""
+    crc, size = 0, 0
+    for part in parts:
+        crc = zlib.crc32(part, crc)
+        size += len(part)
+    head = _FRAME.pack(size, crc)
+    return (head, _FRAME_CRC.pack(zlib.crc32(head)), *parts)
 
 
 def _header(generation: int, budget: int) -> bytes:
@@ -132,53 +144,86 @@ class JournalFile:
 
 def read_journal(path: Path) -> JournalFile:
     """Read a log whole: JournalCorrupt for damage before its end; a torn tail is dropped (and said)."""
-    data = path.read_bytes()
-    size = len(data)
-    if size < HEADER_BYTES:
-        # killed while the file was being made: it holds no record
-        return JournalFile(path, -1, 0, [], f"a header cut off ({size} of {HEADER_BYTES} bytes)", size, size)
-    magic, generation, budget = _HEADER.unpack_from(data, 0)
-    (crc,) = _HEADER_CRC.unpack_from(data, _HEADER.size)
-    if magic != MAGIC:
-        raise JournalCorrupt(path, 0, "not an acphys state log (wrong magic)", [])
-    if crc != zlib.crc32(data[:_HEADER.size]):
-        raise JournalCorrupt(path, 0, "the header fails its checksum", [])
-    out = JournalFile(path, generation, budget, size=size)
-    records = out.records
-    view = memoryview(data)
-    off = HEADER_BYTES
-    unpack_frame = _FRAME.unpack_from
-    unpack_crc = _FRAME_CRC.unpack_from
-    crc32 = zlib.crc32
-    while off < size:
-        if size - off < FRAME_HEAD:
-            _torn(out, off, f"a frame header cut off ({size - off} of {FRAME_HEAD} bytes)")
-            return out
-        length, payload_crc = unpack_frame(data, off)
-        (head_crc,) = unpack_crc(data, off + 8)
-        if head_crc != crc32(view[off:off + 8]) or length > MAX_PAYLOAD:
-            if _zeros(data, off):  # a power cut can leave the end of a file zeroed
-                _torn(out, off, "a tail of zero bytes")
-                return out
-            raise JournalCorrupt(path, off, "a record's header fails its checksum", records)
-        end = off + FRAME_HEAD + length
-        if end > size:
-            _torn(out, off, f"a record cut off ({size - off - FRAME_HEAD} of {length} bytes)")
-            return out
-        payload = data[off + FRAME_HEAD:end]
-        if crc32(payload) != payload_crc:
-            if _zeros(data, end):  # the last record, its write cut short
-                _torn(out, off, "the last record fails its checksum")
-                return out
-            raise JournalCorrupt(path, off, "a record fails its checksum", records)
-        records.append(payload)
-        off = end
+    scan = JournalScan(path)
+    records: list[bytes] = []
+    try:
+        for payload in scan:
+            records.append(payload)
+    except JournalCorrupt as e:
+        e.records = records
+        raise
+    out = scan.file
+    out.records = records
     return out
 
 
-def _zeros(data: bytes, offset: int) -> bool:
-    """Whether everything from `offset` to the end is zero bytes (or nothing)."""
-    return data.count(0, offset) == len(data) - offset
+class JournalScan:
+    """A log's records one at a time (memory-mapped: a log of gigabytes is not read into memory at once).
+    `file` holds the header's values and, once the iteration ended, what was dropped; JournalCorrupt is
+    raised where the damage is (its `records` empty: the caller has the ones before it)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.file = JournalFile(path, -1, 0)
+
+    def __iter__(self) -> Iterator[bytes]:
+        path = self.path
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            self.file.size = size
+            if size < HEADER_BYTES:
+                # killed while the file was being made: it holds no record
+                _torn(self.file, 0, f"a header cut off ({size} of {HEADER_BYTES} bytes)")
+                return
+            with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                yield from self._records(data, size)
+
+    def _records(self, data: mmap.mmap, size: int) -> Iterator[bytes]:
+        path, out = self.path, self.file
+        magic, generation, budget = _HEADER.unpack_from(data, 0)
+        (crc,) = _HEADER_CRC.unpack_from(data, _HEADER.size)
+        if magic != MAGIC:
+            raise JournalCorrupt(path, 0, "not an acphys state log (wrong magic)", [])
+        if crc != zlib.crc32(data[:_HEADER.size]):
+            raise JournalCorrupt(path, 0, "the header fails its checksum", [])
+        out.generation, out.budget = generation, budget
+        off = HEADER_BYTES
+        unpack_frame = _FRAME.unpack_from
+        unpack_crc = _FRAME_CRC.unpack_from
+        crc32 = zlib.crc32
+        while off < size:
+            if size - off < FRAME_HEAD:
+                _torn(out, off, f"a frame header cut off ({size - off} of {FRAME_HEAD} bytes)")
+                return
+            length, payload_crc = unpack_frame(data, off)
+            (head_crc,) = unpack_crc(data, off + 8)
+            if head_crc != crc32(data[off:off + 8]) or length > MAX_PAYLOAD:
+                if _zeros(data, off, size):  # a power cut can leave the end of a file zeroed
+                    _torn(out, off, "a tail of zero bytes")
+                    return
+                raise JournalCorrupt(path, off, "a record's header fails its checksum", [])
+            end = off + FRAME_HEAD + length
+            if end > size:
+                _torn(out, off, f"a record cut off ({size - off - FRAME_HEAD} of {length} bytes)")
+                return
+            payload = data[off + FRAME_HEAD:end]
+            if crc32(payload) != payload_crc:
+                if _zeros(data, end, size):  # the last record, its write cut short
+                    _torn(out, off, "the last record fails its checksum")
+                    return
+                raise JournalCorrupt(path, off, "a record fails its checksum", [])
+            yield payload
+            off = end
+
+
+def _zeros(data: mmap.mmap, offset: int, size: int) -> bool:
+    """Whether everything from `offset` to `size` is zero bytes (or nothing)."""
+    step = 1 << 20
+    for at in range(offset, size, step):
+        chunk = data[at:min(size, at + step)]
+        if chunk.count(0) != len(chunk):
+            return False
+    return True
 
 
 def _torn(out: JournalFile, offset: int, reason: str) -> None:
@@ -201,16 +246,18 @@ class Journal:
         self.budget = 0 if self.always else budget
         self.interval = interval
         self.generation = generation
-        self._lock = threading.Lock()  # the pending frames and counters
+        self._lock = threading.Lock()  # the pending records and the counters
         self._io = threading.Lock()  # the file: one writer at a time, in order
-        self._pending: list[bytes] = []
+        #: records not yet written, each its payload in parts (framed as they are written)
+        self._pending: list[tuple[bytes, ...]] = []
         self._pending_bytes = 0
-        self._pending_moves = 0
-        self._unsynced_moves = 0  # written, not yet synced
+        self._pending_moves = 0  # in the pending records
+        self._unsynced_moves = 0  # taken for writing, not yet on disk (synced; under never, written)
         self._fd = -1
         self._failed: str | None = None
         self._open(generation)
         self._stop = threading.Event()
+        self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         if not self.always:
             self._thread = threading.Thread(target=self._flush_loop, name="acphys-journal", daemon=True)
@@ -237,24 +284,29 @@ class Journal:
         self.generation = generation
 
     # -- the engine thread -----------------------------------------------------------------------------
-    def append(self, payload: bytes, moves: int = 0) -> None:
-        """Queue one record (written by `commit` or the policy's thread, in order)."""
-        f = frame(payload)
+    def append(self, *parts: bytes, moves: int = 0) -> None:
+        """Queue one record, its payload given in parts: framed (checksummed) and written in order, under
+        `every-second` and `never` by the log's thread, so the engine thread spends no time on either."""
+        size = 0
+        for part in parts:
+            size += len(part)
         with self._lock:
-            self._pending.append(f)
-            self._pending_bytes += len(f)
+            self._pending.append(parts)
+            self._pending_bytes += size
             self._pending_moves += moves
+            big = self._pending_bytes >= WRITE_AT
         self.records += 1
+        if big and self._thread is not None:
+            self._wake.set()
 
     def commit(self, durable: bool = False) -> None:
         """The end of a request, before its reply: under `always` (or when `durable`, whatever the policy: a
-        hand-over taken) its records are written and synced when this returns; else they are written when
-        enough wait, and synced when the seq budget is spent."""
+        hand-over) its records are written and synced when this returns; else they are left to the log's
+        thread, unless the seq budget is spent: then they are on disk (synced; under never, written) first."""
         if self.always or durable:
             self._write(sync=True)
             return
-        if self._pending_bytes >= WRITE_AT:
-            self._write(sync=False)
+        # (pending read first: a write taking records between the two reads counts them twice, never not at all)
         if self._pending_moves + self._unsynced_moves >= self.budget:
             self._write(sync=self.policy != "never")
 
@@ -266,22 +318,27 @@ class Journal:
     def _write(self, sync: bool) -> None:
         with self._io:
             with self._lock:
-                chunks, self._pending = self._pending, []
-                moves, self._pending_moves = self._pending_moves, 0
+                records, self._pending = self._pending, []
+                self._unsynced_moves += self._pending_moves
+                moves = self._pending_moves
+                self._pending_moves = 0
                 self._pending_bytes = 0
             if self._fd < 0:
                 return
             try:
-                if chunks:
-                    data = b"".join(chunks)
+                if records:
+                    data = b"".join([b for parts in records for b in _framed(parts)])
                     view = memoryview(data)
                     while view:
                         view = view[os.write(self._fd, view):]
-                self._unsynced_moves += moves
                 if sync:
                     os.fdatasync(self._fd)
-                    self._unsynced_moves = 0
                     self.syncs += 1
+                    with self._lock:  # every record taken so far is written (the io lock is held)
+                        self._unsynced_moves = 0
+                elif self.policy == "never":
+                    with self._lock:
+                        self._unsynced_moves -= moves
             except OSError as e:
                 if self._failed is None:
                     log.error("cannot write the state log %s: %s", self.path, e)
@@ -289,9 +346,18 @@ class Journal:
                 raise
 
     def _flush_loop(self) -> None:
-        while not self._stop.wait(self.interval):
+        """Once a second: write (and under every-second sync) what waits; write sooner when much waits."""
+        next_tick = time.monotonic() + self.interval
+        while not self._stop.is_set():
+            self._wake.wait(max(0.0, next_tick - time.monotonic()))
+            self._wake.clear()
+            if self._stop.is_set():
+                return
+            tick = time.monotonic() >= next_tick
+            if tick:
+                next_tick = time.monotonic() + self.interval
             try:
-                self._write(sync=self.policy == "every-second")
+                self._write(sync=tick and self.policy == "every-second")
             except OSError:
                 pass  # said once by _write; the next second tries again
 
@@ -312,6 +378,7 @@ class Journal:
         """Write and sync what is left, stop the thread, close the file; the next generation's number (the
         one a final snapshot names: this generation is then wholly in it)."""
         self._stop.set()
+        self._wake.set()
         if self._thread is not None:
             self._thread.join()
         try:

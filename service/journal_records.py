@@ -27,7 +27,6 @@ from array import array
 from typing import Any, Final
 
 import msgpack
-import numpy as np
 from librt.strings import BytesWriter
 
 from engine.geometry import Plane, Position, Quat, Vec3
@@ -151,25 +150,24 @@ class MoverLog:
         write_mover_state(self._states, mover)
         self._count += 1
 
-    def moved_rows(self, ids: np.ndarray[Any, Any], seqs: np.ndarray[Any, Any], states: bytes) -> None:
-        """Resolved moves of a column batch: ids, seqs (uint64) and their states (engine rows), one each."""
-        n = len(ids)
+    def moved_rows(self, ids: bytes, seqs: bytes, states: bytes, n: int) -> None:
+        """`n` resolved moves of a column batch: their ids and seqs (uint64, little-endian) and states (the
+        engine's, beside its rows), one each."""
         if n:
-            self._flush()
-            self.journal.append(b"".join((RECORD_HEAD.pack(MOVES, n), np.ascontiguousarray(ids, "<u8").tobytes(),
-                                          np.ascontiguousarray(seqs, "<u8").tobytes(), states)), n)
+            if self._count:
+                self._flush()
+            self.journal.append(RECORD_HEAD.pack(MOVES, n), ids, seqs, states, moves=n)
 
     def _flush(self) -> None:
         n = self._count
         if not n:
             return
-        payload = b"".join((RECORD_HEAD.pack(MOVES, n), self._ids.tobytes(), self._seqs.tobytes(),
-                            self._states.getvalue()))
+        parts = (RECORD_HEAD.pack(MOVES, n), self._ids.tobytes(), self._seqs.tobytes(), self._states.getvalue())
         self._ids = array("Q")
         self._seqs = array("Q")
         self._states = BytesWriter()
         self._count = 0
-        self.journal.append(payload, n)
+        self.journal.append(*parts, moves=n)
 
     # -- other changes ---------------------------------------------------------------------------------
     def movers(self, kind: int, mover_id: int, seq: int, mover: Mover, spec: dict[str, Any]) -> None:

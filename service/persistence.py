@@ -48,7 +48,8 @@ SYNC_HELP = ("when the log of --state reaches the disk: 'every-second' (default:
              "the last second), 'always' (each request's records are fsynced before its reply and its States "
              "go out: nothing answered is ever lost; it costs one fsync per request), 'never' (written once a "
              "second, synced when the OS chooses: a killed process loses at most about a second, a power cut "
-             "what the OS had not written). After any crash a mover's seq goes on above every seq answered")
+             "what the OS had not written). After a kill or crash a mover's seq goes on above every seq answered "
+             "(under 'never', not after a power cut)")
 
 
 def add_state_arguments(p: argparse.ArgumentParser) -> None:
@@ -59,7 +60,7 @@ def add_state_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--state-sync", choices=POLICIES, default=DEFAULT_POLICY, help=SYNC_HELP)
     g.add_argument("--state-interval", type=float, default=DEFAULT_INTERVAL, metavar="S",
                    help="seconds between writes of the state file, each starting a new log (default %(default)s; "
-                        "0: only at start and shutdown, the log grows until then)")
+                        "0: only at start and shutdown, the log growing until then)")
     g.add_argument("--state-discard-bad", action="store_true",
                    help="start without what cannot be restored: a bad state file is set aside (renamed, not "
                         "deleted) and the instance starts empty; a damaged log is set aside and the movers come "

@@ -33,7 +33,7 @@ from engine.world.types import MoverSpec
 
 from .codec import decode_mover_spec, encode_mover_spec, encode_vec
 from .errors import ProtocolError
-from .journal import DEFAULT_BUDGET, JournalCorrupt, journal_files, read_journal
+from .journal import DEFAULT_BUDGET, JournalCorrupt, JournalScan, journal_files
 from .journal_records import (
     HANDING_OVER,
     HANDOVER_FAILED,
@@ -213,22 +213,21 @@ def load_saved(path: str | Path, discard_bad: bool = False) -> Loaded:
     for k, (_generation, p) in enumerate(todo):
         replayed.append(p)
         bad: str | None = None
+        scan = JournalScan(p)
+        done = 0
         try:
-            f = read_journal(p)
-            body = f.records
+            for payload in scan:
+                state.apply(payload)
+                done += 1
+            f = scan.file
             jump = max(jump, f.budget + 1 if f.budget else 0)
             if f.torn is not None:
                 log.warning("state log %s: dropped a torn tail (%s, %d bytes): a record cut off by the stop",
                             p, f.torn, f.torn_bytes)
         except JournalCorrupt as e:
-            bad, body = str(e), e.records
+            bad = str(e)
         except OSError as e:
-            bad, body = f"state log {p}: {e}", []
-        done = 0
-        try:
-            for payload in body:
-                state.apply(payload)
-                done += 1
+            bad = f"state log {p}: {e}"
         except (ValueError, struct.error) as e:
             bad = f"state log {p}: record {done + 1} cannot be replayed: {e}"
         records += done

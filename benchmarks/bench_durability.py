@@ -1,0 +1,353 @@
+"""What `--state` with its log costs and what it keeps: `python3 -m benchmarks --only durability`.
+
+- Throughput and one move's round trip under each `--state-sync` policy against an instance without
+  `--state`, in the same run: four instances of the demo world (none, every-second, always, never), each
+  with 1000 movers, measured in turn, round after round (so drift of the machine falls on all alike):
+  column batches of 100 offset moves, map batches of 100 (`Client.move_many`), and one offset move at a
+  time (`Client.move`), each for a fixed time, one client in this process.
+- Log growth: the bytes the log gains per million moves, read from an instance's log after a known
+  number of column moves and of single moves.
+- Restart time with a log of 1 M and 10 M moves (written by the log's own writer, in records of 100 moves
+  of 1000 movers, as column batches leave them; and 1 M in records of one move, as single moves leave
+  them): the replay alone (service.state_replay.load_saved, in this process) and an `acphys serve` start
+  until it answers (replay, restore, compaction, Python and Zenoh start), against a start without state.
+- Kills: benchmarks/durability_kills.py's random SIGKILLs under each policy, with its checks.
+"""
+
+from __future__ import annotations
+
+import shutil
+import struct
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import msgpack
+import numpy as np
+
+from . import common
+from .common import log
+from .durability_kills import DEMO_SCENE, Service, run_kills
+
+__all__ = ["run", "section", "make_log"]
+
+POLICIES = ("every-second", "always", "never")
+CONFIGS = ("none", *POLICIES)
+MOVERS = 1000
+BATCH = 100
+
+
+def _register_movers(c: Any, n: int) -> list[int]:
+    from clients.demo_world import global_to_cell
+    from engine.geometry import Position, Vec3
+
+    from .durability_kills import player_spec
+
+    world = _world()
+    ids = []
+    for k in range(n):
+        gx, gy = 6.0 + (k % 30) * 6.0, 6.0 + (k // 30) * 5.5
+        cell, x, y = global_to_cell(gx, gy)
+        pos = Position.at(cell, Vec3(x, y, world.terrain_height(cell, x, y) + 0.5))
+        ids.append(c.register(player_spec(), pos).id)
+    return ids
+
+
+_WORLD: Any = None
+
+
+def _world() -> Any:
+    global _WORLD
+    if _WORLD is None:
+        from engine import load_scene
+
+        _WORLD = load_scene(str(DEMO_SCENE))
+    return _WORLD
+
+
+def _columns(c: Any, ids: list[int], seconds: float) -> tuple[int, float]:
+    arr = np.array(ids, dtype=np.uint64)
+    moves, k = 0, 0
+    began = time.perf_counter()
+    while time.perf_counter() - began < seconds:
+        chunk = arr[(k * BATCH) % len(arr):(k * BATCH) % len(arr) + BATCH]
+        sign = 1.0 if k % 2 == 0 else -1.0
+        c.move_batch(chunk, offsets=np.tile([0.01 * sign, 0.0, 0.0], (len(chunk), 1)))
+        moves += len(chunk)
+        k += 1
+    return moves, time.perf_counter() - began
+
+
+def _maps(c: Any, ids: list[int], seconds: float) -> tuple[int, float]:
+    from clients import Move
+
+    moves, k = 0, 0
+    began = time.perf_counter()
+    while time.perf_counter() - began < seconds:
+        start = (k * BATCH) % len(ids)
+        sign = 1.0 if k % 2 == 0 else -1.0
+        c.move_many([Move(i, offset=(0.01 * sign, 0.0, 0.0)) for i in ids[start:start + BATCH]])
+        moves += BATCH
+        k += 1
+    return moves, time.perf_counter() - began
+
+
+def _singles(c: Any, ids: list[int], seconds: float) -> list[float]:
+    samples = []
+    k = 0
+    began = time.perf_counter()
+    while time.perf_counter() - began < seconds:
+        sign = 1.0 if k % 2 == 0 else -1.0
+        t0 = time.perf_counter()
+        c.move(ids[k % len(ids)], offset=(0.01 * sign, 0.0, 0.0))
+        samples.append(time.perf_counter() - t0)
+        k += 1
+    return samples
+
+
+def _log_bytes(state: Path) -> int:
+    return sum(p.stat().st_size for p in state.parent.glob(state.name + ".journal-*"))
+
+
+def measure_costs(rounds: int, seconds: float, engine_root: Path | None) -> dict[str, Any]:
+    """Throughput and round trip per configuration, interleaved round by round; log growth per move."""
+    from clients import Client
+
+    tmp = Path(tempfile.mkdtemp(prefix="acphys-durability-"))
+    services: dict[str, Service] = {}
+    clients: dict[str, Any] = {}
+    ids: dict[str, list[int]] = {}
+    out: dict[str, Any] = {cfg: {"columns": [], "maps": [], "single_us": [], "columns_cpu_us": [], "maps_cpu_us": [],
+                                 "single_cpu_us": []} for cfg in CONFIGS}
+    growth: dict[str, Any] = {}
+    try:
+        for cfg in CONFIGS:
+            state = None if cfg == "none" else tmp / cfg / "movers.state"
+            if state is not None:
+                state.parent.mkdir()
+            services[cfg] = Service(state, cfg, engine_root, interval=10.0)
+            services[cfg].start()
+            clients[cfg] = Client([services[cfg].endpoint], timeout=30.0)
+            clients[cfg].wait_ready()
+            ids[cfg] = _register_movers(clients[cfg], MOVERS)
+        for r in range(rounds):
+            for cfg in CONFIGS:
+                c = clients[cfg]
+                cpu = services[cfg].cpu_seconds()
+                n, t = _columns(c, ids[cfg], seconds)
+                out[cfg]["columns"].append(n / t)
+                out[cfg]["columns_cpu_us"].append((services[cfg].cpu_seconds() - cpu) / n * 1e6)
+                cpu = services[cfg].cpu_seconds()
+                n, t = _maps(c, ids[cfg], seconds)
+                out[cfg]["maps"].append(n / t)
+                out[cfg]["maps_cpu_us"].append((services[cfg].cpu_seconds() - cpu) / n * 1e6)
+                cpu = services[cfg].cpu_seconds()
+                samples = _singles(c, ids[cfg], seconds)
+                out[cfg]["single_cpu_us"].append((services[cfg].cpu_seconds() - cpu) / len(samples) * 1e6)
+                out[cfg]["single_us"].extend(s * 1e6 for s in samples)
+            log(f"  round {r + 1}/{rounds}: " + ", ".join(
+                f"{cfg} {out[cfg]['columns'][-1]:.0f}/{out[cfg]['maps'][-1]:.0f} moves/s" for cfg in CONFIGS))
+        # log growth: an instance of its own, no state file written meanwhile (interval 3600 s)
+        state = tmp / "growth" / "movers.state"
+        state.parent.mkdir()
+        svc = Service(state, "every-second", engine_root, interval=3600.0)
+        svc.start()
+        try:
+            with Client([svc.endpoint], timeout=30.0) as c:
+                c.wait_ready()
+                movers = _register_movers(c, MOVERS)
+                time.sleep(1.5)
+                before = _log_bytes(state)
+                n, _t = _columns(c, movers, seconds)
+                time.sleep(1.5)
+                after = _log_bytes(state)
+                growth["columns_bytes_per_move"] = (after - before) / n
+                before = after
+                samples = _singles(c, movers, seconds)
+                time.sleep(1.5)
+                growth["single_bytes_per_move"] = (_log_bytes(state) - before) / len(samples)
+        finally:
+            svc.stop()
+    finally:
+        for c in clients.values():
+            c.close()
+        for s in services.values():
+            s.stop()
+        shutil.rmtree(tmp, ignore_errors=True)
+    result: dict[str, Any] = {"rounds": rounds, "seconds": seconds, "movers": MOVERS, "batch": BATCH,
+                              "growth": growth}
+    for cfg in CONFIGS:
+        single = sorted(out[cfg]["single_us"])
+        result[cfg] = {
+            "columns_moves_s": float(np.median(out[cfg]["columns"])), "columns_rounds": out[cfg]["columns"],
+            "maps_moves_s": float(np.median(out[cfg]["maps"])), "maps_rounds": out[cfg]["maps"],
+            "single_p50_us": common.pct(single, 50), "single_p90_us": common.pct(single, 90),
+            "single_count": len(single),
+            # the service process's CPU time per move (user + system, all its threads): what the log costs it,
+            # less blurred than throughput by whatever else the machine runs
+            "columns_cpu_us": float(np.median(out[cfg]["columns_cpu_us"])),
+            "maps_cpu_us": float(np.median(out[cfg]["maps_cpu_us"])),
+            "single_cpu_us": float(np.median(out[cfg]["single_cpu_us"])),
+        }
+    return result
+
+
+def make_log(state: Path, moves: int, per_record: int, movers: int = MOVERS) -> int:
+    """A log of `movers` registers then `moves` moves in records of `per_record`, written by the log's own
+    writer (policy never: written, not synced); its size in bytes."""
+    from clients.demo_world import global_to_cell
+    from service.codec import encode_mover_spec
+    from service.journal import Journal
+    from service.journal_records import MOVES, RECORD_HEAD, REGISTER, mover_state_bytes
+
+    from .durability_kills import player_spec
+
+    world = _world()
+    cell, x, y = global_to_cell(40.0, 40.0)
+    from engine.geometry import Position, Vec3
+
+    engine_id = world.add_mover(player_spec(), Position.at(cell, Vec3(x, y, world.terrain_height(cell, x, y) + 0.5)))
+    template = bytearray(mover_state_bytes(world.movers[engine_id]))
+    world.remove_mover(engine_id)
+    states = []
+    for k in range(movers):  # each its own place on A9B4's ground (origin x, y at bytes 32..47)
+        b = bytearray(template)
+        gx, gy = 6.0 + (k % 30) * 6.0, 6.0 + (k // 30) * 5.5
+        struct.pack_into("<3d", b, 32, gx, gy, world.terrain_height(cell, gx, gy) + 0.5)
+        states.append(bytes(b))
+    spec = msgpack.packb([encode_mover_spec(player_spec())], use_bin_type=True)
+    j = Journal(state, 0, "never")
+    for k in range(movers):
+        j.append(RECORD_HEAD.pack(REGISTER, 1) + struct.pack("<QQ", k + 1, 0) + states[k] + spec)
+    seqs = [0] * movers
+    done, k = 0, 0
+    while done < moves:
+        n = min(per_record, moves - done)
+        chosen = [(k + i) % movers for i in range(n)]
+        k += n
+        for i in chosen:
+            seqs[i] += 1
+        j.append(RECORD_HEAD.pack(MOVES, n), struct.pack(f"<{n}Q", *[i + 1 for i in chosen]),
+                 struct.pack(f"<{n}Q", *[seqs[i] for i in chosen]), b"".join([states[i] for i in chosen]), moves=n)
+        j.commit()
+        done += n
+    j.close()
+    return _log_bytes(state)
+
+
+def measure_restarts(sizes: list[tuple[int, int]], engine_root: Path | None) -> list[dict[str, Any]]:
+    """Per (moves, moves per record): the log's size, the replay alone and a service start until ready."""
+    from service.state_replay import load_saved
+
+    rows = []
+    base = _start_seconds(None, engine_root)
+    for moves, per in sizes:
+        tmp = Path(tempfile.mkdtemp(prefix="acphys-restart-"))
+        try:
+            state = tmp / "movers.state"
+            t0 = time.perf_counter()
+            size = make_log(state, moves, per)
+            made = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            loaded = load_saved(state)
+            replay = time.perf_counter() - t0
+            assert loaded.movers is not None and len(loaded.movers) == MOVERS
+            start = _start_seconds(state, engine_root)
+            rows.append({"moves": moves, "per_record": per, "log_bytes": size, "write_s": made, "replay_s": replay,
+                         "start_s": start, "start_without_state_s": base})
+            log(f"  {moves:,} moves ({per}/record): log {size / 1e6:.0f} MB, replay {replay:.2f} s, "
+                f"start {start:.2f} s (without state {base:.2f} s)")
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return rows
+
+
+def _start_seconds(state: Path | None, engine_root: Path | None) -> float:
+    svc = Service(state, "every-second", engine_root)
+    t0 = time.perf_counter()
+    svc.start()
+    took = time.perf_counter() - t0
+    svc.stop()
+    return took
+
+
+def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
+    out: dict[str, Any] = {"engine": "compiled copy (benchmarks/out/compiled)" if engine_root else
+                           ("compiled" if common.compiled_modules() else "interpreted")}
+    log("durability: throughput and round trip per policy")
+    out["costs"] = measure_costs(2 if quick else 5, 1.5 if quick else 3.0, engine_root)
+    log("durability: restart with a log")
+    sizes = [(100_000, 100), (100_000, 1)] if quick else [(1_000_000, 100), (1_000_000, 1), (10_000_000, 100)]
+    out["restarts"] = measure_restarts(sizes, engine_root)
+    log("durability: kills")
+    kills = []
+    for policy in POLICIES:
+        n = 3 if quick else 12
+        began = time.perf_counter()
+        k = run_kills(policy, n, seed=100 + POLICIES.index(policy), engine_root=engine_root)
+        kills.append({"policy": policy, "kills": k.kills, "requests": k.requests, "moves": k.moves_answered,
+                      "violations": k.violations, "lost_moves_max": max(k.lost_moves, default=0),
+                      "lost_moves_total": sum(k.lost_moves), "lost_age_max_s": max(k.lost_age_s, default=0.0),
+                      "restart_p50_s": common.pct(k.restart_s, 50) if k.restart_s else None,
+                      "seconds": time.perf_counter() - began})
+        log(f"  {policy}: {k.kills} kills, {len(k.violations)} violation(s), lost at most {max(k.lost_moves, default=0)} "
+            f"move(s) per kill, the oldest {max(k.lost_age_s, default=0.0):.2f} s before its kill")
+    out["kills"] = kills
+    return out
+
+
+def _pct_of(x: float, base: float) -> str:
+    return f"{100.0 * x / base:.0f} %" if base else "-"
+
+
+def section(data: dict[str, Any], meta: str) -> list[str]:
+    """docs/performance.md's section."""
+    lines = ["## 7. Durability: `--state` and its log (issue 33)", "", meta, ""]
+    if "failed" in data:
+        return [*lines, f"The run failed: {data['failed']}", ""]
+    costs = data.get("costs", {})
+    none = costs.get("none", {})
+    lines += [f"Engine: {data.get('engine', '?')}. Four instances of the demo world, {costs.get('movers')} movers "
+              f"each, one client in the benchmark's process; {costs.get('rounds')} rounds of "
+              f"{costs.get('seconds')} s per workload and instance, interleaved; medians of the rounds. The state "
+              "file is written every 10 s (the default) in these runs.", "",
+              "| `--state-sync` | column batches: moves/s (share of none) | service CPU µs/move | map batches: "
+              "moves/s (share) | service CPU µs/move | one move: round trip p50 / p90 µs | service CPU µs |",
+              "|---|---|---|---|---|---|---|"]
+    for cfg in CONFIGS:
+        row = costs.get(cfg)
+        if not row:
+            continue
+        name = "no `--state`" if cfg == "none" else f"`{cfg}`"
+        lines.append(f"| {name} | {row['columns_moves_s']:,.0f} ({_pct_of(row['columns_moves_s'], none.get('columns_moves_s', 0))}) "
+                     f"| {row.get('columns_cpu_us', float('nan')):.2f} "
+                     f"| {row['maps_moves_s']:,.0f} ({_pct_of(row['maps_moves_s'], none.get('maps_moves_s', 0))}) "
+                     f"| {row.get('maps_cpu_us', float('nan')):.2f} "
+                     f"| {row['single_p50_us']:.0f} / {row['single_p90_us']:.0f} | {row.get('single_cpu_us', float('nan')):.0f} |")
+    g = costs.get("growth", {})
+    if g:
+        # bytes per move = MB per million moves
+        lines += ["", f"Log growth: {g['columns_bytes_per_move']:,.0f} MB per million moves sent as "
+                  f"column batches of {costs.get('batch')}, {g['single_bytes_per_move']:,.0f} MB per "
+                  "million single moves (each move's whole engine state, 224 bytes, with its id and seq; a record "
+                  "per request). The log starts again at every state-file write (`--state-interval`, 10 s by "
+                  "default), so it holds at most that long's moves unless the interval is 0."]
+    rs = data.get("restarts", [])
+    if rs:
+        lines += ["", "| log | size | replay alone (s) | `acphys serve` start until it answers (s) | "
+                  "start without state (s) |", "|---|---|---|---|---|"]
+        for r in rs:
+            lines.append(f"| {r['moves']:,} moves, {r['per_record']} per record | {r['log_bytes'] / 1e6:,.0f} MB | "
+                         f"{r['replay_s']:.2f} | {r['start_s']:.2f} | {r['start_without_state_s']:.2f} |")
+    ks = data.get("kills", [])
+    if ks:
+        lines += ["", "Random SIGKILLs under load (benchmarks/durability_kills.py; its checks in its docstring):", "",
+                  "| policy | kills | requests answered | violations | most moves lost at one kill | oldest lost "
+                  "answer before its kill (s) | restart p50 (s) |", "|---|---|---|---|---|---|---|"]
+        for k in ks:
+            lines.append(f"| `{k['policy']}` | {k['kills']} | {k['requests']:,} | {len(k['violations'])} | "
+                         f"{k['lost_moves_max']} | {k['lost_age_max_s']:.2f} | "
+                         f"{k['restart_p50_s'] if k['restart_p50_s'] is None else round(k['restart_p50_s'], 2)} |")
+    lines.append("")
+    return lines
