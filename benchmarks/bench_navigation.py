@@ -102,9 +102,31 @@ def _into(nodes: list[Any], n: int) -> list[tuple[Any, Any]]:
     return out
 
 
+def _edge_walk_us(world: Any) -> float:
+    """What one edge walk costs: the graph's probe walking one lattice step (2 m) on the demo hills,
+    put back each time; microseconds, best of five rounds of 2,000."""
+    from engine.navigation.walk import ProbeState, walk_toward
+    from engine.navigation.graph import place_probe
+
+    graph = next(iter(world.navigation.graphs.values()))
+    tile = graph.tile(0xA9B40013)
+    start, goal = graph.position((0xA9B40013 << 16) | 30), graph.position((0xA9B40013 << 16) | 31)
+    probe = graph.probe
+    assert tile is not None and place_probe(world, probe, start, False)
+    here = ProbeState(probe)
+    best = math.inf
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(2000):
+            here.restore()
+            walk_toward(world.landscape, probe, goal, world.navigation.settings)
+        best = min(best, (time.perf_counter() - t0) / 2000)
+    return best * 1e6
+
+
 def _time_paths(world: Any, pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
     player = _player()
-    times, found, lengths = [], 0, []
+    times, found, lengths, walking = [], 0, [], []
     for a, b in pairs:
         t0 = time.perf_counter()
         r = world.path(player, a, b)
@@ -112,12 +134,16 @@ def _time_paths(world: Any, pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
         found += r.found
         if r.found:
             lengths.append(r.length)
+            t0 = time.perf_counter()
+            _walks(world, r)
+            walking.append(time.perf_counter() - t0)
     t0 = time.perf_counter()
     world.paths(player, pairs)
     batched = (time.perf_counter() - t0) / max(1, len(pairs))
     out = summary(times, 1e3)
     out.update(found=found, pairs=len(pairs), batched_mean_ms=batched * 1e3,
-               mean_length=sum(lengths) / len(lengths) if lengths else math.nan)
+               mean_length=sum(lengths) / len(lengths) if lengths else math.nan,
+               walk_once_median_ms=summary(walking, 1e3)["median"])
     return out
 
 
@@ -268,6 +294,8 @@ def run(quick: bool) -> dict[str, Any]:
     log("navigation: path queries on the demo world, every landblock built")
     demo = _demo()
     demo.build_navigation(_player())
+    edge_us = _edge_walk_us(demo)
+    log(f"  one edge walk: {edge_us:.1f} us")
     nodes = _nodes(demo, {0xA9B4, 0xA9B5, 0xAAB4, 0xAAB5})
     queries = {
         "50 m": _time_paths(demo, _pairs(nodes, n, 45.0, 55.0, seed=50)),
@@ -290,7 +318,7 @@ def run(quick: bool) -> dict[str, Any]:
               keyed[(b.cell_id, b.frame.origin.x, b.frame.origin.y, b.frame.origin.z)])
              for a, b in _pairs(nodes, n, 140.0, 160.0, seed=150)]
     search = _search_rows(demo, pairs)
-    return {"build": build, "queries": queries, "chase": chase, "search": search}
+    return {"build": build, "queries": queries, "chase": chase, "search": search, "edge_walk_us": edge_us}
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
@@ -298,21 +326,30 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     out = ["## 7. Navigation", "", meta, ""]
     if "failed" in data:
         return out + [f"Not measured: {data['failed']}", ""]
+    edge_us = data.get("edge_walk_us")
     out += ["Graph build of one landblock from nothing, for the test player (`World.build_navigation`: every "
             "node sampled, every edge walked by the transition; the best of three; memory is what the graph holds, "
             "by tracemalloc in a fourth build). "
             "Targets: at most 1 s and 8 MB per outdoor landblock.", "",
-            "| landblock | ms | MB | nodes | edges | walks |", "|---|---:|---:|---:|---:|---:|"]
+            "The walks alone bound a build: each is at least one move of the transition "
+            + (f"({edge_us:.1f} µs for one lattice edge in this run)" if edge_us else "")
+            + ", in the column 'walks alone'.", "",
+            "| landblock | ms | walks alone, ms | MB | nodes | edges | walks |", "|---|---:|---:|---:|---:|---:|---:|"]
     for r in data["build"]:
-        out.append(f"| {r['label']}, {r['landblock']} | {r['seconds'] * 1e3:.0f} | {r['megabytes']:.1f} | {r['nodes']} | "
-                   f"{r['edges']} | {r['walks']} |")
+        floor = f"{r['walks'] * edge_us / 1e3:.0f}" if edge_us else "-"
+        out.append(f"| {r['label']}, {r['landblock']} | {r['seconds'] * 1e3:.0f} | {floor} | {r['megabytes']:.1f} | "
+                   f"{r['nodes']} | {r['edges']} | {r['walks']} |")
     out += ["", "Path queries on a built graph (`World.path`, the proof walk included; `World.paths` for the batched "
             "column, per path). Target: a 150 m path in a built landblock in at most 2 ms median. Over the bus: not "
             "measured, the path query has no bus form yet.", "",
-            "| paths | p50 ms | p99 ms | batched, mean ms | found | mean length m |", "|---|---:|---:|---:|---:|---:|"]
+            "The column 'walking it' is one walk of the answer with `World.move` (median): the least a proven "
+            "path costs, since the search walked it to prove it.", "",
+            "| paths | p50 ms | p99 ms | batched, mean ms | walking it, ms | found | mean length m |",
+            "|---|---:|---:|---:|---:|---:|---:|"]
     for k, v in data["queries"].items():
-        out.append(f"| {k} | {v['median']:.2f} | {v['p99']:.2f} | {v['batched_mean_ms']:.2f} | {v['found']}/{v['pairs']} | "
-                   f"{v['mean_length']:.1f} |")
+        walk = v.get("walk_once_median_ms")
+        out.append(f"| {k} | {v['median']:.2f} | {v['p99']:.2f} | {v['batched_mean_ms']:.2f} | "
+                   f"{'-' if walk is None else f'{walk:.2f}'} | {v['found']}/{v['pairs']} | {v['mean_length']:.1f} |")
     out += ["", "The point of it: random pairs of graph nodes (points where the player stands) 4 to 40 m apart in "
             "three shared scenes (the dungeon's among its corridors only; some pairs have no way between them at "
             "all: a roof, an object's top, the cell behind the low doorway). A straight "
