@@ -365,4 +365,43 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
             out.append(f"| {r['name']} | not installed | |")
         else:
             out.append(f"| {r['name']} | {r['median']:.2f} | {r['p99']:.2f} |")
-    return out + [""]
+    return out + ["", *_findings(data), ""]
+
+
+def _findings(data: dict[str, Any]) -> list[str]:
+    """The choice of search, and each target against what bounds it, from this run's figures."""
+    mine = next((r for r in data["search"] if r["name"].startswith("engine.")), None)
+    others = [r for r in data["search"] if not r["name"].startswith("engine.") and "median" in r]
+    out = []
+    if mine is not None and others:
+        best = min(others, key=lambda r: r["median"])
+        out.append(f"**The search.** On a graph built whole, the hand-written A* took {mine['median']:.2f} ms at the "
+                   f"median against {best['median']:.2f} ms for the best library ({best['name'].split(' ')[0]}); its "
+                   f"p99 ({mine['p99']:.0f} ms) is the pairs with no way between them, which it floods to its budget where "
+                   "a library's Dijkstra stops at the graph's end. It stays, and neither library is a dependency: it is "
+                   "also the only one of them that runs on a graph whose edges are walked as the search reaches them, "
+                   "which is how a graph is built unless `build_navigation` is asked.")
+    builds = [r for r in data["build"] if "dungeon" not in r["label"]]
+    edge_us = data.get("edge_walk_us")
+    if builds and edge_us:
+        worst = max(builds, key=lambda r: r["seconds"])
+        over = worst["seconds"] > 1.0
+        out += ["", f"**Build, at most 1 s and 8 MB per outdoor landblock:** memory "
+                f"{'met' if max(r['megabytes'] for r in builds) <= 8.0 else 'missed'} "
+                f"(at most {max(r['megabytes'] for r in builds):.1f} MB); time {'missed' if over else 'met'} "
+                f"(at most {worst['seconds'] * 1e3:.0f} ms in this run, with the machine's load average at "
+                f"{data['meta']['machine'].get('loadavg_at_start', [0])[0]:.1f} on its two cores). The walks alone take "
+                f"{worst['walks'] * edge_us / 1e3:.0f} ms of it ({worst['walks']} walks of {edge_us:.1f} µs); the rest is "
+                "sampling (a placement for every candidate point) and finding each node's neighbours. Every edge is a "
+                "transition's walk by design, so the walks are the floor at this resolution; a 3 m lattice "
+                "(`NavSettings(resolution=3.0)`) has a little under half the nodes and edges."]
+    q = data["queries"].get("150 m")
+    if q is not None:
+        met = q["median"] <= 2.0
+        out += ["", f"**A 150 m path in at most 2 ms (median):** {'met' if met else 'missed'}: {q['median']:.2f} ms. "
+                f"Walking the answer once with `World.move` takes {q.get('walk_once_median_ms', float('nan')):.2f} ms at "
+                "the median, and the search proves its answer by walking it, the straight tries of the shortening "
+                "included; where the straight walk fails the A* adds its own (the table above) and the walks to and "
+                "from the graph at both ends. Paths that need no search (the straight walk arrives) cost about one "
+                "walk: the 50 m row."]
+    return out
