@@ -147,46 +147,20 @@ def _time_paths(world: Any, pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
     return out
 
 
-def _chase(world: Any, start: Any, goal: Any, stride: float = 3.0, tolerance: float = 0.25) -> bool:
-    """A straight chase: walk at the goal in strides, sliding as the transition does, for three times the
-    moves the distance needs; reached when standing within the tolerance of it."""
-    from engine import Position
-
+def _chase(world: Any, start: Any, goal: Any) -> bool:
+    """A straight chase: the walk of a path's leg straight at the goal, sliding as the transition does."""
     mover = world.add_mover(_player(), start, placement="enter_world")
     try:
-        moves = 3 * (math.ceil(start.get_offset(goal).length() / stride) + 3)
-        for _ in range(moves):
-            here = world.mover_state(mover).position
-            off = here.get_offset(goal)
-            d = off.length()
-            if d <= tolerance:
-                break
-            step = off if d <= stride else off * (stride / d)
-            world.move(mover, Position(here.cell_id, here.frame.with_origin(here.frame.origin + step)))
-        s = world.mover_state(mover)
-        return s.position.get_offset(goal).length() <= tolerance and s.contact and s.on_walkable
+        return bool(world.follow(mover, [start, goal]) == 1)
     finally:
         world.remove_mover(mover)
 
 
-def _walks(world: Any, path: Any, stride: float = 3.0, tolerance: float = 0.25) -> bool:
-    from engine import Position
-
+def _walks(world: Any, path: Any) -> bool:
+    """A found path walked by a mover registered where it starts (World.follow)."""
     mover = world.add_mover(_player(), path.waypoints[0], placement="enter_world")
     try:
-        for goal in path.waypoints[1:]:
-            for _ in range(math.ceil(world.mover_state(mover).position.get_offset(goal).length() / stride) + 3):
-                here = world.mover_state(mover).position
-                off = here.get_offset(goal)
-                d = off.length()
-                if d <= tolerance:
-                    break
-                step = off if d <= stride else off * (stride / d)
-                world.move(mover, Position(here.cell_id, here.frame.with_origin(here.frame.origin + step)))
-            s = world.mover_state(mover)
-            if not (s.position.get_offset(goal).length() <= tolerance and s.contact and s.on_walkable):
-                return False
-        return True
+        return bool(world.follow(mover, path.waypoints) == len(path.waypoints) - 1)
     finally:
         world.remove_mover(mover)
 
@@ -353,8 +327,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     out += ["", "The point of it: random pairs of graph nodes (points where the player stands) 4 to 40 m apart in "
             "three shared scenes (the dungeon's among its corridors only; some pairs have no way between them at "
             "all: a roof, an object's top, the cell behind the low doorway). A straight "
-            "chase walks at the goal and slides as the transition does (three times the moves the distance needs); "
-            "a path is asked for and walked with `World.move`.", "",
+            "chase walks at the goal and slides as the transition does (`World.follow` of the start and the goal); "
+            "a path is asked for and walked (`World.follow` of its waypoints).", "",
             "| scene | pairs | chase reaches | path reaches |", "|---|---:|---:|---:|"]
     for r in data["chase"]:
         out.append(f"| {r['scene']} | {r['pairs']} | {r['chase']} | {r['path']} |")

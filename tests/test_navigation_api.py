@@ -173,3 +173,21 @@ def test_unloaded_places_walls_and_a_small_budget_get_honest_reasons() -> None:
     assert not stingy.found and stingy.reason == "budget" and stingy.expanded <= 2
     beyond = world.path(PLAYER, start, at(116.0, 80.0, GROUND), max_distance=10.0)
     assert not beyond.found and beyond.reason == "unreachable"
+
+
+# -- following a path -----------------------------------------------------------------------------------------
+
+
+def test_follow_walks_a_found_path_and_stops_at_a_wall() -> None:
+    """World.follow is the walk of the guarantee on a registered mover: a found path is followed to its
+    end; straight through the wall (x = 108, its gap at y 83.8..86.2) the mover stops at the first leg."""
+    world = walled_world()
+    start, goal = at(100.0, 80.0, GROUND), at(116.0, 80.0, GROUND)
+    path = world.path(PLAYER, start, goal)
+    mover = world.add_mover(PLAYER, path.waypoints[0], placement="enter_world")
+    assert world.follow(mover, path.waypoints) == len(path.waypoints) - 1 >= 2
+    assert world.mover_state(mover).position.get_offset(goal).length() <= 0.25
+    blocked = world.add_mover(PLAYER, start, placement="enter_world")
+    assert world.follow(blocked, [start, goal]) == 0
+    here = world.mover_state(blocked).position.frame.origin
+    assert here.x < 108.0 - 0.25 - 0.48 + 0.05  # held on the wall's west face

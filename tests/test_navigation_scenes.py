@@ -32,12 +32,16 @@ def global_xy(p: Position) -> tuple[float, float]:
 
 
 def crossings(path: engine.navigation.PathResult, x_line: float) -> list[float]:
-    """The y at which the path's polyline crosses the vertical line x = x_line (global metres)."""
+    """The global y at which the path's polyline crosses the vertical line x = x_line (global metres)."""
+    return _crossings([global_xy(p) for p in path.waypoints], x_line)
+
+
+def _crossings(points: list[tuple[float, float]], line: float) -> list[float]:
+    """Where a polyline of (a, b) points crosses a = line: the b there."""
     out = []
-    pts = [global_xy(p) for p in path.waypoints]
-    for (x0, y0), (x1, y1) in zip(pts, pts[1:]):
-        if (x0 - x_line) * (x1 - x_line) < 0.0:
-            out.append(y0 + (y1 - y0) * (x_line - x0) / (x1 - x0))
+    for (a0, b0), (a1, b1) in zip(points, points[1:]):
+        if (a0 - line) * (a1 - line) < 0.0:
+            out.append(b0 + (b1 - b0) * (line - a0) / (a1 - a0))
     return out
 
 
@@ -148,13 +152,7 @@ def test_into_the_house_through_its_door_and_out_again() -> None:
 
 def crossings_y(path: engine.navigation.PathResult, y_line: float) -> list[float]:
     """The global x at which the path crosses the horizontal line y = y_line (landblock metres of A9B4)."""
-    y_line += 192.0 * 0xB4
-    out = []
-    pts = [global_xy(p) for p in path.waypoints]
-    for (x0, y0), (x1, y1) in zip(pts, pts[1:]):
-        if (y0 - y_line) * (y1 - y_line) < 0.0:
-            out.append(x0 + (x1 - x0) * (y_line - y0) / (y1 - y0))
-    return out
+    return _crossings([(y, x) for x, y in (global_xy(p) for p in path.waypoints)], y_line + 192.0 * 0xB4)
 
 
 def stairs_world() -> engine.World:

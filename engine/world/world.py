@@ -28,6 +28,7 @@ from ..queries.ground import ground as ground_query
 from ..queries.placement import place as place_query
 from ..queries.results import Ground, PlacementResult, RayHit, SightResult
 from ..navigation import path as navigation_path
+from ..navigation.follow import follow as navigation_follow
 from ..navigation.cache import NavCache
 from ..navigation.graph import GraphStats
 from ..navigation.results import PathResult
@@ -355,6 +356,11 @@ class World:
         """A random point within `radius` metres (horizontally) of `near` that the walker can reach, as a
         PathResult whose last waypoint is the point (the wandering query); `seed` makes it repeatable."""
         return navigation_path.random_point(self, walker, near, radius, seed=seed, budget=budget, avoid_movers=avoid_movers)
+
+    def follow(self, mover_id: int, waypoints: Sequence[Position]) -> int:
+        """Walk a registered mover over a path's waypoints (it stands at the first) by World.move, as the
+        path's guarantee says (engine.navigation.follow); how many it reached, len(waypoints) - 1 when all."""
+        return navigation_follow(self, mover_id, waypoints)
 
     def build_navigation(self, walker: Walker, landblock_ids: Sequence[int] | None = None) -> GraphStats:
         """Build the walker class's navigation graph of these landblocks (all loaded ones by default) now,
