@@ -152,7 +152,7 @@ def find_paths(world: World, walker: Walker, pairs: Sequence[tuple[Position | No
     return [find_path(world, walker, s, g, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers) for s, g in pairs]
 
 
-def _start_state(world: World, w: _Walker, start: Position | None) -> tuple[Position | None, PathResult | None]:
+def _start_state(world: World, w: _Walker, start: Position | None, nav: NavSettings) -> tuple[Position | None, PathResult | None]:
     """Stand the walker at the start: its first waypoint, or the answer when it cannot stand there."""
     probe = w.probe
     if w.registered:
@@ -171,19 +171,15 @@ def _start_state(world: World, w: _Walker, start: Position | None) -> tuple[Posi
     if placed is None:
         return None, PathResult(False, reason="start_invalid", detail=f"the walker cannot stand at the start {start!r}")
     away = _moved(start, probe.position)
-    if away > nav_tolerance(world):
+    if away > nav.arrival_tolerance:
         return None, PathResult(False, reason="start_invalid",
                                 detail=f"the walker cannot stand at the start {start!r}: the nearest place it can is {away:.2f} m away, {probe.position!r}")
     # where the walker stands is placed once more, as World.add_mover(spec, waypoints[0], placement=...) places it
     first = probe.position
     w.fresh.restore()
-    if not place_probe(world, probe, first, True) or not stands_at(probe, first, 2.0 * nav_tolerance(world)):
+    if not place_probe(world, probe, first, True) or not stands_at(probe, first, 2.0 * nav.arrival_tolerance):
         return None, PathResult(False, reason="start_invalid", detail=f"the walker cannot stand at the start {start!r}")
     return first, None
-
-
-def nav_tolerance(world: World) -> float:
-    return world.navigation.settings.arrival_tolerance
 
 
 def _goal_state(world: World, w: _Walker, goal: Position, nav: NavSettings) -> tuple[Position | None, PathResult | None]:
@@ -211,7 +207,7 @@ def _moved(asked: Position, placed: Position) -> float:
 
 def _find(world: World, w: _Walker, start: Position | None, goal: Position, distance_cap: float, budget: int,
           nav: NavSettings) -> PathResult:
-    first, answer = _start_state(world, w, start)
+    first, answer = _start_state(world, w, start, nav)
     if answer is not None:
         return answer
     assert first is not None
@@ -340,7 +336,7 @@ def random_point(world: World, walker: Walker, near: Position | None, radius: fl
         raise OutOfRangeError(f"radius must be above 0 and at most 1000 m, got {radius!r}")
     w = _Walker(world, walker, avoid_movers)
     try:
-        first, answer = _start_state(world, w, near)
+        first, answer = _start_state(world, w, near, nav)
         if answer is not None:
             return answer
         assert first is not None
