@@ -70,6 +70,7 @@ HEADER_BYTES: Final = _HEADER.size + _HEADER_CRC.size  # 28
 _FRAME: Final = struct.Struct("<II")
 _FRAME_CRC: Final = struct.Struct("<I")
 FRAME_HEAD: Final = _FRAME.size + _FRAME_CRC.size  # 12
+_FRAME_HEAD: Final = struct.Struct("<III")  # the three at once, to read
 #: the writer writes what is waiting once this much is gathered (every-second and never)
 WRITE_AT: Final = 1 << 20
 #: the largest payload a frame may declare (a longer one is damage, not a record)
@@ -188,15 +189,13 @@ class JournalScan:
             raise JournalCorrupt(path, 0, "the header fails its checksum", [])
         out.generation, out.budget = generation, budget
         off = HEADER_BYTES
-        unpack_frame = _FRAME.unpack_from
-        unpack_crc = _FRAME_CRC.unpack_from
+        unpack_head = _FRAME_HEAD.unpack_from
         crc32 = zlib.crc32
         while off < size:
             if size - off < FRAME_HEAD:
                 _torn(out, off, f"a frame header cut off ({size - off} of {FRAME_HEAD} bytes)")
                 return
-            length, payload_crc = unpack_frame(data, off)
-            (head_crc,) = unpack_crc(data, off + 8)
+            length, payload_crc, head_crc = unpack_head(data, off)
             if head_crc != crc32(data[off:off + 8]) or length > MAX_PAYLOAD:
                 if _zeros(data, off, size):  # a power cut can leave the end of a file zeroed
                     _torn(out, off, "a tail of zero bytes")

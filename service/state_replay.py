@@ -59,6 +59,8 @@ _HINT = "use --state-discard-bad to start without it"
 #: the fewest bytes one logged move takes (frame header, record head, id, seq, state): bounds the moves a
 #: damaged log could have held
 _MOVE_BYTES = 16 + MOVER_STATE_BYTES
+_ONE_MOVE = RECORD_HEAD.size + _MOVE_BYTES
+_ID = struct.Struct("<Q")
 
 
 @dataclass(slots=True)
@@ -93,6 +95,14 @@ class _Replay:
     def apply(self, payload: bytes) -> None:
         kind, n = RECORD_HEAD.unpack_from(payload, 0)
         at = RECORD_HEAD.size
+        if kind == MOVES and n == 1 and len(payload) == _ONE_MOVE:  # a single move's record: the common case
+            (mover_id,) = _ID.unpack_from(payload, at)
+            if mover_id not in self.alive:
+                raise ValueError(f"a moves record changes mover {mover_id:X}, which is not held")
+            self.rows[mover_id] = (payload, 1, 0)
+            if self.in_doubt:
+                self.in_doubt.pop(mover_id, None)
+            return
         ids = list(struct.unpack_from(f"<{n}Q", payload, at))
         if kind == MOVES or kind == REGISTER or kind == UPDATE or kind == HANDOVER_IN:
             need = at + n * (16 + MOVER_STATE_BYTES)
