@@ -296,15 +296,17 @@ def _goals(world: World, graph: NavGraph, w: _Walker, target: Position, nav: Nav
 
 
 def _prove(landscape: Landscape, probe: Mover, points: list[Position], nav: NavSettings) -> tuple[list[Position] | None, int]:
-    """Walk the route's points from the probe's state, shortening: the waypoints reached, or None and
-    the index of the first point the probe could not reach from the one before."""
+    """Walk the route's points from the probe's state (the query's start, whence the goal's direct walk
+    has failed), shortening: the waypoints reached, or None and the index of the first point the probe
+    could not reach from the one before."""
     waypoints: list[Position] = []
     i = -1  # the point the probe stands at (-1: the start)
     last = len(points) - 1
     while i < last:
         here = ProbeState(probe)
-        # the farthest point a direct walk reaches: the goal first, else a bisection over the route
-        if i + 1 < last and walk_toward(landscape, probe, points[last], nav):
+        # the farthest point a direct walk reaches: the goal first (from the start the query has tried it
+        # already), else a bisection over the route
+        if i >= 0 and i + 1 < last and walk_toward(landscape, probe, points[last], nav):
             waypoints.append(points[last])
             return waypoints, -1
         here.restore()
