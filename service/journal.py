@@ -324,9 +324,11 @@ class Journal:
                 self._pending_bytes = 0
             if self._fd < 0:
                 return
+            start = -1
             try:
                 if records:
                     data = b"".join([b for parts in records for b in _framed(parts)])
+                    start = os.lseek(self._fd, 0, os.SEEK_END)
                     view = memoryview(data)
                     while view:
                         view = view[os.write(self._fd, view):]
@@ -339,10 +341,24 @@ class Journal:
                     with self._lock:
                         self._unsynced_moves -= moves
             except OSError as e:
+                # (a full disk, say) nothing of these records stays in the file, and they wait to be written
+                # again, first: the log never holds half a record before a later one
+                if start >= 0:
+                    try:
+                        os.ftruncate(self._fd, start)
+                    except OSError:
+                        pass
+                with self._lock:
+                    self._pending[:0] = records
+                    self._pending_moves += moves
+                    self._unsynced_moves -= moves
                 if self._failed is None:
                     log.error("cannot write the state log %s: %s", self.path, e)
                 self._failed = str(e)
                 raise
+            if self._failed is not None:
+                log.warning("the state log %s is written again", self.path)
+                self._failed = None
 
     def _flush_loop(self) -> None:
         """Once a second: write (and under every-second sync) what waits; write sooner when much waits."""

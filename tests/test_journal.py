@@ -157,3 +157,33 @@ def test_the_seq_budget_forces_a_sync(tmp_path: Path) -> None:
         assert read_journal(journal_path(state, 0)).records == [b"nine moves", b"one more"]
     finally:
         j.close()
+
+
+def test_a_failed_write_leaves_no_half_record_and_is_written_again(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+    import os
+
+    import service.journal as journal_module
+
+    state = tmp_path / "s.state"
+    j = Journal(state, 0, "always")
+    j.append(b"first")
+    j.commit()
+    real_write = os.write
+
+    def half_then_full(fd: int, data: bytes) -> int:  # a disk that fills up in the middle of a write
+        real_write(fd, bytes(data[:len(data) // 2]))
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(journal_module.os, "write", half_then_full)
+    j.append(b"second, which fails")
+    with pytest.raises(OSError):
+        j.commit()
+    assert read_journal(journal_path(state, 0)).records == [b"first"]  # nothing of the second in the file
+    monkeypatch.setattr(journal_module.os, "write", real_write)
+    j.append(b"third")
+    j.commit()
+    j.close()
+    f = read_journal(journal_path(state, 0))
+    assert f.records == [b"first", b"second, which fails", b"third"] and f.torn is None

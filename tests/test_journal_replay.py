@@ -259,3 +259,34 @@ def test_a_hand_over_sent_with_no_outcome_logged_is_in_doubt(tmp_path: Path) -> 
     loaded = load_saved(state)
     assert loaded.movers is not None and sorted(m.handover.id for m in loaded.movers) == [0xA1, 0xB2, 0xD4]
     assert loaded.in_doubt == {0xA1: 0xAAB4}
+
+
+class _WatchedBus(_Bus):
+    """A bus someone listens on, which reads the log at each State published: (the State's seq, the seq the
+    log holds for that mover at that moment)."""
+
+    def __init__(self, state: Path) -> None:
+        self.state = state
+        self.seen: list[tuple[int, int | None]] = []
+
+    def states_watched(self) -> bool:
+        return True
+
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
+        held = {m.handover.id: m.handover.seq for m in load_saved(self.state).movers or []}
+        self.seen.append((msgpack.unpackb(packed_state)["seq"], held.get(mover_id)))
+
+
+def test_under_always_a_state_is_published_only_once_its_record_is_synced(tmp_path: Path) -> None:
+    state = tmp_path / "m.state"
+    core = _core()
+    bus = _WatchedBus(state)
+    core.bus = bus
+    core.attach_log(MoverLog(Journal(state, 0, "always")))
+    _register(core, 0xA1, 60.0, 60.0)
+    for _ in range(3):
+        _step(core, 0xA1, (0.0, 0.8, 0.0), 0.2)
+    _columns(core, [0xA1], (0.0, 0.5, 0.0), 0.2)
+    assert bus.seen == [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4)]  # the register's, the steps', the column move's
+    assert core.log is not None
+    core.log.journal.close()
