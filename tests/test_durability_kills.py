@@ -5,7 +5,9 @@ exactly once afterwards, and no seq is answered twice."""
 
 from __future__ import annotations
 
+import os
 import random
+import signal
 import threading
 import time
 from pathlib import Path
@@ -99,3 +101,35 @@ def test_a_hand_over_pair_killed_in_turn_keeps_every_mover_once(tmp_path: Path) 
         session.close()
         for p in procs.values():
             p.kill()
+
+
+def test_a_killed_two_worker_service_restarted_as_one_process_keeps_its_logs_moves(tmp_path: Path) -> None:
+    """The moves live only in the workers' logs (each worker's state file was written at its start): the
+    parent and its workers are killed, and a single process regroups both workers' files with their logs."""
+    state = tmp_path / "movers.state"
+    world = demo_world()
+    answered = {}
+    with ServiceProcess(extra=["--workers", "2", "--state", str(state), "--state-sync", "always"]) as s:
+        with Client([s.endpoint], timeout=10.0) as c:
+            (health,) = c.wait_ready()
+            for mover_id, (gx, gy) in {0x201: (40.0, 40.0), 0x202: (250.0, 40.0)}.items():  # one per worker
+                cell, x, y = global_to_cell(gx, gy)
+                st = c.register(human(), start_on_ground(world, cell, x, y), mover_id=mover_id)
+                for _ in range(5):
+                    st = c.step(mover_id, (0.0, 0.6, 0.0), 0.2)
+                answered[mover_id] = st
+        assert s.proc is not None
+        for worker in health["worker_processes"]:  # SIGKILL, each (the parent's death would stop them cleanly)
+            os.kill(worker["pid"], signal.SIGKILL)
+        os.kill(s.proc.pid, signal.SIGKILL)  # before it starts them again
+        s.proc.wait(10)
+    logs = sorted(p.name for p in tmp_path.iterdir() if ".journal-" in p.name)
+    assert logs == ["movers.state.worker-0-of-2.journal-0", "movers.state.worker-1-of-2.journal-0"]
+    with ServiceProcess(extra=["--state", str(state)]) as s:
+        with Client([s.endpoint], timeout=10.0) as c:
+            c.wait_ready()
+            for mover_id, st in answered.items():
+                got, _spec = c.get(mover_id)
+                assert got.seq == st.seq == 5  # always: nothing answered lost, and no seq raised
+                assert got.position.origin == st.position.origin and got.position.cell_id == st.position.cell_id
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith("movers.state.worker-") and "regrouped" not in p.name]
