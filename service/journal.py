@@ -24,9 +24,10 @@ The writer's policy (`--state-sync`) says when records reach the disk:
 
 - `always`: each request's record is written and fdatasync'ed before its
   reply goes out;
-- `every-second`: records are gathered in the process and written and
-  fdatasync'ed by a thread once a second (and at once when a megabyte is
-  waiting or `budget` moves are not yet synced);
+- `every-second`: records are gathered in the process, then framed,
+  written and fdatasync'ed by the log's thread once a second (written
+  sooner, by that thread, when a megabyte waits; written and synced on the
+  request's own thread only when `budget` moves are not yet synced);
 - `never`: as every-second, but only written, never synced: the OS writes
   them back when it chooses.
 
@@ -34,6 +35,16 @@ The seq budget: no more than `budget` moves are ever answered beyond what
 is durable (the writer syncs before answering more), so after a crash a
 restored mover's seq continues at its logged seq + budget + 1, above every
 seq answered (0 under `always`, where nothing answered is ever lost).
+
+Why not SQLite in WAL mode (the standard library's sqlite3): measured on
+this project's 2-core machine, a request of 100 moves kept as one
+transaction upserting 100 rows (id, seq, the 224-byte state) took 350 us
+on the calling thread with `synchronous=NORMAL` and 1,650 us with `FULL`,
+against 11 us for this log's `append` + `commit` under `every-second`
+(the framing and writing then done by the log's thread) and 1,420 us under
+`always` (one fdatasync, measured while other work used the disk). A
+column batch of 100 moves takes 600 to 900 us in the engine, so SQLite
+would have cost 40 % or more of it; the log costs about 3 % on that thread.
 """
 
 from __future__ import annotations
