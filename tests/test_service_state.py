@@ -171,3 +171,36 @@ def test_a_mover_the_instance_cannot_take_stops_the_start(tmp_path: Path) -> Non
     state = _saved_file(tmp_path)
     run = _serve(state, "--own", "AAB4")
     assert run.returncode == 2 and "7000" in run.stderr and "does not own" in run.stderr, run.stderr
+
+
+def test_a_log_damaged_before_its_end_stops_the_start_or_is_set_aside(tmp_path: Path) -> None:
+    state = tmp_path / "movers.state"
+    cell, x, y = global_to_cell(40.0, 40.0)
+    with ServiceProcess(extra=_state_args(state, "--state-sync", "always")) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            first = c.register(human(), Position.at(cell, Vec3(x, y, 60.0)), mover_id=0x8001)
+            for _ in range(4):
+                c.move(first.id, offset=(0.5, 0.0, 0.0))
+        svc.kill()  # the moves are in the log only
+    (log,) = journal_files(state).values()
+    data = bytearray(log.read_bytes())
+    records = read_journal(log).records
+    assert len(records) == 5  # the register and four moves
+    # one bit of the third record's payload (after the 28-byte header and the first two frames)
+    third = 28 + sum(12 + len(r) for r in records[:2])
+    data[third + 12 + 40] ^= 0x01
+    log.write_bytes(bytes(data))
+    run = _serve(state)
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert str(log) in run.stderr and f"byte {third}" in run.stderr and "--state-discard-bad" in run.stderr
+    assert log.read_bytes() == bytes(data)  # left as it was
+    with ServiceProcess(extra=_state_args(state, "--state-discard-bad")) as svc:
+        with Client([svc.endpoint]) as c:
+            c.wait_ready()
+            got, _ = c.get(0x8001)
+            # as of the record before the damage: the register and the first move; the seq raised above
+            # anything the rest of the log could have held
+            assert got.position.origin.x == x + 0.5
+            assert got.seq > 4
+    assert [p.name for p in tmp_path.iterdir() if ".journal-" in p.name and ".bad-" in p.name]
