@@ -44,6 +44,8 @@ from clients.errors import AcphysError
 from engine import load_scene
 from engine.geometry import Position, Vec3
 from engine.world.types import MoverSpec, SphereSpec
+
+from .standins import SilentBus
 from service.column_moves import run_columns
 from service.column_request import parse_column_request
 from service.core import ServiceCore
@@ -72,21 +74,6 @@ def player_spec() -> MoverSpec:
                      step_up_height=0.6, step_down_height=0.4, state=["IsPlayer"])
 
 
-class _Bus:
-    """The mirror's bus: nobody listens."""
-
-    def publish_state(self, mover_id: int, packed_state: bytes) -> None: ...
-    def states_watched(self) -> bool: return False
-    def batch_watched(self) -> bool: return False
-    def publish_batch(self, packed_states: list[bytes]) -> None: ...
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
-    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None: ...
-    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]: raise AssertionError("no hand-over")
-    def columns_watched(self) -> bool: return False
-    def publish_columns(self, message: bytes) -> None: ...
-    def forward_columns(self, lb: int, message: bytes) -> None: ...
-
-
 class Mirror:
     """The same requests resolved by a core of its own; each mover's engine state after every request."""
 
@@ -98,7 +85,7 @@ class Mirror:
 
     @staticmethod
     def _new_core() -> ServiceCore:
-        return ServiceCore(load_scene(str(DEMO_SCENE)), _Bus(), ownership=Ownership(), instance="mirror",
+        return ServiceCore(load_scene(str(DEMO_SCENE)), SilentBus(), ownership=Ownership(), instance="mirror",
                            stats=ServiceStats())
 
     def _keep(self, ids: list[int]) -> dict[int, int]:

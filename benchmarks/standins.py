@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["StandInQuery", "NoEngine", "StandInSession"]
+__all__ = ["StandInQuery", "NoEngine", "StandInSession", "SilentBus"]
 
 
 class _Payload:
@@ -69,3 +69,19 @@ class StandInSession:
 
     def is_closed(self) -> bool:
         return False
+
+
+class SilentBus:
+    """A bus nobody listens on: what ServiceCore needs of service.publication.ZenohBus, for a core run
+    without Zenoh (the kill harness's mirror, the state log's replay tests)."""
+
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None: ...
+    def states_watched(self) -> bool: return False
+    def batch_watched(self) -> bool: return False
+    def publish_batch(self, packed_states: list[bytes]) -> None: ...
+    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None: ...
+    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]: raise AssertionError("no hand-over")
+    def columns_watched(self) -> bool: return False
+    def publish_columns(self, message: bytes) -> None: ...
+    def forward_columns(self, lb: int, message: bytes) -> None: ...

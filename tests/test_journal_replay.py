@@ -8,11 +8,11 @@ from __future__ import annotations
 import logging
 import struct
 from pathlib import Path
-from typing import Any
 
 import msgpack
 import pytest
 
+from benchmarks.standins import SilentBus
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
 from engine.world.mover import Mover
@@ -31,23 +31,8 @@ from service.stats import ServiceStats
 from service_support import demo_world, human, start_on_ground
 
 
-class _Bus:
-    """A bus nobody listens on (what ServiceCore needs of service.publication.ZenohBus)."""
-
-    def publish_state(self, mover_id: int, packed_state: bytes) -> None: ...
-    def states_watched(self) -> bool: return False
-    def batch_watched(self) -> bool: return False
-    def publish_batch(self, packed_states: list[bytes]) -> None: ...
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
-    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None: ...
-    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]: raise AssertionError("no hand-over")
-    def columns_watched(self) -> bool: return False
-    def publish_columns(self, message: bytes) -> None: ...
-    def forward_columns(self, lb: int, message: bytes) -> None: ...
-
-
 def _core() -> ServiceCore:
-    return ServiceCore(demo_world(), _Bus(), ownership=Ownership(), instance="test", stats=ServiceStats())
+    return ServiceCore(demo_world(), SilentBus(), ownership=Ownership(), instance="test", stats=ServiceStats())
 
 
 def _register(core: ServiceCore, mover_id: int, gx: float, gy: float, lift: float = 0.0) -> None:
@@ -261,7 +246,7 @@ def test_a_hand_over_sent_with_no_outcome_logged_is_in_doubt(tmp_path: Path) -> 
     assert loaded.in_doubt == {0xA1: 0xAAB4}
 
 
-class _WatchedBus(_Bus):
+class _WatchedBus(SilentBus):
     """A bus someone listens on, which reads the log at each State published: (the State's seq, the seq the
     log holds for that mover at that moment)."""
 
