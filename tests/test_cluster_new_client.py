@@ -44,24 +44,27 @@ def _every_try_lists_both(endpoint: str, tries: int = TRIES) -> None:
     assert got == [want] * tries, [len(g) for g in got]
 
 
-def test_the_readme_cluster_lists_both_instances_every_time(tmp_path: Path) -> None:
+@contextmanager
+def _readme_cluster(tmp_path: Path) -> Iterator[ServiceProcess]:
+    """The README's two instances: A owns A9B4,A9B5, B owns AAB4,AAB5 and connects to A's TLS endpoint;
+    A's plain endpoint is what the commands connect to."""
     make_certificates(tmp_path)
     a_tls, b_tls = tls_endpoint(), tls_endpoint()
     a = cluster_file(tmp_path, "a", [a_tls], [])
     b = cluster_file(tmp_path, "b", [b_tls], [a_tls])
     with ServiceProcess(own="A9B4,A9B5", extra=["--cluster", str(a)]) as first, \
             ServiceProcess(own="AAB4,AAB5", extra=["--cluster", str(b)]):
+        yield first
+
+
+def test_the_readme_cluster_lists_both_instances_every_time(tmp_path: Path) -> None:
+    with _readme_cluster(tmp_path) as first:
         _every_try_lists_both(first.endpoint)
 
 
 def test_a_move_in_the_other_instances_landblock_reaches_it_every_time(tmp_path: Path) -> None:
     """`acphys move` connected to A registers, moves and removes a mover in AAB4, B's landblock."""
-    make_certificates(tmp_path)
-    a_tls, b_tls = tls_endpoint(), tls_endpoint()
-    a = cluster_file(tmp_path, "a", [a_tls], [])
-    b = cluster_file(tmp_path, "b", [b_tls], [a_tls])
-    with ServiceProcess(own="A9B4,A9B5", extra=["--cluster", str(a)]) as first, \
-            ServiceProcess(own="AAB4,AAB5", extra=["--cluster", str(b)]):
+    with _readme_cluster(tmp_path) as first:
         with Client([first.endpoint], timeout=10.0) as c:
             c.wait_ready(instances=2, timeout=30.0)
         for _ in range(MOVE_TRIES):
