@@ -27,8 +27,9 @@ NAVIGATION_HOT = ("walk", "graph", "search", "sampling")
 
 
 def hot_modules() -> list[str]:
-    # limits: the checks every move passes at the door
-    mods = ["engine/constants.py", "engine/limits.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
+    # limits: the checks every move passes at the door; settings: read on every move (a compiled
+    # class is read natively)
+    mods = ["engine/constants.py", "engine/settings.py", "engine/limits.py"] + [f"engine/world/{name}.py" for name in WORLD_HOT]
     mods += [f"engine/navigation/{name}.py" for name in NAVIGATION_HOT]
     for pkg in HOT_PACKAGES:
         for path in sorted(glob.glob(f"engine/{pkg}/*.py")):

@@ -15,7 +15,7 @@ Run time: the engine call of each move (replay_move: a transition or a
 placement); the expect-conversion of results is not timed.
 
 Adding a setting is one line in SETTINGS. Presets defined in
-engine/transition/settings.py and new EngineSettings fields are picked up
+engine/settings.py and new EngineSettings fields are picked up
 by `all_settings()` without editing this file.
 """
 
@@ -29,7 +29,7 @@ from typing import Any
 
 import engine
 from engine.constants import ACE_MAX_STEPS, RETAIL_MAX_STEPS
-from engine.transition import settings as settings_module
+from engine import settings as settings_module
 
 from . import common
 from .common import log, pct
@@ -85,7 +85,7 @@ def all_settings() -> list[tuple[str, str, engine.EngineSettings]]:
     seen = {s for _, _, s in out}  # (the repeat row is in SETTINGS on purpose)
     for name, value in sorted(vars(settings_module).items()):
         if isinstance(value, engine.EngineSettings) and value not in seen:
-            out.append((name.lower().replace("_", "-"), f"preset {name} of engine/transition/settings.py", value))
+            out.append((name.lower().replace("_", "-"), f"preset {name} of engine/settings.py", value))
             seen.add(value)
     base = SETTINGS[0][2]
     for f in dataclasses.fields(engine.EngineSettings):

@@ -404,7 +404,7 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
            f"setting: the same against `{err['reference_setting']}`'s own results. Run time: the engine call per move "
            "(transitions and placements), mean and median."), "",
            ("Settings: `SETTINGS` in `benchmarks/bench_error.py` (one line each); presets in "
-           "`engine/transition/settings.py` and EngineSettings fields added later are picked up on their own."), "",
+           "`engine/settings.py` and EngineSettings fields added later are picked up on their own."), "",
            "| setting | what it is | moves | µs/move mean | µs median | error median m | p99 m | max m | contact differs | vs most exact: p99 m | max m | contact differs | Pareto |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     front = set(err.get("pareto", []))
@@ -449,7 +449,7 @@ def _error(err: dict[str, Any], plot: str | None) -> list[str]:
         "only the working tree's build was measured; `--build-compiled` (or a compiled tree) adds a row for the "
         "other build.")
         + " Not a setting yet: float32 against float64 arithmetic and the step subdivision size; the engine "
-        "offers neither as a switch (see `engine/transition/settings.py`). Each becomes one line of `SETTINGS` "
+        "offers neither as a switch (see `engine/settings.py`). Each becomes one line of `SETTINGS` "
         "when it does. The skips are settings: each `+skip_...=false` row switches one off, and must show "
         "error 0 against the most exact setting.")]
     if plot:

@@ -22,7 +22,7 @@ from .errors import (
     UnknownMoverError,
 )
 from .geometry import Frame, Plane, Position, Quat, Sphere, Vec3
-from .transition.settings import ACE_COMPAT, RETAIL, EngineSettings
+from .settings import ACE_COMPAT, RETAIL, EngineSettings
 from .world.types import CylSphereSpec, MoveResult, MoverSpec, ObjectState, SphereSpec
 
 if TYPE_CHECKING:

@@ -11,8 +11,9 @@ were the way circles were dodged.
 
 The layers, bottom to top:
 
-    leaf        constants, errors, _compat, _lazy, transition.state (the
-                transition's enums), transition.settings
+    leaf        constants, errors, _compat, _lazy, settings (EngineSettings:
+                it imports only the constants), transition.state (the
+                transition's enums)
     geometry    vectors, frames, planes, polygons, land definitions
     terrain     landblock heights and triangles
     bsp, objects, cells   what a transition collides with, in that order (an
@@ -193,14 +194,16 @@ def test_no_import_inside_a_function_in_the_engine() -> None:
 
 LEAF = ("engine.constants", "engine.errors", "engine._compat", "engine._lazy", "engine.transition.state")
 #: what the collision layer (bsp, cells, objects) may import from the transition package
-TRANSITION_INTERFACE = ("engine.transition", "engine.transition.state", "engine.transition.settings", "engine.transition.interface")
+TRANSITION_INTERFACE = ("engine.transition", "engine.transition.state", "engine.transition.interface")
 
 
 def test_leaf_modules_import_nothing_of_the_engine() -> None:
     graph = _graph()
     for module in LEAF:
         assert graph[module] == set(), module
-    assert graph["engine.transition.settings"] <= {"engine.constants"}
+    # the settings sit beside the leaf: every layer reads them, and they read only the constants
+    assert graph["engine.settings"] <= {"engine.constants"}
+    assert "engine.transition.settings" not in graph  # one place for them, no second path
 
 
 def test_geometry_imports_only_the_leaf_constants() -> None:
@@ -256,7 +259,7 @@ def test_engine_never_imports_the_bus_or_its_users() -> None:
 #: and receives (geometry, the World's types, the queries' answers, the limits
 #: it checks before sending) and the leaf modules under them; none of the
 #: per-move machinery
-CLIENT_ALLOWED = ("engine.geometry", "engine.world.types", "engine.queries.results", "engine.limits", "engine.transition.state", "engine.transition.settings")
+CLIENT_ALLOWED = ("engine.geometry", "engine.world.types", "engine.queries.results", "engine.limits", "engine.transition.state", "engine.settings")
 CLIENT_FORBIDDEN = ("engine.transition.transition", "engine.bsp", "engine.cells", "engine.objects", "engine.terrain", "engine.formats", "engine.world.world", "engine.world.mover")
 
 

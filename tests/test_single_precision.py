@@ -15,7 +15,7 @@ import pytest
 import engine
 from engine.geometry import Frame, Plane, Position, Sphere, Vec3
 from engine.geometry.precision import fl_cross, fl_dot, fl_plane_dist
-from engine.transition.settings import ACE_COMPAT
+from engine.settings import ACE_COMPAT
 from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition
 from support.shared_data import load_trace, needs_shared, scene_path

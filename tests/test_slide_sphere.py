@@ -32,7 +32,7 @@ from engine.constants import EPSILON
 from engine.geometry import Frame, Plane, Position, Sphere, Vec3
 from engine.transition.slide import slide_sphere, slide_sphere_object
 from engine.transition.state import TransitionState as TS
-from engine.transition.settings import RETAIL
+from engine.settings import RETAIL
 from engine.transition.transition import Transition
 
 DOUBLE = dataclasses.replace(RETAIL, single_precision=False)

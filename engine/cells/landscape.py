@@ -14,7 +14,7 @@ from collections.abc import Callable
 from ..errors import LandblockNotLoadedError, NonFiniteError, UnknownCellError
 from ..geometry.landdefs import cell_in_range
 from ..geometry.position import Position
-from ..transition.settings import EngineSettings
+from ..settings import EngineSettings
 
 if TYPE_CHECKING:
     from ..transition.transition import Transition

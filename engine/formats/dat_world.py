@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import EngineError, LandblockNotLoadedError
-from ..transition.settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from ..world.landblock import Landblock
 from ..world.world import World
 from .dat import DatCollection, DatFileMissing

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 from ..errors import SceneFormatError
-from ..transition.settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from ..world.world import World
 from .dat_world import open_dat_world
 from .scene import world_from_scene_dict

@@ -7,7 +7,7 @@ from typing import Any
 
 from ..errors import SceneFormatError
 from ..terrain.landblock import LandblockTerrain
-from ..transition.settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from ..world.indoor_loader import attach_indoor
 from ..world.landblock import Landblock
 from ..world.world import World

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..transition.settings import ACE_COMPAT, EngineSettings
+from ..settings import ACE_COMPAT, EngineSettings
 from ..world.world import World
 from .trace import add_case_mover, expect_keys, replay_move, result_to_expect, trace_vec
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..transition.settings import EngineSettings
+from ..settings import EngineSettings
 from ..world.mover import Mover
 from .graph import NavGraph
 from .settings import DEFAULT_NAV, NavSettings

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from ..geometry import Plane, Sphere, Vec3
     from .collision_info import CollisionInfo
     from .object_info import ObjectInfo
-    from .settings import EngineSettings
+    from ..settings import EngineSettings
     from .sphere_path import SpherePath
     from .transition import Transition
 

@@ -8,7 +8,7 @@ from ..geometry import UNIT_Z, ZERO, Frame, Position, Sphere, Vec3
 
 from ..geometry.precision import fl, fl_add, fl_local_z, fl_rotate, fl_scale, fl_unrotate, fl_vec
 from ..geometry.landdefs import get_block_offset
-from .settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
 from .._compat import mypyc_attr

@@ -33,7 +33,7 @@ from . import placement, stepping, walkable
 from .collision_info import CollisionInfo
 from .interface import CellLookup
 from .object_info import ObjectInfo
-from .settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from .slide import slide_sphere
 from .sphere_path import ScaledSpheres, SpherePath
 from .state import OI, InsertType, TransitionState

@@ -29,7 +29,7 @@ from ..geometry import UNIT_Z, ZERO, Frame, Plane, Position, Sphere, Vec3
 from ..geometry.precision import fl, fl_dot, fl_plane, fl_rotate, fl_scale, fl_sub, fl_vec
 from ..geometry.quaternion import Quat
 from ..transition.object_info import ObjectInfo
-from ..transition.settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from ..transition.sphere_path import ScaledSpheres
 from ..transition.transition import Transition, take_transition

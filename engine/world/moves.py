@@ -12,7 +12,7 @@ from __future__ import annotations
 from .. import limits
 from ..cells.landscape import Landscape
 from ..geometry import ZERO, Position, Vec3
-from ..transition.settings import EngineSettings
+from ..settings import EngineSettings
 from .mover import Mover
 from .quantum import split_elapsed
 from .resolve import move_mover, move_result

@@ -17,7 +17,7 @@ from ..constants import MAX_VELOCITY
 from ..errors import LandblockNotLoadedError, NonFiniteError, PlacementFailedError, UnknownMoverError
 from ..geometry import Plane, Position, Vec3
 from ..geometry.landdefs import adjust_to_outside
-from ..transition.settings import RETAIL, EngineSettings
+from ..settings import RETAIL, EngineSettings
 from ..transition.state import OI
 from .landblock import Landblock
 from ..cells.landscape import Landscape

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Final
 
-from ..constants import ACE_MAX_QUANTUM, ACE_MAX_STEPS, MAX_QUANTUM, MIN_QUANTUM, RETAIL_MAX_STEPS
+from .constants import ACE_MAX_QUANTUM, ACE_MAX_STEPS, MAX_QUANTUM, MIN_QUANTUM, RETAIL_MAX_STEPS
 
 __all__ = ["EngineSettings", "RETAIL", "ACE_COMPAT"]
 
