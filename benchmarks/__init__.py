@@ -1,4 +1,4 @@
-"""acphys benchmarks (issue 6): engine speed, run time against error, the
+"""acphys benchmarks: engine speed, run time against error, the
 service over loopback, and a numerical-stability stress run.
 
     python3 -m benchmarks                 # everything; rewrites docs/performance.md

@@ -404,10 +404,10 @@ def _share(row: dict[str, Any], workload: str, none: dict[str, Any]) -> str:
 
 
 def _targets(data: dict[str, Any]) -> list[str]:
-    """Issue 33's targets against this run's figures."""
+    """The durability targets against this run's figures."""
     costs, ip = data.get("costs", {}), data.get("inprocess", {})
     es = costs.get("every-second", {})
-    out = ["Issue 33's targets:", ""]
+    out = ["Durability targets:", ""]
     if es:
         engine = (ip.get("record_us_per_move", 0.0) + ip.get("commit_us_per_move", 0.0)) / ip["total_us_per_move"] \
             if ip.get("total_us_per_move") else float("nan")
@@ -446,7 +446,7 @@ def _range(values: list[float]) -> str:
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
     """docs/performance.md's section."""
-    lines = ["## 8. Durability: `--state` and its log (issue 33)", "", meta, ""]
+    lines = ["## 8. Durability: `--state` and its log", "", meta, ""]
     if "failed" in data:
         return [*lines, f"The run failed: {data['failed']}", ""]
     costs = data.get("costs", {})

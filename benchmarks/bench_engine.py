@@ -8,7 +8,7 @@ Three parts:
   phase (`skip_far_movers`) on and off, timed in alternating blocks;
 - the reference traces replayed move by move (ACE_COMPAT, as the replay
   test does), scene by scene, to compare with ACE's own per-move times on
-  the same traces (the anchors of issue 6).
+  the same traces (the anchors).
 
 Only the engine call is timed (World.move / World.step: one transition plus
 SetPositionInternal); targets are built and movers reset outside the timer.
@@ -29,7 +29,7 @@ from .common import Deadline, log, summary
 from .crowds import CROWDS, wl_crowd
 from .scenes import WORKLOADS, _vec, add_case_mover, case_move_call, trace_world
 
-#: ACE under Mono on this machine class, µs per move on the reference traces (issue 6)
+#: ACE under Mono on this machine class, µs per move on the reference traces
 ACE_ANCHORS_US = {"flat": 4.5, "rolling": 9.6, "steep": 9.5, "cliff": 10.2, "water": 7.0}
 TRACE_SCENES = ["flat", "rolling", "steep", "cliff", "water", "house", "interior", "cellar"]
 TERRAIN_TARGET_US = 15.0

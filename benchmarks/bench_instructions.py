@@ -139,7 +139,7 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
 
     column_path = [count_column_path(_python_of(root), root) for root in roots]
     for root, counted_path in zip(roots, column_path):
-        log(f"instructions: issue 10's column path ({root.name}) {counted_path['per_move']:9.0f} per move, "
+        log(f"instructions: the batch workload's column path ({root.name}) {counted_path['per_move']:9.0f} per move, "
             f"run_batch {counted_path['run_batch_per_move']:9.0f}, the rest {counted_path['rest_per_move']:9.0f}")
     return {"rows": rows, "against": str(against) if against is not None else None,
             "against_commit": common.short_commit(roots[1]) if against is not None else None,
@@ -171,11 +171,11 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
 
 
 def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
-    """The service's column path on issue 10's workload (benchmarks/instructions_service.py)."""
+    """The service's column path on the batch workload (benchmarks/instructions_service.py)."""
     if not counts:
         return [""]
     rounds = counts[0]["rounds"]
-    out = ["", ("Issue 10's column path in the service, instructions per move (benchmarks/instructions_service.py): "
+    out = ["", ("The batch workload's column path in the service, instructions per move (benchmarks/instructions_service.py): "
                 "the service core on the demo world with a stand-in bus handles the two client processes' column "
                 "requests for the 100 movers (decode, checks, `run_columns`, `reply_message`: the query callback's "
                 f"work but Zenoh's receive and reply), counted as the difference of a {rounds[0]}-round and a "

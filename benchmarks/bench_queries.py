@@ -1,4 +1,4 @@
-"""Spatial queries per second (issue 14): sight, ray and ground in this process (World.sight/ray/ground
+"""Spatial queries per second: sight, ray and ground in this process (World.sight/ray/ground
 one at a time and their batched forms) and over the bus (Client.sight/ray/ground one request each, and
 one batch request of many, and one column request), on the demo world. Bounded by counts; the service listens on 127.0.0.1."""
 
@@ -100,7 +100,7 @@ def run(quick: bool) -> dict[str, Any]:
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
     """The report's section (benchmarks/report.py); `meta` its line on how it was measured."""
-    out = ["## 5. Spatial queries (issue 14)", "", meta, ""]
+    out = ["## 5. Spatial queries", "", meta, ""]
     if "failed" in data:
         return out + [f"Not measured: {data['failed']}", ""]
     out += [

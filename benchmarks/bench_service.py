@@ -680,14 +680,14 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
             if child is not None:
                 child.stop()
         users_dir.cleanup()
-    from .bench_issue10 import issue_workload  # it imports this module's helpers
+    from .bench_batches import batch_workload  # it imports this module's helpers
 
-    issue = issue_workload(quick, engine_root)
+    batches = batch_workload(quick, engine_root)
     workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
     from .bench_spanning import spanning_batch  # it imports this module's helpers
 
     spanning = spanning_batch(scene, 60 if quick else 300) if engine_root is None else None
-    return {"latency": lat, "throughput": rows, "issue10_columns": issue, "workers": workers, "spanning": spanning,
+    return {"latency": lat, "throughput": rows, "batch_workload": batches, "workers": workers, "spanning": spanning,
             "endpoint": "tcp/127.0.0.1 (loopback), peer mode, multicast scouting off",
             "engine_root": str(engine_root) if engine_root else None}
 

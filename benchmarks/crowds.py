@@ -1,4 +1,4 @@
-"""Crowds of live movers on flat ground (issue 12): the engine benchmark's crowd
+"""Crowds of live movers on flat ground: the engine benchmark's crowd
 rows and the broad-phase test's workloads.
 
 A crowd is a set of creatures (the player's two spheres, not players: players

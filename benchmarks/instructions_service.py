@@ -1,14 +1,15 @@
-"""Instructions per move of the service's column path on issue 10's workload, counted by callgrind.
+"""Instructions per move of the service's column path on the batch workload, counted by callgrind.
 
-The service's own work per request is what keeps issue 10's column form below the engine's rate
-(docs/performance.md, "What limits each figure"), and on this VM its timings swing by tens of per cent
-from one minute to the next. This counts it instead: a child process builds the service core on the demo
-world with a stand-in bus, registers issue 10's 100 movers, and handles the two client processes' column
-requests (decode, checks, run_columns, reply_message: everything the query callback does but Zenoh's
-receive and reply) round after round under callgrind. Two runs that differ only in the number of rounds
-give the instructions per move as their difference, start-up and loading cancelled out; the same two runs
-with collection switched on only inside `run_batch` give the engine's share. PYTHONHASHSEED is fixed and
-OpenBLAS kept to one thread (its idle workers spin under valgrind), so the count is the same every run.
+The batch workload is benchmarks/bench_batches.py's. The service's own work per request is what keeps its
+column form below the engine's rate (docs/performance.md, "What limits each figure"), and on this VM its
+timings swing by tens of per cent from one minute to the next. This counts it instead: a child process
+builds the service core on the demo world with a stand-in bus, registers the batch workload's 100 movers,
+and handles the two client processes' column requests (decode, checks, run_columns, reply_message:
+everything the query callback does but Zenoh's receive and reply) round after round under callgrind. Two
+runs that differ only in the number of rounds give the instructions per move as their difference, start-up
+and loading cancelled out; the same two runs with collection switched on only inside `run_batch` give the
+engine's share. PYTHONHASHSEED is fixed and OpenBLAS kept to one thread (its idle workers spin under
+valgrind), so the count is the same every run.
 Part of `python3 -m benchmarks --only instructions` (benchmarks/bench_instructions.py).
 """
 
@@ -44,10 +45,10 @@ from service.ownership import Ownership
 from service.requests import RegisterRequest, decode_envelope
 from service.stats import ServiceStats
 sys.path.insert(0, bench_root)
-from benchmarks.bench_issue10 import _column_request_bytes, demo_scene, issue_spots
+from benchmarks.bench_batches import _column_request_bytes, batch_spots, demo_scene
 from benchmarks.scenes import PLAYER
 
-class Bus:  # nobody subscribes: nothing is published, as in issue 10's workload
+class Bus:  # nobody subscribes: nothing is published, as in the batch workload
     def states_watched(self): return False
     def batch_watched(self): return False
     def columns_watched(self): return False
@@ -56,7 +57,7 @@ class Bus:  # nobody subscribes: nothing is published, as in issue 10's workload
 world = load_scene(str(demo_scene()))
 core = ServiceCore(world, Bus(), ownership=Ownership(), instance="count", stats=ServiceStats())
 ids = [core.register(RegisterRequest(None, PLAYER, pos, plane, cell))["state"]["id"]
-       for pos, plane, cell in issue_spots(world)]
+       for pos, plane, cell in batch_spots(world)]
 half = len(ids) // 2
 requests = [_column_request_bytes(ids[:half]), _column_request_bytes(ids[half:])]
 heap.tune()

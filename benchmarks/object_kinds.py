@@ -1,4 +1,4 @@
-"""Every kind of object in odd places: the fuzz of issue 11, shared by a test and the stress run.
+"""Every kind of object in odd places: the object-kinds fuzz, shared by a test and the stress run.
 
 A case is one mover, of any combination of the ObjectInfo flags IsViewer,
 PathClipped, PerfectClip, EdgeSlide, FreeRotate and IsPlayer, with one or

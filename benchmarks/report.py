@@ -12,7 +12,7 @@ from .report_service import (
     plot_service,
     service_limits,
     service_section,
-    summary_issue10,
+    service_targets,
 )
 
 
@@ -49,7 +49,7 @@ def plot_engine(eng: dict[str, Any]) -> str | None:
     a1.set_yscale("log")
     a1.set_xticks(list(xs), names, rotation=30, ha="right")
     a1.set_ylabel("µs per move")
-    a1.set_title("synthetic workloads (RETAIL); red: issue 6 target")
+    a1.set_title("synthetic workloads (RETAIL); red: engine target")
     a2.set_title("reference traces replayed (ACE_COMPAT)")
     a1.legend()
     tn = [r["name"] for r in trows]
@@ -96,8 +96,8 @@ def plot_error(err: dict[str, Any]) -> str | None:
     return save_plot(plt, fig, "error_pareto.png")
 
 
-def _summary(results: dict[str, Any]) -> list[str]:
-    out = ["## Targets of issue 6: where each stands", "",
+def _engine_targets(results: dict[str, Any]) -> list[str]:
+    out = ["## Engine targets: where each stands", "",
            "| target | measured | verdict |", "|---|---|---|"]
     eng = results.get("engine")
     if eng:
@@ -244,9 +244,9 @@ def _skips_text(err: dict[str, Any]) -> str:
                      f"{sci(vs.get('max', 0.0))} m, contact state {100 * r.get('contact_base_frac', 0.0):.2f} %); the "
                      f"skip saves {saved:.0f} % of the mean time per move")
     if not parts:
-        return ("- Skips (issue 6, \"skip what a scene does not need\"): no skip is an EngineSettings field, so "
+        return ("- Skips (\"skip what a scene does not need\"): no skip is an EngineSettings field, so "
                 "none is measured here.")
-    return ("- Skips (issue 6, \"skip what a scene does not need\"), each switched off in its own row of section 2 "
+    return ("- Skips (\"skip what a scene does not need\"), each switched off in its own row of section 2 "
             "(interpreted, one run; a few % is within the noise of the repeat row): " + "; ".join(parts) + ".")
 
 
@@ -308,7 +308,7 @@ def _engine_tables(eng: dict[str, Any]) -> list[str]:
            "median, every round's median listed after the table (this machine has a slow mode lasting seconds)."
            if rounds > 1 else "")
     out += ["", ("The reference traces replayed move by move (ACE_COMPAT, placements skipped) against ACE's own time "
-            "per move on the same traces (issue 6 anchors: ACE compiled with mcs, run under Mono, on this machine class)."
+            "per move on the same traces (the anchors: ACE compiled with mcs, run under Mono, on this machine class)."
             + how), ""]
     head = "| trace scene | moves | median µs | p99 µs | moves/s | ACE µs | acphys / ACE |"
     rule = "|---|---:|---:|---:|---:|---:|---:|"
@@ -343,7 +343,7 @@ def _engine_tables(eng: dict[str, Any]) -> list[str]:
 
 
 def _crowd_table(eng: dict[str, Any]) -> list[str]:
-    """Crowds of live movers with the broad phase (skip_far_movers) on and off (issue 12)."""
+    """Crowds of live movers with the broad phase (skip_far_movers) on and off."""
     rows = eng.get("crowds") or []
     if not rows:
         return []
@@ -533,7 +533,7 @@ Raw results: `docs/performance.json` (each section's latest run); plots: `benchm
 
 
 def write(results: dict[str, Any]) -> None:
-    lines = [HEADER, *_summary(results), *summary_issue10(results), *_limits(results)]
+    lines = [HEADER, *_engine_targets(results), *service_targets(results), *_limits(results)]
     if "engine" in results:
         lines += _engine(results["engine"], plot_engine(results["engine"]))
     if "error" in results:

@@ -1,4 +1,4 @@
-"""docs/performance.md's service sections (service over loopback, issue 10's targets, memory)."""
+"""docs/performance.md's service sections (service over loopback, the service's targets, memory)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from typing import Any
 
 from .report_format import as_float, meta_line, num, pyplot, save_plot
 
-#: issue 10's column form sent by raw Zenoh gets (benchmarks/bench_issue10.py; not imported from there, which
+#: the batch workload's column form sent by raw Zenoh gets (benchmarks/bench_batches.py; not imported from there, which
 #: would load the client library and numpy to write a report)
 RAW_COLUMNS_FORM = "columns, raw clients"
 
-__all__ = ["plot_service", "summary_issue10", "service_limits", "service_section", "memory_section", "client_label",
+__all__ = ["plot_service", "service_targets", "service_limits", "service_section", "memory_section", "client_label",
            "workers_table", "WORKERS_TEXT", "spanning_text"]
 
 def plot_service(svc: dict[str, Any]) -> str | None:
@@ -51,22 +51,22 @@ def _inside(row: dict[str, Any]) -> str:
     return "" if inside is None else f"; the engine's own share inside the service {inside:.1f} µs"
 
 
-def summary_issue10(results: dict[str, Any]) -> list[str]:
-    """Issue 10's targets (the service against the engine, every core, memory), from this file's sections."""
-    out = ["## Targets of issue 10: where each stands", "",
+def service_targets(results: dict[str, Any]) -> list[str]:
+    """The service's targets (against the engine, every core, memory), from this file's sections."""
+    out = ["## Service targets: where each stands", "",
            "| target | measured | verdict |", "|---|---|---|"]
     svc = results.get("service") or {}
-    issue = svc.get("issue10_columns")
-    if issue:
-        eng = issue["engine"]
-        bare = issue.get("bare")
+    batches = svc.get("batch_workload")
+    if batches:
+        eng = batches["engine"]
+        bare = batches.get("bare")
         # the bound: the engine alone behind a bare queryable, sent by the raw clients, in the same rounds
         bound = (f"; the bound, the engine alone behind a bare queryable: {bare['moves_per_s']:,.0f} moves/s, "
                  f"{bare['ratio_to_engine']:.2f} (rounds " + ", ".join(f"{r['ratio_to_engine']:.2f}"
                                                             for r in bare.get("rounds") or [bare]) + ")"
                  if bare else "")
         unreachable = bool(bare) and bare["ratio_to_engine"] < 0.8
-        for row in issue["service"]:
+        for row in batches["service"]:
             met = row["ratio_to_engine"] >= 0.8
             out.append(f"| batched throughput ≥ 0.8 of `World.move` in process, same movers and moves ({row['form']}) "
                        f"| {row['moves_per_s']:,.0f} vs {eng['moves_per_s']:,.0f} moves/s: {row['ratio_to_engine']:.2f} "
@@ -214,7 +214,7 @@ def _run_batch_note(eng: dict[str, Any]) -> str:
 
 
 def _bare_note(bare: dict[str, Any] | None, cols: dict[str, Any]) -> str:
-    """What the engine behind a bare queryable says of the bus (issue 10's bound row)."""
+    """What the engine behind a bare queryable says of the bus (the service targets' bound)."""
     if not bare:
         return ""
     return (f" The same engine behind a bare Zenoh queryable, with nothing else per request, carried "
@@ -227,20 +227,21 @@ def _bare_note(bare: dict[str, Any] | None, cols: dict[str, Any]) -> str:
             f"{bare['ratio_to_engine']:.2f} to {cols['ratio_to_engine']:.2f}.")
 
 
-def _issue10(data: dict[str, Any] | None, label: str) -> list[str]:
-    """Issue 10's workload through the map and the column batch, beside World.move in process."""
+def _batch_workload(data: dict[str, Any] | None, label: str) -> list[str]:
+    """The batch workload through the map and the column batch, beside World.move in process."""
     if not data or "engine" not in data:
         return []
     eng = data["engine"]
     rounds = data.get("rounds", 1)
     how = (f"in {rounds} rounds of {data.get('seconds_each', 0):.0f} s each (World.move, then each form), "
            "medians over the rounds" if rounds > 1 else "in one round")
-    out = ["", (f"Issue 10's workload ({label}): {data['movers']} player movers one every {data['spacing_m']:.0f} m on "
+    out = ["", (f"The batch workload of benchmarks/bench_batches.py ({label}): {data['movers']} player movers one "
+                f"every {data['spacing_m']:.0f} m on "
                 f"the demo world walking ±{data['step_m']} m, two client processes each moving its half in batches of "
                 "100 (every mover out and back), by map batch (`Client.move_many_maps`), by column batch "
                 "(`Client.move_batch`, docs/protocol.md, Column batches) and by the same column request's bytes sent "
                 "with raw Zenoh gets, each reply decoded with msgpack and its error list read (\"columns, raw "
-                "clients\": the raw Zenoh + msgpack clients the issue measures with, and the bound's clients, so that "
+                "clients\": the raw Zenoh + msgpack clients the target is read with, and the bound's clients, so that "
                 "the client library's CPU on the same two cores is not counted against the service); beside it "
                 "`World.move` on the same movers in "
                 f"a process of its own, {how}: {eng['moves_per_s']:,.0f} moves/s, "
@@ -309,7 +310,7 @@ def service_section(svc: dict[str, Any], plot: str | None) -> list[str]:
                f"**{lat['ratio_accounts_move_to_move']:.2f}x** the plain one's round trip at the median, "
                f"interleaved in the same run." if "ratio_accounts_move_to_move" in lat else "")), "",
             _THROUGHPUT_TEXT, "", *_throughput_table(svc["throughput"])]
-    out += _issue10(svc.get("issue10_columns"), "the working tree's engine")
+    out += _batch_workload(svc.get("batch_workload"), "the working tree's engine")
     if svc.get("workers"):
         out += ["", WORKERS_TEXT, "", *workers_table(svc["workers"])]
     if svc.get("spanning"):
@@ -327,7 +328,7 @@ def service_section(svc: dict[str, Any], plot: str | None) -> list[str]:
         ce = as_float((cl.get("service_engine_ms") or {}).get("p50")) * 1000.0
         out += ["", f"One move / echo: **{cl['ratio_move_to_echo']:.2f}x**; engine {num(ce, 0)} µs per move inside the service.", "",
                 *_throughput_table(comp["throughput"])]
-        out += _issue10(comp.get("issue10_columns"), "compiled engine")
+        out += _batch_workload(comp.get("batch_workload"), "compiled engine")
     elif comp:
         out += ["", f"The compiled-engine service run failed: {comp.get('failed')}"]
     if plot:
@@ -417,20 +418,20 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                        "clients send (the engine runs on one thread; Python's GIL serialises the rest); 50,000 "
                        "moves/s needs at most 20 µs per move, decoding and encoding included, or several "
                        "instances owning different landblocks." + ctxt + both)
-        issue = svc.get("issue10_columns") or {}
-        forms = {r["form"]: r for r in issue.get("service", [])}
+        batches = svc.get("batch_workload") or {}
+        forms = {r["form"]: r for r in batches.get("service", [])}
         # the column form with the bound's clients where measured (older runs: the client library's)
         cols = forms.get(RAW_COLUMNS_FORM) or forms.get("columns")
         if cols and cols.get("engine_in_service_us") is not None:
-            eng = issue["engine"]
+            eng = batches["engine"]
             need = eng["cpu_us_per_move"] / 0.8
             out.append(
-                f"- Issue 10's batched throughput: with the column form ({cols['form']}) a move cost the service "
+                f"- Batched throughput (the batch workload): with the column form ({cols['form']}) a move cost the service "
                 f"{cols['service_cpu_us_per_move']:.1f} µs of CPU, of which {cols['engine_in_service_us']:.1f} µs in "
                 f"the engine (its own stats) and {cols['service_beyond_engine_us']:.1f} µs in everything else "
                 "(Zenoh's receive and reply, msgpack, the column checks, the rows' bookkeeping and the reply's "
                 f"arrays). In a process of its own the same engine took {eng['cpu_us_per_move']:.1f} µs per move: "
                 "inside the service it shares this machine's two cores with the two client processes and "
                 "Zenoh's threads. 0.8 of the engine's rate asks the whole service for at most "
-                f"{need:.1f} µs per move." + _bare_note(issue.get("bare"), cols))
+                f"{need:.1f} µs per move." + _bare_note(batches.get("bare"), cols))
     return out

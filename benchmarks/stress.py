@@ -74,7 +74,7 @@ FINDINGS = [
     (("World.add_mover accepted a zero, negative, NaN or infinite scale and NaN step heights (moves then raised "
      "ZeroDivisionError or a plain ValueError); fixed in commit 438516b"),
      "test_a_mover_spec_the_service_would_reject_is_an_engine_error"),
-    (("the object-kinds fuzz (issue 11): cameras whose terrain pull-back divided by a zero step raised "
+    (("the object-kinds fuzz: cameras whose terrain pull-back divided by a zero step raised "
      "OverflowError/ValueError from the outdoor cell search (14 in 32,650 moves); the compiled build raised "
      "TypeError for a two-sphere missile indoors (a narrowed `hit.poly` read in BSPTree.find_collisions)"),
      "tests/test_fuzz_object_kinds.py"),

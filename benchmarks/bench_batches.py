@@ -1,12 +1,12 @@
-"""Issue 10's workload: the service against the engine in process, on the same movers and moves.
+"""The batch workload: the service against the engine in process, on the same movers and moves.
 
 100 player movers one every 8 m on the demo world, walking +-0.25 m and back, sent by two client
 processes in batches of 100 through the map batch and the column batch (by the client library, and as
-the column request's bytes in raw Zenoh gets: the clients the issue measures with); beside it World.move and the
+the column request's bytes in raw Zenoh gets: the clients its target is read with); beside it World.move and the
 engine's batch entry point (run_batch) on the same movers in a process of their own, and the bound of
 any service on this bus: the engine behind a bare Zenoh queryable. Run by `python3 -m benchmarks --only
-service` (benchmarks/bench_service.py); its children are this module's `issue-engine`, `issue-worker`
-and `issue-bare` roles.
+service` (benchmarks/bench_service.py); its children are this module's `batch-engine`, `batch-worker`
+and `batch-bare` roles.
 """
 
 from __future__ import annotations
@@ -23,48 +23,48 @@ from . import common
 from .bench_service import Child, demo_scene, child_env, collect_reports, free_port
 from .common import log
 
-__all__ = ["issue_workload", "issue_spots", "ISSUE_MOVERS", "ISSUE_STEP"]
+__all__ = ["batch_workload", "batch_spots", "BATCH_MOVERS", "BATCH_STEP"]
 
 
-# -- issue 10's workload: the map and the column form against the engine in process ------------------------
+# -- the batch workload: the map and the column form against the engine in process ----------------------
 #: 100 player movers one every 8 m on the demo world, walking +-0.25 m; each of the two client processes
 #: moves its 50 in batches of 100 (every mover out and back)
-ISSUE_MOVERS = 100
+BATCH_MOVERS = 100
 
 
-ISSUE_SPACING = 8.0
+BATCH_SPACING = 8.0
 
 
-ISSUE_STEP = 0.25
+BATCH_STEP = 0.25
 
 
-ISSUE_PROCESSES = 2
+BATCH_PROCESSES = 2
 
 
-ISSUE_FORMS = {
+BATCH_FORMS = {
     "maps": "Client.move_many_maps: the map batch, entries as decoded maps",
     "columns": "Client.move_batch: the column batch, results as numpy arrays",
     "columns, raw clients": "the column batch as raw Zenoh gets of the bytes Client.move_batch sends, each reply "
-                            "decoded with msgpack and its error list read: the clients the issue names, and the "
-                            "bound's",
+                            "decoded with msgpack and its error list read: the clients the target is read with, and "
+                            "the bound's",
 }
-#: the form whose clients are the bound's (raw Zenoh gets): the figure the issue's 0.8 target is read from
+#: the form whose clients are the bound's (raw Zenoh gets): the figure the service's 0.8 target is read from
 RAW_COLUMNS_FORM = "columns, raw clients"
 
 #: the bound beside the service: a bare Zenoh queryable whose only work per request is the engine's batch
 BARE_FORM = "engine behind a bare queryable"
-BARE_KEY = "acphys-bench/issue10/bare"
+BARE_KEY = "acphys-bench/batches/bare"
 
 
-def issue_spots(world: Any) -> list[tuple[Any, Any, int]]:
+def batch_spots(world: Any) -> list[tuple[Any, Any, int]]:
     """(position on the ground, its contact plane, cell) of every mover: a 10 x 10 grid 8 m apart."""
     from clients.demo_world import global_to_cell
     from engine.geometry import Plane, Position, Vec3
 
     out = []
-    side = int(round(ISSUE_MOVERS ** 0.5))
-    for k in range(ISSUE_MOVERS):
-        gx, gy = 100.0 + ISSUE_SPACING * (k % side), 100.0 + ISSUE_SPACING * (k // side)
+    side = int(round(BATCH_MOVERS ** 0.5))
+    for k in range(BATCH_MOVERS):
+        gx, gy = 100.0 + BATCH_SPACING * (k % side), 100.0 + BATCH_SPACING * (k // side)
         cell, x, y = global_to_cell(gx, gy)
         z = world.terrain_height(cell, x, y)
         n = world.landblocks[cell >> 16].terrain.normal_at(x, y)
@@ -72,7 +72,7 @@ def issue_spots(world: Any) -> list[tuple[Any, Any, int]]:
     return out
 
 
-def issue_engine_rate(seconds: float) -> dict[str, Any]:
+def batch_engine_rate(seconds: float) -> dict[str, Any]:
     """World.move on the same movers in this process: the rate the service is measured against; beside it
     the engine's batch entry point (engine.world.batch.run_batch) on the same moves in batches of 100."""
     from engine import load_scene
@@ -82,8 +82,8 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
     from .scenes import PLAYER
 
     world = load_scene(str(demo_scene()))
-    ids = [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in issue_spots(world)]
-    out, back = Vec3(ISSUE_STEP, 0.0, 0.0), Vec3(-ISSUE_STEP, 0.0, 0.0)
+    ids = [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in batch_spots(world)]
+    out, back = Vec3(BATCH_STEP, 0.0, 0.0), Vec3(-BATCH_STEP, 0.0, 0.0)
 
     def one_by_one() -> int:
         for offset in (out, back):
@@ -116,11 +116,11 @@ def issue_engine_rate(seconds: float) -> dict[str, Any]:
 
 def _share_batches(world: Any, ids: list[int]) -> list[tuple[list[Any], list[float]]]:
     """Each client process's batch as run_batch takes it: every mover of its share out, then back."""
-    share = len(ids) // ISSUE_PROCESSES
+    share = len(ids) // BATCH_PROCESSES
     batches = []
-    for k in range(ISSUE_PROCESSES):
+    for k in range(BATCH_PROCESSES):
         movers = [world.mover(mid) for mid in ids[k * share:(k + 1) * share]]
-        batches.append((movers + movers, [ISSUE_STEP, 0.0, 0.0] * share + [-ISSUE_STEP, 0.0, 0.0] * share))
+        batches.append((movers + movers, [BATCH_STEP, 0.0, 0.0] * share + [-BATCH_STEP, 0.0, 0.0] * share))
     return batches
 
 
@@ -132,7 +132,7 @@ def _column_request_bytes(ids: list[int]) -> bytes:
     from service.frames import pack
 
     offsets = np.zeros((2 * len(ids), 3))
-    offsets[:len(ids), 0], offsets[len(ids):, 0] = ISSUE_STEP, -ISSUE_STEP
+    offsets[:len(ids), 0], offsets[len(ids):, 0] = BATCH_STEP, -BATCH_STEP
     return pack({"kind": "offset", "columns": pack_columns(REQUEST_COLUMNS, {
         "id": np.array(ids + ids, dtype=np.uint64), "offset": offsets})})
 
@@ -149,7 +149,7 @@ def _column_reply_size(n: int) -> int:
     return len(pack({"n": n, "columns": cols, "errors": []}))
 
 
-def issue_bare_main(endpoint: str) -> None:
+def batch_bare_main(endpoint: str) -> None:
     """The bound of any service on this bus: a bare Zenoh queryable that, for each request on
     `BARE_KEY/<client index>`, runs that client's batch through run_batch (nothing decoded, checked or
     encoded) and answers with as many bytes as the service's column reply; until SIGINT/SIGTERM."""
@@ -165,7 +165,7 @@ def issue_bare_main(endpoint: str) -> None:
     from .scenes import PLAYER
 
     world = load_scene(str(demo_scene()))
-    batches = _share_batches(world, [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in issue_spots(world)])
+    batches = _share_batches(world, [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in batch_spots(world)])
     reply = bytes(_column_reply_size(len(batches[0][0])))
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -190,7 +190,7 @@ def _bare_worker(endpoint: str, index: int, start_at: float, seconds: float) -> 
 
     from service.zconfig import make_config
 
-    share = ISSUE_MOVERS // ISSUE_PROCESSES
+    share = BATCH_MOVERS // BATCH_PROCESSES
     payload = _column_request_bytes(list(range(index * share + 1, (index + 1) * share + 1)))
     session = zenoh.open(make_config(connect=[endpoint]))
     try:
@@ -240,7 +240,7 @@ def _raw_column_worker(c: Any, ids: list[int], start_at: float, seconds: float) 
     return _raw_gets(c.session, key, payload, items, start_at, seconds, failed)
 
 
-def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:
+def batch_worker_main(endpoint: str, index: int, start_at: float, seconds: float, form: str) -> None:
     """Register this process's share of the grid, then send batches of 100 (each mover +0.25 m then -0.25 m)
     in `form` until `seconds` have passed; print a JSON report."""
     import numpy as np
@@ -253,13 +253,13 @@ def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float
     if form == BARE_FORM:
         print("RESULT " + json.dumps(_bare_worker(endpoint, index, start_at, seconds)), flush=True)
         return
-    share = ISSUE_MOVERS // ISSUE_PROCESSES
-    spots = issue_spots(load_scene(str(demo_scene())))[index * share:(index + 1) * share]
+    share = BATCH_MOVERS // BATCH_PROCESSES
+    spots = batch_spots(load_scene(str(demo_scene())))[index * share:(index + 1) * share]
     with Client([endpoint], timeout=30.0) as c:
         ids = [c.register(PLAYER, pos, contact_plane=plane, contact_plane_cell=cell).id for pos, plane, cell in spots]
         batch_ids = np.array(ids + ids, dtype=np.uint64)
         offsets = np.zeros((2 * share, 3))
-        offsets[:share, 0], offsets[share:, 0] = ISSUE_STEP, -ISSUE_STEP
+        offsets[:share, 0], offsets[share:, 0] = BATCH_STEP, -BATCH_STEP
         map_moves = [Move(int(i), offset=(o[0], o[1], o[2])) for i, o in zip(batch_ids.tolist(), offsets.tolist())]
         if form == RAW_COLUMNS_FORM:
             moves, errors, elapsed, cpu = _raw_column_worker(c, ids, start_at, seconds)
@@ -286,38 +286,38 @@ def issue_worker_main(endpoint: str, index: int, start_at: float, seconds: float
                                    "cpu_seconds": cpu}), flush=True)
 
 
-def issue_service_rate(endpoint: str, service: Child, form: str, seconds: float) -> dict[str, Any]:
+def batch_service_rate(endpoint: str, service: Child, form: str, seconds: float) -> dict[str, Any]:
     start_at = time.time() + 4.0  # every worker has loaded the scene and registered its movers by then
-    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_issue10", "issue-worker", endpoint, str(i),
+    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_batches", "batch-worker", endpoint, str(i),
                                repr(start_at), repr(seconds), form],
                               cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for i in range(ISSUE_PROCESSES)]
+             for i in range(BATCH_PROCESSES)]
     time.sleep(max(0.0, start_at - time.time()))
     cpu0 = service.cpu_seconds()
-    reports = collect_reports(procs, seconds + 90.0, "issue worker")
+    reports = collect_reports(procs, seconds + 90.0, "batch worker")
     cpu = service.cpu_seconds() - cpu0  # includes the workers' remove requests: negligible
     moves = sum(r["moves"] for r in reports)
     wall = max(r["seconds"] for r in reports)
-    row = {"form": form, "processes": ISSUE_PROCESSES, "batch": 2 * (ISSUE_MOVERS // ISSUE_PROCESSES),
+    row = {"form": form, "processes": BATCH_PROCESSES, "batch": 2 * (BATCH_MOVERS // BATCH_PROCESSES),
            "moves": moves, "seconds": wall, "moves_per_s": moves / wall, "errors": sum(r["errors"] for r in reports),
            "service_cpu_us_per_move": cpu / moves * 1e6 if moves else None,
            "client_cpu_us_per_move": sum(r["cpu_seconds"] for r in reports) / moves * 1e6 if moves else None}
-    log(f"service (issue 10): {ISSUE_PROCESSES} proc x batch {row['batch']} ({form:7s}): {row['moves_per_s']:9.0f} "
+    log(f"service (batch workload): {BATCH_PROCESSES} proc x batch {row['batch']} ({form:7s}): {row['moves_per_s']:9.0f} "
         f"moves/s, service CPU {row['service_cpu_us_per_move']:.1f} µs/move, "
         f"client CPU {row['client_cpu_us_per_move']:.1f} µs/move, {row['errors']} errors")
     return row
 
 
-def _issue_engine_once(seconds: float, engine_root: Path | None) -> dict[str, Any]:
+def _batch_engine_once(seconds: float, engine_root: Path | None) -> dict[str, Any]:
     """World.move and run_batch in a child, with the same engine the service imports (`engine_root`'s when given)."""
-    p = subprocess.run([sys.executable, "-m", "benchmarks.bench_issue10", "issue-engine", repr(seconds)],
+    p = subprocess.run([sys.executable, "-m", "benchmarks.bench_batches", "batch-engine", repr(seconds)],
                        cwd=engine_root or common.ROOT, env=child_env(engine_root), capture_output=True, text=True,
                        timeout=seconds + 120)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("ENGINE ")]
     if p.returncode != 0 or not lines:
         raise RuntimeError(f"in-process engine run failed ({p.returncode}):\n{p.stderr[-2000:]}")
     engine: dict[str, Any] = json.loads(lines[-1][7:])
-    log(f"service (issue 10): World.move in process on the same movers: {engine['moves_per_s']:9.0f} moves/s, "
+    log(f"service (batch workload): World.move in process on the same movers: {engine['moves_per_s']:9.0f} moves/s, "
         f"CPU {engine['cpu_us_per_move']:.1f} µs/move; run_batch in process: "
         f"{engine['run_batch']['moves_per_s']:9.0f} moves/s, CPU {engine['run_batch']['cpu_us_per_move']:.1f} µs/move")
     return engine
@@ -344,8 +344,8 @@ def _median_row(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
-    """Issue 10's workload through the map and the column form, and World.move in process, in one run:
+def batch_workload(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
+    """The batch workload through the map and the column form, and World.move in process, in one run:
     in rounds (engine, then each form), so that each ratio compares minutes of the same machine state on
     this shared machine; the figures are the medians over the rounds, each round's ratio its own."""
     seconds, rounds = (2.0, 1) if quick else (5.0, 3)
@@ -354,31 +354,31 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
     service = Child([sys.executable, "-m", "service", "--scene", str(demo_scene()), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready", engine_root)
     bare_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    bare = Child([sys.executable, "-m", "benchmarks.bench_issue10", "issue-bare", bare_endpoint], "bare queryable ready",
+    bare = Child([sys.executable, "-m", "benchmarks.bench_batches", "batch-bare", bare_endpoint], "bare queryable ready",
                  engine_root)
     engines: list[dict[str, Any]] = []
-    per_form: dict[str, list[dict[str, Any]]] = {form: [] for form in ISSUE_FORMS}
+    per_form: dict[str, list[dict[str, Any]]] = {form: [] for form in BATCH_FORMS}
     bounds: list[dict[str, Any]] = []
     try:
         for _ in range(rounds):
-            engine = _issue_engine_once(seconds, engine_root)
+            engine = _batch_engine_once(seconds, engine_root)
             engines.append(engine)
-            for form in ISSUE_FORMS:
-                row = issue_service_rate(endpoint, service, form, seconds)
+            for form in BATCH_FORMS:
+                row = batch_service_rate(endpoint, service, form, seconds)
                 row["ratio_to_engine"] = row["moves_per_s"] / engine["moves_per_s"]
                 # CPU per move, less sensitive to other processes on a shared machine than the rates
                 row["cpu_ratio_to_engine"] = engine["cpu_us_per_move"] / row["service_cpu_us_per_move"]
                 inside = _engine_inside(endpoint)
                 row["engine_in_service_us"] = inside
                 row["service_beyond_engine_us"] = None if inside is None else row["service_cpu_us_per_move"] - inside
-                log(f"service (issue 10): {form} / engine in process = {row['ratio_to_engine']:.2f} in moves/s, "
+                log(f"service (batch workload): {form} / engine in process = {row['ratio_to_engine']:.2f} in moves/s, "
                     f"{row['cpu_ratio_to_engine']:.2f} in CPU per move (target >= 0.8); the engine inside the service "
                     f"{inside or float('nan'):.1f} µs/move")
                 per_form[form].append(row)
-            row = issue_service_rate(bare_endpoint, bare, BARE_FORM, seconds)
+            row = batch_service_rate(bare_endpoint, bare, BARE_FORM, seconds)
             row["ratio_to_engine"] = row["moves_per_s"] / engine["moves_per_s"]
             row["cpu_ratio_to_engine"] = engine["cpu_us_per_move"] / row["service_cpu_us_per_move"]
-            log(f"service (issue 10): {BARE_FORM} / engine in process = {row['ratio_to_engine']:.2f} in moves/s")
+            log(f"service (batch workload): {BARE_FORM} / engine in process = {row['ratio_to_engine']:.2f} in moves/s")
             bounds.append(row)
     finally:
         service.stop()
@@ -387,18 +387,18 @@ def issue_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
     engine_row["run_batch"] = _median_row([e["run_batch"] for e in engines])
     return {"engine": engine_row, "service": [_median_row(rows) for rows in per_form.values()],
             "bare": _median_row(bounds),
-            "movers": ISSUE_MOVERS, "spacing_m": ISSUE_SPACING, "step_m": ISSUE_STEP, "forms": ISSUE_FORMS,
+            "movers": BATCH_MOVERS, "spacing_m": BATCH_SPACING, "step_m": BATCH_STEP, "forms": BATCH_FORMS,
             "rounds": rounds, "seconds_each": seconds}
 
 
 if __name__ == "__main__":
-    if sys.argv[1] == "issue-worker":
-        issue_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
-    elif sys.argv[1] == "issue-bare":
-        issue_bare_main(sys.argv[2])
-    elif sys.argv[1] == "issue-engine":
-        print("ENGINE " + json.dumps(issue_engine_rate(float(sys.argv[2]))), flush=True)
-    elif sys.argv[1] == "issue":
-        print(json.dumps(issue_workload(quick=True)))
+    if sys.argv[1] == "batch-worker":
+        batch_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
+    elif sys.argv[1] == "batch-bare":
+        batch_bare_main(sys.argv[2])
+    elif sys.argv[1] == "batch-engine":
+        print("ENGINE " + json.dumps(batch_engine_rate(float(sys.argv[2]))), flush=True)
+    elif sys.argv[1] == "batch":
+        print(json.dumps(batch_workload(quick=True)))
     else:
         raise SystemExit(f"unknown role {sys.argv[1]!r}")

@@ -1,11 +1,11 @@
-"""Issue 10's benchmark: the bound beside the service sends and answers what the service would."""
+"""The batch workload's benchmark: the bound beside the service sends and answers what the service would."""
 
 from __future__ import annotations
 
 import msgpack
 import numpy as np
 
-from benchmarks.bench_issue10 import ISSUE_STEP, _column_reply_size, _column_request_bytes
+from benchmarks.bench_batches import BATCH_STEP, _column_reply_size, _column_request_bytes
 from engine.world.batch import BatchRows, append_missing
 from service.column_moves import ColumnResults, reply_message
 from service.column_request import parse_column_request
@@ -25,7 +25,7 @@ def test_the_bound_is_sent_the_request_a_client_sends() -> None:
     req = parse_column_request(msgpack.unpackb(_column_request_bytes(ids)))
     assert req.kind == "offset" and req.n == 6 and not req.bad
     assert req.arrays["id"].tolist() == [5, 6, 7, 5, 6, 7]
-    expected = np.array([[ISSUE_STEP, 0, 0]] * 3 + [[-ISSUE_STEP, 0, 0]] * 3)
+    expected = np.array([[BATCH_STEP, 0, 0]] * 3 + [[-BATCH_STEP, 0, 0]] * 3)
     assert np.array_equal(req.arrays["offset"], expected)
 
 
@@ -52,7 +52,7 @@ def test_the_raw_clients_send_the_bytes_client_move_batch_sends() -> None:
     client = Client(session=session)  # type: ignore[arg-type]
     for mid in ids:
         client.locate(mid, 0xA9B4)
-    offsets = np.array([[ISSUE_STEP, 0.0, 0.0]] * 3 + [[-ISSUE_STEP, 0.0, 0.0]] * 3)
+    offsets = np.array([[BATCH_STEP, 0.0, 0.0]] * 3 + [[-BATCH_STEP, 0.0, 0.0]] * 3)
     results = client.move_batch(np.array(ids + ids, dtype=np.uint64), offsets=offsets)
     assert len(results.errors) == 6  # nobody answered: every item failed, and the request went out once
     assert session.payloads == [_column_request_bytes(ids)]
