@@ -5,7 +5,7 @@ that live as long as their landblock. CPython's collector is tuned for
 neither side of that: every full collection walks the whole world again
 (about 20 ms here, several per million moves), and the youngest generation
 (700 objects by default) fills several times per batch with a batch's rows,
-which all die when the reply is sent. Measured on issue 10's workload with
+which all die when the reply is sent. Measured on the batch workload (benchmarks/bench_batches.py) with
 the column form in one process (docs/performance.md, "Service over
 loopback"): about 2 µs per move went to the collector, nothing after.
 

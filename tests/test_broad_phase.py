@@ -1,4 +1,4 @@
-"""The broad phase for crowds (issue 12): `skip_far_movers` passes over live
+"""The broad phase for crowds: `skip_far_movers` passes over live
 movers the path's spheres cannot reach, and changes no answer.
 
 - the box test itself, against hand-placed spheres (engine.cells.broad_phase);

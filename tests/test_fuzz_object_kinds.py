@@ -1,4 +1,4 @@
-"""No exception escapes the engine, whatever kind of object moves where (issue 11).
+"""No exception escapes the engine, whatever kind of object moves where.
 
 A property test over every combination of the ObjectInfo flags IsViewer,
 PathClipped, PerfectClip, EdgeSlide, FreeRotate and IsPlayer, spheres of

@@ -1,4 +1,4 @@
-"""The engine's layers (issue 12): no import circle, and each layer imports only
+"""The engine's layers: no import circle, and each layer imports only
 the layers below it.
 
 The import graph is read from the sources with `ast` (nothing is imported):

@@ -1,6 +1,6 @@
-"""Limits at the door (issue 11): what a caller gives the World is checked before anything changes.
+"""Limits at the door: what a caller gives the World is checked before anything changes.
 
-Each hostile input of the issue is refused with an EngineError naming its
+Each hostile input below is refused with an EngineError naming its
 field; the mover it names stays exactly as it was (position, contact,
 velocity), and a neighbour's moves give bit-identical results to a run in
 which the hostile calls were never made.

@@ -112,8 +112,8 @@ def _moved_cases(tag: str) -> list[Any]:
 
 
 def test_the_traces_hold_placements_that_move_the_object_off_steep_slopes_and_out_of_walls() -> None:
-    """The cases above include what the issue names: a player moved on a steep
-    slope, and one moved out of a wall."""
+    """The cases above include a player moved on a steep slope, and a mover
+    moved out of a wall."""
     assert any("IsPlayer" in p.values[1]["object"]["state"] for p in _moved_cases("terrain") if "steep" in p.values[1]["id"])
     assert _moved_cases("wall-e") or _moved_cases("corner")
 

@@ -1,7 +1,7 @@
-"""Limits at the door, over the bus (issue 11): every hostile input gets a named error, never `internal`.
+"""Limits at the door, over the bus: every hostile input gets a named error, never `internal`.
 
 A neighbour walks while a hostile client sends, between its moves, every
-input of the issue: numbers beyond single precision, targets far outside
+hostile input: numbers beyond single precision, targets far outside
 the landblock, a giant sphere, origins outside the landblock, a velocity of
 1e30, a dt the client would not resolve. Each is answered `bad_value` (or
 `non_finite`) naming its field; the hostile client's own mover keeps its

@@ -1,4 +1,4 @@
-"""The engine's skips of needless work leave every answer unchanged (issue 6)."""
+"""The engine's skips of needless work leave every answer unchanged."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Regressions from the stability stress run (benchmarks/stress.py, issue 6).
+"""Regressions from the stability stress run (benchmarks/stress.py).
 
 Each test is one situation the stress run exercises, reduced to a few
 moves with the correct behaviour asserted. Behaviour the engine gets wrong
@@ -216,7 +216,7 @@ def test_a_small_stress_run_is_clean(scenario: str) -> None:
 #: (scene, floor z, start x, y, offset, wall: plane y, its outward normal's y, x range, the reference's gap).
 #: The mover is the reference cases' (house-046-wall, dungeon-033-branch): one sphere of 0.6 m, step
 #: heights 0.6. The gap is how far the sphere's surface ends from the wall (negative: inside it), as ACE's
-#: physics gives it for the same move (issue 11: run through the reference, which ends all four within
+#: physics gives it for the same move (run through the reference, which ends all four within
 #: 1e-5 m of the engine's positions; its gaps as reported there, to the millimetre).
 CORNER_CASES = {
     # the house room's south wall (y = 105.25, facing +y) runs x 108.75..111.75, a doorway west of it

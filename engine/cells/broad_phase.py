@@ -1,4 +1,4 @@
-"""Broad phase: pass over the live movers a path's spheres cannot reach (issue 12).
+"""Broad phase: pass over the live movers a path's spheres cannot reach.
 
 The client's CObjCell::find_obj_collisions hands every object shadowed into a
 cell to that object's own find_obj_collisions, at every sub-step. In a crowd

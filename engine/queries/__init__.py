@@ -1,4 +1,4 @@
-"""Spatial queries on a World: sight, rays, ground, placement (issue 14, the library part).
+"""Spatial queries on a World: sight, rays, ground, placement (the library part; the service answers the same over the bus).
 
 Each query runs the engine's own transition machinery on a throwaway sweep
 object that no cell knows about, so a query never changes any mover.
