@@ -5,6 +5,7 @@
     acphys move --start A9B40001 20 20 60 --offset 1 0 0
     acphys stats
     acphys ground A9B4000B 40 50 60    # spatial queries: ground, sight, ray, place (clients/query_cmd.py)
+    acphys path --from A9B40024 100 96 112.5 --to A9B40100 107 109.5 112.5   # a walkable path (clients/path_cmd.py)
     acphys view                       # a live map of the movers on http://127.0.0.1:8765/
     acphys router --listen tcp/0.0.0.0:7447   # a Zenoh router for instances on several machines
     acphys --version                  # the version and the protocol version
@@ -30,6 +31,7 @@ from .cli_values import PositionAction, TargetAction, hex_id, number
 from .connection import add_connection_arguments, connect_client
 from .endpoints import connect_endpoint, key_prefix, listen_endpoint, tcp_port
 from .landblock_cmd import add_landblock_commands, parse_landblock
+from .path_cmd import add_path_command
 from .query_cmd import add_query_commands
 
 __all__ = ["main", "build_parser", "version_text"]
@@ -110,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--json", action="store_true", help="print the raw stats maps as JSON")
     add_landblock_commands(sub)
     add_query_commands(sub, add_connection_arguments)
+    add_path_command(sub, add_connection_arguments)
     _check_bus_options(p)
     return p
 

@@ -34,6 +34,7 @@ from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKin
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
 from .batch import BatchResults, move_batch
+from .paths import PathQueries
 from .spatial import SpatialQueries
 from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState, item_result
@@ -106,8 +107,9 @@ class Subscription:
         self.close()
 
 
-class Client(SpatialQueries):
-    """A connection to the acphys service: register movers, move them, ask the spatial queries, watch States.
+class Client(SpatialQueries, PathQueries):
+    """A connection to the acphys service: register movers, move them, ask the spatial queries and paths,
+    watch States.
 
     One Zenoh session (opened here, or the `session=` given) reaches every instance of a service, however
     many share its landblocks: each request goes to the key of the landblock it concerns, and the client

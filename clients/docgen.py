@@ -6,7 +6,8 @@
 The guide is the docstrings of the public classes (`clients.__all__` and the
 engine's query results they return), every public method and property with
 its signature, in the order the source defines them; only the few paragraphs
-of `INTRODUCTION` are written here. tests/test_client_guide.py checks that
+of `INTRODUCTION` and of `SECTION_TEXT` (a section's opening, such as the
+paths' example) are written here. tests/test_client_guide.py checks that
 the committed guide is this module's output, so a docstring changed without
 running this fails the tests.
 """
@@ -21,10 +22,11 @@ from pathlib import Path
 from typing import Any
 
 import clients
+from engine.navigation import results as path_results
 from engine.queries import results as query_results
 from service.wire import ErrorKind
 
-__all__ = ["GUIDE", "PROTOCOL", "documented_members", "error_kinds_table", "main", "render", "signature_text"]
+__all__ = ["GUIDE", "PROTOCOL", "SECTION_TEXT", "documented_members", "error_kinds_table", "main", "render", "signature_text"]
 
 #: where the guide lives, beside the package in the repository
 GUIDE = Path(__file__).resolve().parent.parent / "docs" / "client.md"
@@ -77,9 +79,54 @@ SECTIONS: tuple[tuple[str, tuple[type, ...]], ...] = (
     ("What the spatial queries answer (engine.queries)", (query_results.SightResult, query_results.RayHit,
                                                            query_results.Ground, query_results.PlacementResult,
                                                            query_results.Blocker)),
+    ("Paths", (path_results.PathResult,)),
     ("Errors", (clients.AcphysError, clients.ServiceError, clients.BusyError, clients.RequestTimeout,
                 clients.NoServiceError)),
 )
+
+#: what a section says before its classes, by title
+SECTION_TEXT = {
+    "Paths": """\
+`Client.path` and `Client.paths` ask the service for a path a walker can really walk: found on a
+navigation graph whose every edge the client's own transition walked, and proven by walking it with
+the walker's shape before it is answered ([protocol.md, "Paths"](protocol.md#paths)). The walker is a
+shape (a `MoverSpec`, with its start) or a registered mover's id (it starts where it stands). The
+answer is the engine's `PathResult`; nothing is moved. Walk its waypoints in turn with moves of at most
+3 m straight toward the next one, until within 0.25 m of it, and the walker reaches each, the goal last.
+The first path to reach a landblock builds its graph there (about a second of the service's time), so
+give such a query a longer timeout. On the demo world (`acphys serve`):
+
+```python
+import math
+from clients import Client
+from engine import MoverSpec, SphereSpec, Position, Vec3
+
+spheres = [SphereSpec((0, 0, 0.48), 0.48), SphereSpec((0, 0, 1.35), 0.48)]
+player = MoverSpec(spheres=spheres, step_up_height=0.6, step_down_height=0.4, state=["IsPlayer"])
+standing = MoverSpec(spheres=spheres, step_up_height=0.6, step_down_height=0.4,
+                     state=["IsPlayer", "Contact", "OnWalkable"])
+with Client(["tcp/127.0.0.1:7447"], timeout=30.0) as c:
+    ground = c.ground(Position.at(0xA9B4000B, Vec3(40.0, 50.0, 60.0)))    # the land under (40, 50)
+    start = Position.at(0xA9B4000B, Vec3(40.0, 50.0, ground.z))
+    goal = Position.at(0xA9B40025, Vec3(100.0, 120.0, 42.0))
+    route = c.path(player, start, goal)              # a shape walking from a start
+    print(route.found, f"{route.length:.1f} m", len(route.waypoints), "waypoints")
+    me = c.register(standing, start, contact_plane=ground.plane).id  # a mover standing there
+    route = c.path(me, None, goal)                   # a registered mover, from where it stands
+    for waypoint in route.waypoints[1:]:             # the walk the guarantee is about
+        here = c.get(me)[0].position
+        for _ in range(math.ceil(here.get_offset(waypoint).length() / 3.0) + 3):
+            offset = here.get_offset(waypoint)
+            if offset.length() <= 0.25:
+                break
+            step = offset * min(1.0, 3.0 / offset.length())
+            here = c.move(me, Position(here.cell_id, here.frame.with_origin(here.frame.origin + step))).position
+    arrived = c.get(me)[0].position
+    print(arrived, f"{arrived.get_offset(goal).length():.2f} m from the goal")
+    c.remove(me)
+```
+""",
+}
 
 #: longest signature kept on one line
 _WIDTH = 100
@@ -244,6 +291,8 @@ def render() -> str:
     out.append("")
     for title, classes in SECTIONS:
         out += [f"## {title}", ""]
+        if title in SECTION_TEXT:
+            out += [SECTION_TEXT[title].rstrip(), ""]
         for cls in classes:
             out += _class_section(cls)
     text = "\n".join(out)

@@ -1,0 +1,182 @@
+"""Paths in the client library: Client.path and Client.paths (docs/protocol.md, "Paths").
+
+A path query asks the service for a way a walker can really walk from a start to a goal: found on a
+navigation graph whose every edge the client's own transition walked, and proven by walking it with the
+walker's shape before it is answered (engine.navigation; README.md, "Paths"). The answer is the engine's
+own `engine.navigation.results.PathResult` (also `engine.PathResult`).
+
+The walker is a shape (`engine.MoverSpec`, with the start given) or a registered mover's id (which starts
+where it stands). A query goes to the landblock key of its start: a MoverSpec walker's `start`, or the
+landblock the client believes the mover is in (`Client.landblock_of`: the last State it saw of it, or a
+`find` when it has seen none); the service's `wrong_landblock` / `moved` answer corrects a stale belief
+and is followed. Like every spatial query it is read-only: no mover changes, a walker mover's `seq`
+included.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, cast
+
+from engine.geometry import Position
+from engine.navigation.results import PathResult
+from engine.world.types import MoverSpec
+from service.codec import decode_position, encode_mover_spec, encode_position
+from service.errors import ProtocolError
+from service.wire import ErrorKind
+
+from .errors import ServiceError
+
+__all__ = ["PathQueries", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
+
+#: most paths one batch request may hold (docs/protocol.md, "Paths"): `paths` splits longer lists
+MAX_PATHS_PER_REQUEST = 64
+_OP = "path"
+_BATCH = "paths"
+
+
+def _path_item(walker: MoverSpec | int, start: Position | None, goal: Position, max_distance: float | None,
+               budget: int | None, avoid_movers: bool) -> dict[str, Any]:
+    """One path query's wire map (protocol.md, "Paths"): the walker, `from` for a MoverSpec, `to` and the
+    options that differ from the defaults."""
+    item: dict[str, Any]
+    if isinstance(walker, MoverSpec):
+        item = {"mover": encode_mover_spec(walker), "from": encode_position(start)}
+    else:
+        item = {"id": walker}
+    item["to"] = encode_position(goal)
+    if max_distance is not None:
+        item["max_distance"] = max_distance
+    if budget is not None:
+        item["budget"] = budget
+    if avoid_movers:
+        item["avoid_movers"] = True
+    return item
+
+
+def read_path_answer(wire: Any) -> PathResult:
+    """A path answer map as a PathResult (waypoints as Positions with their cells); ServiceError
+    `malformed` for a map that is not one."""
+    try:
+        waypoints = [decode_position(w, f"path.waypoints[{i}]") for i, w in enumerate(wire.get("waypoints") or [])]
+        reason = wire.get("reason")
+        return PathResult(bool(wire["found"]), waypoints, float(wire.get("length", 0.0)),
+                          int(wire.get("expanded", 0)), None if reason is None else str(reason),
+                          str(wire.get("detail", "")))
+    except (AttributeError, KeyError, TypeError, ValueError, ProtocolError) as e:
+        raise ServiceError(ErrorKind.MALFORMED, f"unreadable path answer: {e}") from None
+
+
+def path_answer_map(result: PathResult) -> dict[str, Any]:
+    """A PathResult as its answer map, as docs/protocol.md gives it (what `acphys path --json` prints)."""
+    return {"found": result.found, "waypoints": [encode_position(p) for p in result.waypoints],
+            "length": result.length, "expanded": result.expanded, "reason": result.reason, "detail": result.detail}
+
+
+def _check_walker(walker: MoverSpec | int, start: Position | None, where: str) -> None:
+    """ValueError / TypeError for a walker and start that cannot make a query (before anything is sent)."""
+    if isinstance(walker, MoverSpec):
+        if start is None:
+            raise ValueError(f"{where}: a MoverSpec walker needs a start (the position it starts from)")
+    elif isinstance(walker, int) and not isinstance(walker, bool):
+        if not 0 < walker < 2**64:
+            raise ValueError(f"{where}: a mover id is an unsigned 64-bit id above 0, not {walker}")
+        if start is not None:
+            raise ValueError(f"{where}: a registered mover {walker:X} starts where it stands: give start None")
+    else:
+        raise TypeError(f"{where}: the walker is a MoverSpec or a registered mover's id, not {type(walker).__name__}")
+
+
+class PathQueries:
+    """The path queries, mixed into `Client` (which gives them `_lb_request` and `landblock_of`): call them
+    on a Client."""
+
+    _lb_request: Callable[..., dict[str, Any]]
+    landblock_of: Callable[..., int]
+
+    def _start_landblock(self, walker: MoverSpec | int, start: Position | None) -> int:
+        """The landblock whose key a query of `walker` from `start` goes to."""
+        if isinstance(walker, MoverSpec):
+            assert start is not None
+            return start.landblock
+        return self.landblock_of(walker)
+
+    def path(self, walker: MoverSpec | int, start: Position | None, goal: Position, *,
+             max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
+             timeout: float | None = None) -> PathResult:
+        """A path `walker` can walk from `start` to `goal` (World.path, on the service): a `PathResult`.
+
+        `walker`: a `MoverSpec` (the shape and step heights of what will walk), with `start` the Position
+        it starts from; or a registered mover's id, with `start` None: it starts where it stands. The
+        query goes to the start's landblock: for an id, the landblock the client last saw the mover in
+        (`landblock_of`, which asks every instance when it has seen none; `locate` tells it), and a
+        `wrong_landblock` or `moved` answer is followed. `goal`: where to go. `max_distance`: the longest
+        path wanted, metres (above 0, at most 49,152); `budget`: graph nodes the search may expand
+        (1 .. 100,000; None: the service's 10,000); `avoid_movers`: the movers standing now are obstacles
+        (by default other movers are not).
+
+        The answer: `found`; `waypoints`, Positions from where the walker starts (a MoverSpec walker: where
+        it is placed at `start`, as a new object entering the world) to the goal as it stands there, each
+        with the cell it lies in; `length` in metres (the straight legs summed); `expanded` (graph nodes
+        searched); when not found, `reason` ("unreachable", "budget", "not_loaded": the start's or the
+        goal's landblock is not loaded on the instance asked, "start_invalid", "goal_invalid") and
+        `detail` in words. A path is found only within the land of the one instance asked.
+
+        The guarantee (docs/protocol.md, "Paths"): walking the waypoints in turn with moves of at most
+        3 m straight toward the next waypoint, until within 0.25 m of it (at most ceil(leg / 3) + 3 moves
+        a leg), the walker reaches every waypoint within 0.25 m, standing on walkable ground in the
+        waypoint's cell, the goal last; it holds while the world stays as it was (no landblock loaded or
+        unloaded, and no mover in the way unless `avoid_movers`). Nothing changes: no mover moves, the
+        walker's `seq` included.
+
+        The first path that reaches a landblock builds that landblock's graph for the walker's size
+        (about a second of the service's time per landblock): give such a query a longer `timeout`
+        (seconds; None: the client's).
+
+        Raises ValueError for a MoverSpec without `start`, an id with a `start`, or an id that is not a
+        uint64 above 0 (TypeError for a walker of neither kind); ServiceError: `unknown_mover` (no such
+        mover), `bad_value` (an option out of range, a bad MoverSpec), `non_finite`, `unknown_cell`;
+        NoServiceError (no instance owns the start's landblock), RequestTimeout."""
+        _check_walker(walker, start, "path")
+        item = _path_item(walker, start, goal, max_distance, budget, avoid_movers)
+        mover_id = None if isinstance(walker, MoverSpec) else walker
+        reply = self._lb_request(self._start_landblock(walker, start), _OP, {"v": 1, _OP: item}, mover_id,
+                                 timeout=timeout)
+        return read_path_answer(reply[_OP])
+
+    def paths(self, walker: MoverSpec | int, pairs: Sequence[tuple[Position | None, Position]], *,
+              max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
+              timeout: float | None = None) -> list[PathResult | ServiceError]:
+        """`path` of one walker for each (start, goal) pair, in order: one entry per pair, its PathResult
+        or a ServiceError for a pair the service refused alone. A not-found path is a PathResult with
+        `found` False, not an error.
+
+        `walker` and each pair's start as `path`'s: a MoverSpec with every start given (they may lie in
+        different landblocks), or a registered mover's id with every start None (every path then starts
+        where the mover stands). `max_distance`, `budget` and `avoid_movers` apply to every pair.
+
+        One batch request per start landblock, of at most 64 paths each (a longer share is split into
+        several requests, sent one after the other); the answers are put back in the pairs' order.
+        Raises ValueError / TypeError as `path` does, naming the pair; ServiceError when a request is
+        refused whole (a field error, whose path indexes that request's share of the pairs); NoServiceError,
+        RequestTimeout. `timeout` is per request."""
+        for i, (start, _goal) in enumerate(pairs):
+            _check_walker(walker, start, f"paths[{i}]")
+        out: list[PathResult | ServiceError | None] = [None] * len(pairs)
+        by_lb: dict[int, list[int]] = {}
+        for i, (start, _goal) in enumerate(pairs):
+            by_lb.setdefault(self._start_landblock(walker, start), []).append(i)
+        mover_id = None if isinstance(walker, MoverSpec) else walker
+        for lb, idx in by_lb.items():
+            for k in range(0, len(idx), MAX_PATHS_PER_REQUEST):
+                share = idx[k:k + MAX_PATHS_PER_REQUEST]
+                items = [_path_item(walker, pairs[i][0], pairs[i][1], max_distance, budget, avoid_movers)
+                         for i in share]
+                reply = self._lb_request(lb, _OP, {"v": 1, _BATCH: items}, mover_id, timeout=timeout)
+                answers = reply.get(_BATCH)
+                if not isinstance(answers, list) or len(answers) != len(share):
+                    raise ServiceError(ErrorKind.MALFORMED, f"a paths reply of {len(share)} items does not match the request")
+                for i, a in zip(share, answers, strict=True):
+                    out[i] = (ServiceError.from_wire(a["error"]) if isinstance(a, dict) and "error" in a
+                              else read_path_answer(a))
+        return cast(list[PathResult | ServiceError], out)  # every pair answered above
