@@ -109,7 +109,7 @@ def test_a_terrain_plane_at_each_precision() -> None:
 def test_the_path_spheres_and_their_shifts_are_kept_at_the_working_precision(settings: engine.EngineSettings) -> None:
     single = settings.single_precision
     path = SpherePath()
-    path.settings = settings
+    path.single_precision = settings.single_precision
     path.init_sphere([Sphere(Vec3(0.0, 0.0, 0.3), 0.3)], 1.1)
     assert path.local_sphere[0].radius == (float(F(0.3) * F(1.1)) if single else 0.3 * 1.1)
     origin = Vec3(float(F(10.3)), float(F(20.7)), float(F(30.1)))
@@ -129,7 +129,7 @@ def test_local_space_spheres_in_a_turned_cell(settings: engine.EngineSettings, t
     # a cell at (10, 20, 30) turned a quarter about z; a sphere centred at (11, 20, 30.5)
     # is at (1, 0, 0.5) from the origin, which the inverse turn takes to (0, -1, 0.5)
     path = SpherePath()
-    path.settings = settings
+    path.single_precision = settings.single_precision
     path.init_sphere([Sphere(Vec3(0.0, 0.0, 0.5), 0.5)], 1.0)
     mover = Position(0xA9B40001, Frame(Vec3(11.0, 20.0, 30.0)))
     path.init_path(None, mover, mover)

@@ -75,13 +75,13 @@ def _global_vec(path: SpherePath, v: Vec3) -> Vec3:
     (LocalSpacePos.LocalToGlobalVec), at the path's working precision."""
     lsp = path.local_space_pos
     assert lsp is not None
-    return fl_rotate(lsp.frame.orientation, v, path.settings.single_precision)
+    return fl_rotate(lsp.frame.orientation, v, path.single_precision)
 
 
 def _global_offset(path: SpherePath, moved: Vec3, start: Vec3, scale: float) -> Vec3:
     """How far a local-space sphere moved, in the landblock frame and scaled
     (LocalToGlobalVec(moved - start) * scale), at the path's working precision."""
-    single = path.settings.single_precision
+    single = path.single_precision
     v = _global_vec(path, fl_sub(moved, start, single))
     return v if scale == 1.0 else fl_scale(v, fl(scale, single), single)
 
@@ -101,7 +101,7 @@ def _land_on_walkable(transition: Transition, valid_pos: Sphere, poly: Polygon, 
         path.add_offset_to_check_pos(offset)
     else:
         path.shift_check_pos(offset)
-    plane = plane_local_to_global(path.check_pos, local_space_pos, poly.plane, scale, path.settings.single_precision)
+    plane = plane_local_to_global(path.check_pos, local_space_pos, poly.plane, scale, path.single_precision)
     ci = transition.collision_info
     ci.set_contact_plane(plane, False)
     ci.contact_plane_cell_id = path.check_pos.cell_id

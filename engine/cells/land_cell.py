@@ -103,7 +103,7 @@ class LandCell(ObjCell):
         # foot sphere serves when it is already in this cell's landblock
         check_sphere = g if same_block else Sphere(g.center - block_offset, g.radius)
         return transition.validate_walkable(
-            check_sphere, walkable.plane_at(transition.settings.single_precision), self.water_type != WaterType.NOT_WATER, water_depth, self.id
+            check_sphere, walkable.plane_at(transition.single_precision), self.water_type != WaterType.NOT_WATER, water_depth, self.id
         )
 
     def point_in_cell(self, point: Vec3) -> bool:

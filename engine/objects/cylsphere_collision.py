@@ -91,7 +91,7 @@ class CylSphere:
         Otherwise it came through the top or bottom: the normal is +-z.
         At the working precision (the client's: floats).
         """
-        s = transition.settings.single_precision
+        s = transition.single_precision
         g = transition.sphere_path.global_curr_center[sphere_num].center
         low = self.low_point
         cx = fl(g.x - low.x, s)
@@ -112,7 +112,7 @@ class CylSphere:
         path.cache_local_space_sphere(position, 1.0)
         # the client's CylSphere(lowPoint, height, radius, scale) and
         # CheckPos.LocalToGlobal(pos, lowPoint), in floats
-        s = transition.settings.single_precision
+        s = transition.single_precision
         f = fl(scale, s)
         low = fl_place(path.check_pos.cell_id, position, self.low_point, f, s)
         return CylSphere(low, fl(fl(self.radius, s) * f, s), fl(fl(self.height, s) * f, s)).intersects_sphere(transition)
@@ -137,7 +137,7 @@ class CylSphere:
             glob_sphere_1 = path.global_sphere[1]
             disp_1 = glob_sphere_1.center - self.low_point
 
-        s = transition.settings.single_precision
+        s = transition.single_precision
         radsum = fl(fl(self.radius - fl(EPSILON, s), s) + glob_sphere.radius, s)
 
         if path.insert_type == _PLACEMENT or path.obstruction_ethereal:
@@ -235,7 +235,7 @@ class CylSphere:
         if transition.object_info.step_up_height < check_sphere.radius + self.height - disp.z:
             return self.slide_sphere(transition, check_sphere, disp, radsum, 0)
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, 0)
-        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
+        unit = fl_normalize_check_small(normal, transition.single_precision)
         if unit is None:
             return _COLLIDED
         path = transition.sphere_path
@@ -248,7 +248,7 @@ class CylSphere:
         """Slide path sphere `sphere_num` along the cylinder's wall (or its
         top) (CylSphere.SlideSphere)."""
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
-        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
+        unit = fl_normalize_check_small(normal, transition.single_precision)
         if unit is None:
             return _COLLIDED
         return slide_sphere_env(transition, check_sphere, unit, transition.sphere_path.global_curr_center[sphere_num].center)
@@ -258,7 +258,7 @@ class CylSphere:
         its collision normal, landing on anything not steeper than LandingZ
         (CylSphere.LandOnCylinder)."""
         _, normal = self.collision_normal(transition, check_sphere, disp, radsum, 0)
-        unit = fl_normalize_check_small(normal, transition.settings.single_precision)
+        unit = fl_normalize_check_small(normal, transition.single_precision)
         if unit is None:
             return _COLLIDED
         path = transition.sphere_path
@@ -287,7 +287,7 @@ class CylSphere:
         path = transition.sphere_path
         ci = transition.collision_info
         low = self.low_point
-        s = transition.settings.single_precision
+        s = transition.single_precision
         eps = fl(EPSILON, s)
         definite, normal = self.collision_normal(transition, check_sphere, disp, radsum, sphere_num)
         unit = fl_normalize_check_small(normal, s)

@@ -308,7 +308,7 @@ def find_obj_collisions(obstacle: Obstacle, transition: Transition) -> int:
         elif obstacle.spheres:
             # the obstacle's spheres placed in the check position's landblock
             offset = get_block_offset(path.check_pos.cell_id, obstacle.position.cell_id)
-            single = transition.settings.single_precision
+            single = transition.single_precision
             for placed in obstacle.placed_spheres(single):
                 if offset is not ZERO:
                     placed = Sphere(fl_add(offset, placed.center, single), placed.radius)

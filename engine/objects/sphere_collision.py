@@ -73,7 +73,7 @@ def intersects_sphere_at(
     The sphere's centre is scaled, placed by `position` and expressed in the
     check position's landblock; its radius is scaled.
     """
-    s = transition.settings.single_precision
+    s = transition.single_precision
     center = fl_place(transition.sphere_path.check_pos.cell_id, position, local_sphere.center, scale, s)
     radius = fl(fl(local_sphere.radius, s) * fl(scale, s), s)
     return intersects_sphere(Sphere(center, radius), transition, is_creature)

@@ -51,6 +51,9 @@ class CollisionTransition(Protocol):
     collision_info: CollisionInfo
     object_info: ObjectInfo
     settings: EngineSettings
+    #: settings.single_precision, read once by the transition: the precision the
+    #: collision routines compute and round at
+    single_precision: bool
 
     def step_up(self, collision_normal: Vec3) -> bool:
         """Climb onto what the foot sphere ran into (Transition.StepUp)."""

@@ -66,7 +66,7 @@ def slide_sphere_object(t: Transition, obstacle_center: Vec3, disp: Vec3, sphere
     At the working precision, in the order the client's expressions evaluate
     (the skid is (offset . dir) dir, then scaled by 1 / |dir|^2).
     Decompiled client: FUN_00538eb0 (the seed, transition_pseudocode.md)."""
-    single = t.settings.single_precision
+    single = t.single_precision
     path = t.sphere_path
     ci = t.collision_info
     g = path.global_sphere[sphere_num]

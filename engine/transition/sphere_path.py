@@ -8,7 +8,7 @@ from ..geometry import UNIT_Z, ZERO, Frame, Position, Sphere, Vec3
 
 from ..geometry.precision import fl, fl_add, fl_local_z, fl_rotate, fl_scale, fl_unrotate, fl_vec
 from ..geometry.landdefs import get_block_offset
-from ..settings import RETAIL, EngineSettings
+from ..settings import RETAIL
 from .slide import slide_sphere
 from .state import InsertType, TransitionState
 from .._compat import mypyc_attr
@@ -110,7 +110,7 @@ class SpherePath:
         "neg_collision_normal",
         "neg_poly_hit",
         "placement_allows_sliding",
-        "settings",
+        "single_precision",
         "_lss_curr",
         "_lss_check",
         "_lss_sums",
@@ -123,9 +123,10 @@ class SpherePath:
         self.local_space_sphere: list[Sphere] = []
         self.local_space_curr_center: list[Sphere] = []
         self.global_curr_center: list[Sphere] = []
-        #: the transition's settings (their single_precision: the precision
-        #: of the check position and the sphere caches)
-        self.settings: EngineSettings = RETAIL
+        #: the working precision of the check position and the sphere caches: the
+        #: transition's settings' single_precision, which the transition copies here
+        #: once (a bool read where a settings object was read and then its field)
+        self.single_precision: bool = RETAIL.single_precision
         self.reset()
 
     def reset(self) -> None:
@@ -191,7 +192,7 @@ class SpherePath:
 
     def init_sphere(self, spheres: list[Sphere], scale: float) -> None:
         """Take at most two spheres (foot, head), scaled into the mover's frame (SpherePath.InitSphere)."""
-        self.init_scaled_spheres(ScaledSpheres(spheres, scale, self.settings.single_precision))
+        self.init_scaled_spheres(ScaledSpheres(spheres, scale, self.single_precision))
 
     def init_scaled_spheres(self, scaled: ScaledSpheres) -> None:
         """InitSphere with the scaling already done (a mover keeps its ScaledSpheres from move to move)."""
@@ -230,7 +231,7 @@ class SpherePath:
     def shift_check_pos(self, offset: Vec3) -> None:
         """Move the check position and its cached global spheres by `offset`,
         keeping them at the working precision (single, as the client does)."""
-        single = self.settings.single_precision
+        single = self.single_precision
         # fl_add written out: the offset's components read once for every point moved
         ox = offset.x
         oy = offset.y
@@ -277,14 +278,14 @@ class SpherePath:
         pos = self.curr_pos
         assert pos is not None
         frame = pos.frame
-        single = self.settings.single_precision
+        single = self.single_precision
         for i in range(self.num_sphere):
             self.global_curr_center[i].center = frame.local_to_global_fl(self.local_sphere[i].center, single)
         self._curr_center_pos = pos
 
     def cache_global_sphere(self, offset: Vec3 | None) -> None:
         """Move the global spheres by `offset`, or recompute them at check_pos."""
-        single = self.settings.single_precision
+        single = self.single_precision
         if offset is not None:
             for s in self.global_sphere:
                 s.center = fl_vec(s.center + offset, single)
@@ -319,7 +320,7 @@ class SpherePath:
         curr = self.curr_pos
         check = self.check_pos
         assert curr is not None
-        single = self.settings.single_precision
+        single = self.single_precision
         if curr is not self._lss_curr or check is not self._lss_check or len(self._lss_sums) != self.num_sphere:
             sums = []
             for i in range(self.num_sphere):

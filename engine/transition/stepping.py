@@ -118,7 +118,7 @@ def cliff_slide(t: Transition, contact_plane: Plane) -> int:
     last ground we stood on (Transition.CliffSlide)."""
     path = t.sphere_path
     ci = t.collision_info
-    single = t.settings.single_precision
+    single = t.single_precision
     crease = fl_cross(contact_plane.normal, ci.last_known_contact_plane.normal, single)
     # the horizontal direction across the crease: (-cy, cx, 0) of the z-less crease
     n = fl_normalize_check_small(Vec3(-crease.y, crease.x, 0.0), single)

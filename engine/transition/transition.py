@@ -57,14 +57,17 @@ class Transition:
     its own, as the client's code calls it.
     """
 
-    __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "world")
+    __slots__ = ("object_info", "sphere_path", "collision_info", "cell_array", "settings", "single_precision", "world")
 
     def __init__(self, world: CellLookup, settings: EngineSettings = RETAIL, object_info: ObjectInfo | None = None) -> None:
         self.world = world
         self.settings = settings
+        #: settings.single_precision, read once here for every routine of the move that
+        #: rounds (the collision layer's too): set with the settings, by __init__ and reset
+        self.single_precision = settings.single_precision
         self.object_info = ObjectInfo() if object_info is None else object_info
         self.sphere_path = SpherePath()
-        self.sphere_path.settings = settings
+        self.sphere_path.single_precision = settings.single_precision
         self.collision_info = CollisionInfo(ace_normals=settings.ace_normals)
         self.cell_array = CellArray(world)
 
@@ -72,10 +75,12 @@ class Transition:
         """Start over as a new transition would (take_transition reuses a finished one this way)."""
         self.world = world
         self.settings = settings
+        single = settings.single_precision
+        self.single_precision = single
         self.object_info = object_info
         path = self.sphere_path
         path.reset()
-        path.settings = settings
+        path.single_precision = single
         self.collision_info.reset(settings.ace_normals)
         self.cell_array.reset(world)
 
@@ -135,7 +140,7 @@ class Transition:
             if step > 1.0:
                 num_steps = math.ceil(step)
                 # offset * (1f / n), as the client splits it
-                single = self.settings.single_precision
+                single = self.single_precision
                 return offset, fl_scale(offset, fl(1.0 / num_steps, single), single), num_steps
             if offset.x != 0.0 or offset.y != 0.0 or offset.z != 0.0:
                 return offset, offset, 1
@@ -223,7 +228,7 @@ class Transition:
         its float64 value rounds to a different float32 height often enough
         to decide the next EPSILON test differently.
         """
-        single = self.settings.single_precision
+        single = self.single_precision
         ci = self.collision_info
         check_slide = False
         sn = ci.sliding_normal

@@ -81,7 +81,7 @@ def validate_walkable(
     low_z = c.z - check_sphere.radius
     if c.x * normal.x + c.y * normal.y + low_z * normal.z + plane.d + water_depth > _CLEAR:
         return TransitionState.OK  # far above the band: rounding cannot matter
-    single = t.settings.single_precision
+    single = t.single_precision
     dist = fl_plane_dist(c.x, c.y, fl(low_z, single), plane, single)
     if water_depth != 0.0:
         dist = fl(dist + fl(water_depth, single), single)

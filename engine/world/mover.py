@@ -258,7 +258,7 @@ class Mover:
         assert path.curr_pos is not None
         # what the object keeps, it keeps at the working precision (the client's: single)
         cur = path.curr_pos
-        single = t.settings.single_precision
+        single = t.single_precision
         origin = cur.frame.origin
         kept = fl_vec(origin, single)
         # (positions are immutable: when nothing rounds, the path's own is the copy)
@@ -311,7 +311,7 @@ class Mover:
         fsf = ci.frames_stationary_fall
         if fsf <= 1:
             if apply_bounce and ci.collision_normal_valid:
-                self.velocity = self._bounce(ci.collision_normal, t.settings.single_precision)
+                self.velocity = self._bounce(ci.collision_normal, t.single_precision)
         else:
             self.velocity = ZERO
             if fsf == 3:
