@@ -12,7 +12,7 @@ from typing import Any
 
 from .common import ORACLE, log, summary
 
-#: the player of the tests (tests/scenes.py PLAYER)
+#: the player of the tests and the engine benchmark (benchmarks/scenes.py PLAYER)
 _SPHERES = (((0.0, 0.0, 0.48), 0.48), ((0.0, 0.0, 1.35), 0.48))
 
 

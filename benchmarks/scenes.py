@@ -1,4 +1,7 @@
-"""Deterministic scenes and move streams for the engine benchmark.
+"""Deterministic scenes and move streams for the engine benchmark, and the tests' synthetic terrain.
+
+HEIGHT_TABLE, PLAYER and `world_from_heights` are also the scenario tests' (`from benchmarks.scenes
+import ...`): one player and one height table for the tests and the benchmark.
 
 Every workload is built from code (synthetic terrain, a grid of sphere
 objects) or from the shared reference scenes (the house and the interior
@@ -14,7 +17,7 @@ from __future__ import annotations
 import functools
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -57,6 +60,26 @@ def terrain_scene(name: str, heights: Heights, blocks: list[tuple[int, int]]) ->
             for bx, by in blocks
         ],
     }
+
+
+def world_from_heights(
+    heights: Callable[[int, int, int, int], int], blocks: Sequence[tuple[int, int]] = (HOME,),
+    settings: engine.EngineSettings = engine.RETAIL,
+) -> engine.World:
+    """A world whose vertex (x, y) of block (bx, by) has height byte heights(bx, by, x, y).
+
+    Unlike `terrain_scene`, each block's 9 x 9 vertices come from a function of the block and the
+    vertex within it (neighbouring blocks need not agree on their shared edge), unclamped."""
+    scene = {
+        "format": "acphys-scene/1",
+        "name": "synthetic",
+        "height_table": HEIGHT_TABLE,
+        "landblocks": [
+            {"id": f"{bx:02X}{by:02X}", "heights": [heights(bx, by, x, y) for x in range(9) for y in range(9)]}
+            for bx, by in blocks
+        ],
+    }
+    return engine.world_from_scene_dict(scene, settings=settings)
 
 
 def around(center: tuple[int, int] = HOME, r: int = 1) -> list[tuple[int, int]]:
