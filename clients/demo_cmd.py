@@ -12,7 +12,7 @@ from tqdm import tqdm
 from .client import Client
 from .connection import connect_client
 from .demo_map import height_grid
-from .demo_walk import DT, LEGS, SPEED, START, numbered_legs, walk_demo
+from .demo_walk import DT, LEGS, PATH_LEG, PATH_STRIDE_M, SPEED, START, numbered_legs, walk_demo
 from .demo_world import DEMO_LANDBLOCKS, demo_scene_path, global_to_cell
 from .embedded import EmbeddedService
 from .errors import AcphysError
@@ -22,13 +22,14 @@ __all__ = ["run_demo"]
 
 
 def _estimated_steps() -> int:
-    """About how many steps the walk takes (the legs' straight lines at full speed, plus a landing):
-    the progress display's total until the walk ends, when it shows the real count."""
+    """About how many steps the walk takes (the legs' straight lines at full speed, the path's in moves
+    of 3 m, plus a landing): the progress display's total until the walk ends, when it shows the real count."""
     total, (x, y) = 0.0, START
-    for _, (wx, wy) in LEGS:
-        total += math.hypot(wx - x, wy - y)
+    for name, (wx, wy) in LEGS:
+        metres = math.hypot(wx - x, wy - y)
+        total += metres / (PATH_STRIDE_M if name == PATH_LEG else SPEED * DT)
         x, y = wx, wy
-    return int(total / (SPEED * DT)) + 15
+    return int(total) + 15
 
 
 def _connect(args: argparse.Namespace, stack: ExitStack) -> Client:
@@ -105,8 +106,9 @@ def run_demo(args: argparse.Namespace) -> int:
 
     for letter, e in zip(event_letters(len(res.events)), res.events):
         print(f"  {letter:>2}  {e}")
-    print(f"\n{res.steps} physics steps of {DT} s; 'air' = steps without contact, 'steep' = in contact with unwalkable "
-          "ground, 'hits' = steps with a collision normal")
+    print(f"\n{res.steps - res.moves} physics steps of {DT} s and {res.moves} moves along the path the service "
+          f"found (leg {PATH_LEG!r}: its steps are moves); 'air' = steps without contact, 'steep' = in contact "
+          "with unwalkable ground, 'hits' = steps with a collision normal")
 
     if not can_draw:
         return 1

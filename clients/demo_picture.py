@@ -7,7 +7,9 @@ landblock ids, a scale bar and north. The path is black where the mover
 walked, orange where it stood on unwalkable ground and blue (thick) in the
 air; each leg is numbered where it starts (from 1, as the printed table
 numbers them) and has an arrow in its direction of travel; START and END are
-marked; events are lettered. Labels are placed clear of each other, of the
+marked; events are lettered. The leg walked along a path the service found
+is teal, and the path itself (its waypoints' polyline) is dashed magenta
+over it, a dot at each waypoint. Labels are placed clear of each other, of the
 objects and of the marks (`clients.demo_labels`), with a leader line where
 one had to move away from its mark.
 
@@ -43,6 +45,8 @@ AIR_COLOUR = "#1e5aff"
 ROOF_COLOUR = "#96502d"
 DOOR_COLOUR = "#ebd7aa"
 OBJECT_COLOUR = "#7d7d7d"
+PATH_COLOUR = "#d0009a"  # the path the service answered: its waypoints' polyline
+PATH_WALK_COLOUR = "#00897b"  # the track walked along it, move by move
 
 #: event kind -> (marker, colour, legend label); kinds not listed are told in the text only
 EVENT_STYLE: dict[str, tuple[str, str, str]] = {
@@ -92,14 +96,30 @@ def _state(p: PathPoint) -> str:
 _STATE_COLOUR = {"walk": WALK_COLOUR, "steep": STEEP_COLOUR, "air": AIR_COLOUR}
 
 
-def _segments(path: Sequence[PathPoint]) -> tuple[list[Any], list[str], list[float]]:
-    """Line segments of the path, each coloured by the state the mover ended it in."""
+def _on_a_path(res: WalkResult) -> list[bool]:
+    """For each segment of the track (path[i] to path[i + 1]): whether it is a move along a found path."""
+    out = [False] * max(len(res.path) - 1, 0)
+    for i0, leg in zip(_leg_starts(res), res.legs):
+        if leg.waypoints:
+            out[i0:i0 + leg.steps] = [True] * leg.steps
+    return out
+
+
+def _segment_colour(b: PathPoint, on_path: bool) -> str:
+    """A segment's colour: teal along a path (where the mover walks the ground), else by the state it ended in."""
+    st = _state(b)
+    return PATH_WALK_COLOUR if on_path and st == "walk" else _STATE_COLOUR[st]
+
+
+def _segments(res: WalkResult) -> tuple[list[Any], list[str], list[float]]:
+    """Line segments of the track, each coloured by the state the mover ended it in (teal along a path)."""
+    path = res.path
     segs, colours, widths = [], [], []
-    for a, b in zip(path, path[1:]):
+    for a, b, on_path in zip(path, path[1:], _on_a_path(res)):
         st = _state(b)
         segs.append([(a.x, a.y), (b.x, b.y)])
-        colours.append(_STATE_COLOUR[st])
-        widths.append(4.0 if st == "air" else 2.2 if st == "steep" else 1.4)
+        colours.append(_segment_colour(b, on_path))
+        widths.append(4.0 if st == "air" else 2.2 if st == "steep" or on_path else 1.4)
     return segs, colours, widths
 
 
@@ -182,9 +202,15 @@ def _path_on(labels: PanelLabels, res: WalkResult, letters: list[str], in_box: C
 
     ax = labels.ax
     path = res.path
-    segs, colours, widths = _segments(path)
+    segs, colours, widths = _segments(res)
     ax.add_collection(LineCollection(segs, colors=colours, linewidths=widths, zorder=5, capstyle="round"))
     labels.soft.extend((p.x, p.y) for p in path)
+    for leg in res.legs:  # the path asked for, over the track walked along it
+        if leg.waypoints:
+            xs, ys = [w[0] for w in leg.waypoints], [w[1] for w in leg.waypoints]
+            ax.plot(xs, ys, color=PATH_COLOUR, lw=1.4, ls=(0, (4, 2)), marker="o", ms=3.5, mec="white", mew=0.5,
+                    zorder=6, gid="found_path")
+            labels.soft.extend(zip(xs, ys))
     dist = path_distances(path)
     for i0, (n, leg) in zip(_leg_starts(res), numbered_legs(res.legs)):
         i1 = i0 + leg.steps
@@ -233,6 +259,9 @@ def _key(ax: Any) -> None:
         Line2D([], [], color=WALK_COLOUR, lw=1.4, label="walking on walkable ground"),
         Line2D([], [], color=STEEP_COLOUR, lw=2.2, label="standing on unwalkable (steep) ground"),
         Line2D([], [], color=AIR_COLOUR, lw=4.0, label="in the air"),
+        Line2D([], [], color=PATH_WALK_COLOUR, lw=2.2, label="walked along the path, by moves of 3 m at most"),
+        Line2D([], [], color=PATH_COLOUR, lw=1.4, ls=(0, (4, 2)), marker="o", ms=3.5, mec="white",
+               label="the path the service found (its waypoints)"),
         Line2D([], [], marker="o", ms=9, mfc="#00a000", mec="black", ls="none", label="start"),
         Line2D([], [], marker="s", ms=9, mfc="#c00000", mec="black", ls="none", label="end"),
         Line2D([], [], marker="$1$", ms=8, color="black", ls="none", label="leg number, where the leg starts"),
@@ -256,14 +285,16 @@ def _key(ax: Any) -> None:
 
 def _story(ax: Any, res: WalkResult, labels: list[str]) -> None:
     leg_no = {leg.name: str(n) for n, leg in numbered_legs(res.legs)}
-    lines = [f"The walk: {res.steps} physics steps of {DT:.1f} s.",
+    lines = [f"The walk: {res.steps - res.moves} physics steps of {DT:.1f} s and {res.moves} moves.",
              "A player-sized mover (two spheres of 0.48 m) is dropped",
              "onto the hills, then heads for one waypoint after another",
              "(the legs). A leg ends when the mover arrives, or is",
-             "blocked: it stops making progress against an obstacle.", "",
+             "blocked: it stops making progress against an obstacle.",
+             "One leg asks the service for a path (Client.path) and",
+             "walks it by moves of 3 m at most toward each waypoint.", "",
              f"-  {LANDING}: {res.landing.outcome}, {res.landing.steps} steps"]
     for n, leg in numbered_legs(res.legs):
-        lines.append(f"{n:<2} {leg.name}: {leg.outcome}, {leg.steps} steps")
+        lines.append(f"{n:<2} {leg.name}: {leg.outcome}, {leg.steps} {'moves' if leg.waypoints else 'steps'}")
     lines += ["", "events (letters on the map, the village and the profile)"]
     for ev, letter in zip(res.events, labels):
         on_leg = leg_no.get(ev.leg, "-")  # the landing's events: no leg number
@@ -290,7 +321,8 @@ def _profile(labels: PanelLabels, res: WalkResult, ground_at: Callable[[float, f
     ax.fill_between(dist, ground, min(ground.min(), z.min()) - 5, color="#c8b48c", zorder=1, label="ground under the path")
     ax.plot(dist, ground, color="#6b5530", lw=0.8, zorder=2)
     segs = [[(dist[i], z[i]), (dist[i + 1], z[i + 1])] for i in range(len(path) - 1)]
-    colours = [_STATE_COLOUR[_state(p)] for p in path[1:]]
+    on_path = _on_a_path(res)
+    colours = [_segment_colour(p, o) for p, o in zip(path[1:], on_path)]
     widths = [3.0 if _state(p) == "air" else 1.4 for p in path[1:]]
     ax.add_collection(LineCollection(segs, colors=colours, linewidths=widths, zorder=3))
     top = max(z.max(), ground.max()) + 6

@@ -2,13 +2,16 @@
 
 It is dropped onto the hills, walks east and north across them, walks into
 the mesa's west face (too steep: it stops there), backs off, climbs the ramp
-onto the mesa and walks off its north ledge. Then it crosses the hills to
-the flat pad in the north-west, walks in through the house's doorway (into
-the room's EnvCell) and back out, runs into the pillar and the boulder
-(stopped short of them) and steps up onto the low platform and off again.
-Each leg heads for a waypoint with `Client.step` (own motion on the ground,
+onto the mesa and walks off its north ledge. Then it crosses the north
+hills, asks the service for a path into the house (`Client.path`: round its
+walls to the doorway that faces south, into the room's EnvCell) and walks
+it, walks back out, runs into the pillar and the boulder (stopped short of
+them) and steps up onto the low platform and off again. Each leg but the
+path's heads for a waypoint with `Client.step` (own motion on the ground,
 gravity in the air) and ends when the waypoint is reached or the mover stops
-making progress.
+making progress. The path's leg (PATH_LEG) is walked as the path's
+guarantee says (docs/protocol.md, "Paths"): `Client.move`s of at most 3 m
+straight toward each waypoint in turn, until within 0.25 m of it.
 
 The landing lasts until the mover has stood on walkable ground for a few
 steps in a row (a hard landing bounces first), so that every leg starts
@@ -33,7 +36,9 @@ from .demo_world import (
     BOULDER,
     DOOR,
     HOUSE,
+    HOUSE_CELL,
     ORIGIN_LANDBLOCK,
+    PAD_HEIGHT,
     PILLAR,
     PLATFORM,
     global_to_cell,
@@ -41,7 +46,7 @@ from .demo_world import (
 )
 from .types import MoverState
 
-__all__ = ["ARRIVE_WITHIN", "FIRST_LEG", "LANDING", "LEGS", "LegReport", "WalkEvent", "WalkResult", "demo_mover",
+__all__ = ["ARRIVE_WITHIN", "FIRST_LEG", "LANDING", "LEGS", "PATH_LEG", "LegReport", "WalkEvent", "WalkResult", "demo_mover",
            "global_xy", "numbered_legs", "walk_demo"]
 
 #: (what the leg is about, waypoint in global metres)
@@ -54,21 +59,29 @@ LEGS: tuple[tuple[str, tuple[float, float]], ...] = (
     ("up the ramp onto the mesa", (288.0, 320.0)),
     ("off the north ledge", (288.0, 378.0)),
     ("west along the north hills", (150.0, 372.0)),
-    ("south past the house", (130.0, 290.0)),
-    ("to the house's door", (DOOR[0], DOOR[1] - 7.0)),
-    ("in through the door", HOUSE),
+    ("by a path into the house", HOUSE),
     ("back out of the house", (DOOR[0], DOOR[1] - 9.0)),
     ("into the pillar", PILLAR),
     ("west into the boulder", BOULDER),
     ("north over the platform", (PLATFORM[0], PLATFORM[1] + 10.0)),
 )
 
-#: legs that must end closer to their waypoint than ARRIVE_M: lined up with the
-#: doorway, well inside the room, and heading for an object's centre (so the
+#: the leg walked along a path the service finds (Client.path) rather than by physics steps: from the
+#: north hills to the middle of the house's room (its EnvCell, on the floor), the doorway facing away
+PATH_LEG = "by a path into the house"
+PATH_GOAL = (HOUSE_CELL, float(PAD_HEIGHT))  # the goal's cell and height; its x, y are the leg's waypoint
+#: the path's guarantee (docs/protocol.md, "Paths"): moves of at most this many metres straight toward
+#: the next waypoint, until within PATH_ARRIVAL_M of it, at most ceil(leg / stride) + PATH_EXTRA_MOVES a leg
+PATH_STRIDE_M = 3.0
+PATH_ARRIVAL_M = 0.25
+PATH_EXTRA_MOVES = 3
+#: seconds the path may take: the first path to reach a landblock builds its graph (about a second of the
+#: service's time per landblock, several on a slow machine or the interpreted engine)
+PATH_TIMEOUT_S = 60.0
+
+#: legs that must end closer to their waypoint than ARRIVE_M: heading for an object's centre (so the
 #: mover runs into it rather than "arriving" next to it)
 ARRIVE_WITHIN: dict[str, float] = {
-    "to the house's door": 0.25,
-    "in through the door": 0.5,
     "into the pillar": 0.5,
     "west into the boulder": 0.5,
 }
@@ -122,6 +135,10 @@ class LegReport:
     lowest_z: float = math.inf
     highest_z: float = -math.inf
     end_cell: int = 0
+    #: the path's waypoints (global x, y and z) when the leg was walked along a path; else empty
+    waypoints: list[tuple[float, float, float]] = field(default_factory=list)
+    #: the path's length as the service answered it (metres; 0 for a leg of physics steps)
+    path_length: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,8 +164,10 @@ class WalkEvent:
 class WalkResult:
     """The walk: its landing and legs, every resolved position, and its events.
 
-    `steps` counts every physics step sent; it equals `landing.steps` plus
-    every leg's `steps`, and `len(path) - 1` (path[0] is the registered start)."""
+    `steps` counts every physics step and every move sent; it equals
+    `landing.steps` plus every leg's `steps`, and `len(path) - 1` (path[0] is
+    the registered start). `moves` counts those that were moves along the
+    path (PATH_LEG's steps)."""
 
     mover_id: int
     landing: LegReport = field(default_factory=lambda: LegReport(LANDING))
@@ -156,6 +175,7 @@ class WalkResult:
     path: list[PathPoint] = field(default_factory=list)
     events: list[WalkEvent] = field(default_factory=list)
     steps: int = 0
+    moves: int = 0
 
     def event(self, kind: str, leg: str, z: float, text: str, at: tuple[float, float] | None = None) -> None:
         """Record an event at `at` (default: the last point of the path)."""
@@ -185,7 +205,10 @@ def walk_demo(client: Client, on_step: Callable[[int], None] | None = None) -> W
     try:
         st = _land(client, st, res, on_step)
         for name, wp in LEGS:
-            st = _walk_leg(client, st, name, wp, res, on_step)
+            if name == PATH_LEG:
+                st = _walk_path_leg(client, st, name, wp, res, on_step)
+            else:
+                st = _walk_leg(client, st, name, wp, res, on_step)
     finally:
         client.remove(res.mover_id)
     return res
@@ -308,4 +331,59 @@ def _walk_leg(client: Client, st: MoverState, name: str, wp: tuple[float, float]
     if is_indoor(leg.end_cell):
         leg.outcome += f", indoors (cell {leg.end_cell:08X})"
     res.legs.append(leg)
+    return st
+
+
+def _went_in_or_out(res: WalkResult, name: str, was_cell: int, st: MoverState) -> None:
+    """A went_in / came_out event when the step just recorded crossed into or out of the house."""
+    cell = st.position.cell_id
+    if is_indoor(cell) != is_indoor(was_cell):
+        p = res.path[-1]
+        kind, where = ("went_in", "went into the house") if is_indoor(cell) else ("came_out", "came out of the house")
+        res.event(kind, name, p.z, f"{where} at ({p.x:.1f}, {p.y:.1f}): cell {was_cell:08X} -> {cell:08X}")
+
+
+def _walk_path_leg(client: Client, st: MoverState, name: str, goal_xy: tuple[float, float], res: WalkResult,
+                   on_step: Callable[[int], None] | None) -> MoverState:
+    """Ask the service for a path from where the mover stands to the leg's goal and walk it with moves, as
+    the path's guarantee says; each move is one step of the walk (counted in `res.moves` too)."""
+    x, y = global_xy(st.position)
+    leg = LegReport(name, start=(x, y, st.position.origin.z))
+    res.legs.append(leg)
+    goal_cell, goal_z = PATH_GOAL
+    gx, gy = goal_xy
+    # the goal in its own landblock's frame (the room's EnvCell is in A9B5, as the walk's global metres say)
+    _, lx, ly = global_to_cell(gx, gy)
+    found = client.path(st.id, None, Position.at(goal_cell, Vec3(lx, ly, goal_z)), timeout=PATH_TIMEOUT_S)
+    if not found.found:
+        leg.end, leg.end_cell = leg.start, st.position.cell_id
+        leg.outcome = f"no path ({found.reason}: {found.detail})"
+        return st
+    leg.waypoints = [(*global_xy(p), p.origin.z) for p in found.waypoints]
+    leg.path_length = found.length
+    reached = 0
+    for wp in found.waypoints[1:]:
+        here = st.position
+        for _ in range(math.ceil(here.get_offset(wp).length() / PATH_STRIDE_M) + PATH_EXTRA_MOVES):
+            to_go = here.get_offset(wp)
+            distance = to_go.length()
+            if distance <= PATH_ARRIVAL_M:
+                break
+            step = to_go if distance <= PATH_STRIDE_M else to_go * (PATH_STRIDE_M / distance)
+            was_cell = here.cell_id
+            st = client.move(st.id, here.with_origin(here.origin + step))
+            res.moves += 1
+            _record(st, leg, res, on_step)
+            _went_in_or_out(res, name, was_cell, st)
+            here = st.position
+        if here.get_offset(wp).length() > PATH_ARRIVAL_M:
+            break
+        reached += 1
+    n = len(found.waypoints) - 1
+    leg.outcome = (f"arrived along a path of {n} legs, {found.length:.1f} m" if reached == n else
+                   f"stopped after {reached} of the path's {n} waypoints")
+    leg.end = (res.path[-1].x, res.path[-1].y, st.position.origin.z)
+    leg.end_cell = st.position.cell_id
+    if is_indoor(leg.end_cell):
+        leg.outcome += f", indoors (cell {leg.end_cell:08X})"
     return st

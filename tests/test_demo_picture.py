@@ -249,7 +249,7 @@ def test_the_picture_tells_the_walk(picture: Any, walk: WalkResult) -> None:
     story = "\n".join(texts(ax_story))
     assert all(leg.name in story for leg in res.legs)
     assert all(e.text[:40] in story for e in res.events)
-    assert f"{res.steps} physics steps" in story
+    assert f"{res.steps - res.moves} physics steps" in story and f"{res.moves} moves" in story
     # the key names every kind of mark drawn
     legend = fig.axes[4].get_legend()
     labels = {t.get_text() for t in legend.get_texts()}
@@ -265,3 +265,26 @@ def _all_texts(artist: Any) -> list[Any]:
     from matplotlib.text import Text
 
     return [a for a in artist.findobj(Text)]
+
+
+def test_the_path_and_the_track_along_it_are_drawn(picture: Any, walk: WalkResult) -> None:
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import to_hex
+
+    from clients.demo_picture import PATH_COLOUR, PATH_WALK_COLOUR
+
+    (leg,) = [leg for leg in walk.legs if leg.waypoints]
+    fig = picture.figure
+    ax_map, ax_zoom = fig.axes[:2]
+    for ax in (ax_map, ax_zoom):  # the path's polyline, through its waypoints, on the map and in the village
+        (line,) = [ln for ln in ax.get_lines() if ln.get_gid() == "found_path"]
+        assert line.get_xydata().ravel().tolist() == pytest.approx([c for w in leg.waypoints for c in w[:2]])
+        assert to_hex(line.get_color()) == PATH_COLOUR and line.get_linestyle() != "-"
+    # the track walked along it: a segment per move, in its own colour, and none elsewhere on the walk
+    (track,) = [c for c in ax_map.collections if isinstance(c, LineCollection) and len(c.get_segments()) == walk.steps]
+    teal = [i for i, c in enumerate(track.get_colors()) if to_hex(c) == PATH_WALK_COLOUR]
+    start = walk.landing.steps + sum(lg.steps for lg in walk.legs[:walk.legs.index(leg)])
+    assert teal == list(range(start, start + leg.steps))
+    # and the key tells both
+    labels = {t.get_text() for t in fig.axes[4].get_legend().get_texts()}
+    assert {"the path the service found (its waypoints)", "walked along the path, by moves of 3 m at most"} <= labels

@@ -21,6 +21,7 @@ from clients.demo_cmd import _table
 from clients.demo_walk import (
     ARRIVE_WITHIN,
     LEGS,
+    PATH_LEG,
     WalkResult,
     demo_mover,
     global_xy,
@@ -36,6 +37,7 @@ from clients.demo_world import (
     PILLAR_RADIUS,
     PLATFORM,
     build_demo_scene,
+    demo_footprints,
     demo_scene_path,
     global_to_cell,
     is_indoor,
@@ -232,12 +234,12 @@ def test_the_boulder_blocks_and_the_platform_is_stepped_onto(scene: dict[str, An
 def _check_walk(res: WalkResult) -> None:
     legs = {leg.name: leg for leg in res.legs}
     assert [leg.name for leg in res.legs] == [name for name, _ in LEGS]
-    inside = legs["in through the door"]
-    assert inside.outcome.startswith("arrived") and inside.end_cell == HOUSE_CELL
+    inside = legs[PATH_LEG]
+    assert inside.outcome.startswith("arrived along a path") and inside.end_cell == HOUSE_CELL
     assert legs["back out of the house"].outcome == "arrived"
     assert not is_indoor(legs["back out of the house"].end_cell)
     events = [str(e) for e in res.events]
-    assert any(e.startswith("in through the door: went into the house") and f"-> {HOUSE_CELL:08X}" in e
+    assert any(e.startswith(f"{PATH_LEG}: went into the house") and f"-> {HOUSE_CELL:08X}" in e
                for e in events)
     assert any(e.startswith("back out of the house: came out of the house") for e in events)
     pillar = legs["into the pillar"]
@@ -255,7 +257,7 @@ def _check_walk(res: WalkResult) -> None:
     # the printed table
     table = _table(res).splitlines()
     row = {ln[3:30].strip(): ln for ln in table[2:-2]}
-    assert f"indoors (cell {HOUSE_CELL:08X})" in row["in through the door"]
+    assert f"indoors (cell {HOUSE_CELL:08X})" in row[PATH_LEG]
     assert "blocked" in row["into the pillar"] and "arrived" in row["back out of the house"]
 
 
@@ -287,6 +289,56 @@ def walk(scene: dict[str, Any]) -> tuple[WalkResult, list[int]]:
     counts: list[int] = []
     res = walk_demo(EngineClient(_world(scene)), on_step=counts.append)  # type: ignore[arg-type]
     return res, counts
+
+
+def test_the_path_leg_goes_round_the_house_and_in_through_its_door(walk: tuple[WalkResult, list[int]]) -> None:
+    res, _ = walk
+    starts = [res.landing.steps]
+    for leg in res.legs:
+        starts.append(starts[-1] + leg.steps)
+    n = [leg.name for leg in res.legs].index(PATH_LEG)
+    leg = res.legs[n]
+    track = res.path[starts[n]:starts[n + 1] + 1]  # where it stood when it asked, then after each move
+    (house,) = [f.a for f in demo_footprints() if f.name == "house"]
+    (door,) = [f.a for f in demo_footprints() if f.kind == "door"]
+
+    def in_house(x: float, y: float) -> bool:
+        return house[0] < x < house[2] and house[1] < y < house[3]
+
+    # it asked from the hills north of the house, whose doorway faces south
+    assert track[0].y > house[3] + 50.0
+    # it ends in the room: an EnvCell of landblock A9B5, within the house's walls, standing
+    assert leg.end_cell >> 16 == 0xA9B5 and leg.end_cell & 0xFFFF >= 0x100
+    assert in_house(track[-1].x, track[-1].y) and track[-1].on_walkable
+    # it came into the house's outline once, crossing the south wall's line within the doorway
+    entries = [i for i in range(1, len(track)) if in_house(track[i].x, track[i].y)
+               and not in_house(track[i - 1].x, track[i - 1].y)]
+    assert len(entries) == 1
+    a, b = track[entries[0] - 1], track[entries[0]]
+    assert a.y < house[1] <= b.y
+    x_at_wall = a.x + (b.x - a.x) * (house[1] - a.y) / (b.y - a.y)
+    assert door[0] + MOVER_RADIUS <= x_at_wall <= door[2] - MOVER_RADIUS  # the whole mover fits the doorway
+    # so it went round: south of the house before going in, and never through a wall
+    assert min(p.y for p in track) < house[1]
+    # walked as the path's guarantee says: moves of at most 3 m (seen from above, to a centimetre: a move
+    # follows the ground up and down, and where it stops is the transition's), every waypoint reached
+    # within 0.25 m
+    assert all(math.hypot(q.x - p.x, q.y - p.y) <= 3.01 for p, q in zip(track, track[1:]))
+    assert len(leg.waypoints) >= 3 and leg.waypoints[0] == pytest.approx((track[0].x, track[0].y, track[0].z))
+    for w in leg.waypoints[1:]:
+        assert min(math.dist(w, (p.x, p.y, p.z)) for p in track) <= 0.25, w
+    # and the waypoints' polyline is the track: every point walked lies near one of its segments
+    def off_line(px: float, py: float) -> float:
+        best = math.inf
+        for (ax, ay, _), (bx, by, _) in zip(leg.waypoints, leg.waypoints[1:]):
+            dx, dy = bx - ax, by - ay
+            t = min(max(((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy or 1.0), 0.0), 1.0)
+            best = min(best, math.hypot(px - ax - t * dx, py - ay - t * dy))
+        return best
+    assert max(off_line(p.x, p.y) for p in track) <= 0.5
+    # its length is the polyline's
+    assert leg.path_length == pytest.approx(sum(math.dist(p, q) for p, q in zip(leg.waypoints, leg.waypoints[1:])),
+                                            abs=1e-3)
 
 
 def test_the_walks_counters_agree(walk: tuple[WalkResult, list[int]]) -> None:

@@ -5,14 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 from clients.types import MoverState
-from engine import World
+from engine import PathResult, World
 from engine.geometry import Position, Vec3
 
 __all__ = ["EngineClient"]
 
 
 class EngineClient:
-    """register, step and remove, answered by `world` directly."""
+    """register, step, move, path and remove, answered by `world` directly."""
 
     def __init__(self, world: World) -> None:
         self.world = world
@@ -25,6 +25,14 @@ class EngineClient:
     def step(self, mover_id: int, motion: tuple[float, float, float], dt: float) -> MoverState:
         self.seq += 1
         return MoverState(mover_id, self.seq, None, self.world.step(mover_id, Vec3(*motion), dt))
+
+    def move(self, mover_id: int, to: Position) -> MoverState:
+        self.seq += 1
+        return MoverState(mover_id, self.seq, None, self.world.move(mover_id, to))
+
+    def path(self, walker: Any, start: Position | None, goal: Position, *, timeout: float | None = None,
+             **options: Any) -> PathResult:
+        return self.world.path(walker, start, goal, **options)  # (no bus here: no timeout either)
 
     def remove(self, mover_id: int) -> None:
         self.world.remove_mover(mover_id)
