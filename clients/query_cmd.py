@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from engine.geometry import Position, Vec3
-from service.queries import encode_answer
+from service.protocol import write_answer
 
 from .cli_values import PositionAction, cell_id, number, parse_position
 
@@ -75,7 +75,7 @@ def _run(op: str, ask: Callable[[Any, argparse.Namespace], Any]) -> Callable[[ar
         with connect_client(args) as c:
             answer = ask(c, args)
         if args.json:
-            print(json.dumps(encode_answer(op, answer), indent=2))
+            print(json.dumps(write_answer(op, answer), indent=2))
         else:
             for k, v in _rows(op, answer):
                 print(f"{k:>13}  {v}")

@@ -2,7 +2,7 @@
 
 `Client.sight_columns` / `ray_columns` / `ground_columns` / `place_columns`
 (clients/spatial.py) pack their arguments into the request columns declared
-in service/query_columns.py, send one column request per landblock (the
+in service/protocol/queries.py, send one column request per landblock (the
 landblock of each query's start), and put the reply columns back together
 in the order asked as a `QueryColumnResults`.
 """
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from service.columns import pack_columns, unpack_column
-from service.query_columns import BLOCKER_CODES, NO_CODE, PLACEMENT_CODES, QUERY_COLUMNS
+from service.protocol import BLOCKER_CODES, NO_CODE, PLACEMENT_CODES, QUERY_COLUMNS
 from service.wire import ErrorKind
 
 from .batch import _reindexed, column_rows

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from engine.geometry import Position
 from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
 from engine.world.types import MoverSpec
-from service.codec import encode_mover_spec, encode_position
-from service.queries import BATCH_FIELDS, decode_ground, decode_placement, decode_ray_hit, decode_sight
+from service.codec import encode_mover_spec
+from service.protocol import BATCH_FIELDS, read_answer, write_query
 
 from .errors import ServiceError
 from .query_columns import QueryColumnResults, query_columns
@@ -48,32 +49,19 @@ def _lb(p: Position) -> int:
 
 
 def _sight_item(a: Position, b: Position, radius: float | None, target: int | None, viewer: int | None) -> dict[str, Any]:
-    item: dict[str, Any] = {"from": encode_position(a), "to": encode_position(b)}
-    if radius is not None:
-        item["radius"] = radius
-    if target is not None:
-        item["target"] = target
-    if viewer is not None:
-        item["viewer"] = viewer
-    return item
+    return write_query("sight", from_=a, to=b, radius=radius, target=target, viewer=viewer)
 
 
 def _ray_item(a: Position, b: Position, radius: float, target: int | None) -> dict[str, Any]:
-    item: dict[str, Any] = {"from": encode_position(a), "to": encode_position(b), "radius": radius}
-    if target is not None:
-        item["target"] = target
-    return item
+    return write_query("ray", from_=a, to=b, radius=radius, target=target)
 
 
 def _ground_item(p: Position, max_drop: float | None) -> dict[str, Any]:
-    item: dict[str, Any] = {"position": encode_position(p)}
-    if max_drop is not None:
-        item["max_drop"] = max_drop
-    return item
+    return write_query("ground", position=p, max_drop=max_drop)
 
 
 def _place_item(spec: MoverSpec, p: Position, mode: str, slide: bool) -> dict[str, Any]:
-    return {"mover": encode_mover_spec(spec), "position": encode_position(p), "mode": mode, "slide": slide}
+    return write_query("place", mover=spec, position=p, mode=mode, slide=slide)
 
 
 class SpatialQueries:
@@ -111,7 +99,7 @@ class SpatialQueries:
         stopped (`stop`), the surface `normal` there, the `cell` id and the `blocker` (its `kind`:
         terrain, cell, building or object; its `object_id`). Raises ServiceError (the kinds in this
         module's docstring), NoServiceError, RequestTimeout."""
-        return decode_sight(self._one("sight", _lb(a), _sight_item(a, b, radius, target, viewer), timeout))
+        return read_answer("sight", self._one("sight", _lb(a), _sight_item(a, b, radius, target, viewer), timeout))
 
     def sights(self, pairs: Sequence[tuple[Position, Position] | SightQuery], radius: float | None = None,
                timeout: float | None = None) -> list[SightResult | ServiceError]:
@@ -125,7 +113,7 @@ class SpatialQueries:
         NoServiceError, RequestTimeout."""
         queries = [p if isinstance(p, SightQuery) else SightQuery(p[0], p[1]) for p in pairs]
         items = [_sight_item(q.a, q.b, radius if q.radius is None else q.radius, q.target, q.viewer) for q in queries]
-        return self._many("sight", [_lb(q.a) for q in queries], items, decode_sight, timeout)
+        return self._many("sight", [_lb(q.a) for q in queries], items, partial(read_answer, "sight"), timeout)
 
     def ray(self, start: Position, end: Position, radius: float, *, target: int | None = None,
             timeout: float | None = None) -> RayHit:
@@ -136,7 +124,7 @@ class SpatialQueries:
         one radius before a wall; `end` when nothing was hit), its `cell` id, the hit surface's `normal`,
         the `distance` in metres the centre travelled, and the `blocker`. Raises ServiceError (the kinds
         in this module's docstring), NoServiceError, RequestTimeout."""
-        return decode_ray_hit(self._one("ray", _lb(start), _ray_item(start, end, radius, target), timeout))
+        return read_answer("ray", self._one("ray", _lb(start), _ray_item(start, end, radius, target), timeout))
 
     def rays(self, segments: Sequence[tuple[Position, Position]], radius: float,
              timeout: float | None = None) -> list[RayHit | ServiceError]:
@@ -144,7 +132,7 @@ class SpatialQueries:
         segment, its RayHit or a ServiceError for a segment the engine refused. Raises as `sights`
         does for a request refused whole."""
         items = [_ray_item(a, b, radius, None) for a, b in segments]
-        return self._many("ray", [_lb(a) for a, _ in segments], items, decode_ray_hit, timeout)
+        return self._many("ray", [_lb(a) for a, _ in segments], items, partial(read_answer, "ray"), timeout)
 
     def ground(self, position: Position, max_drop: float | None = None, timeout: float | None = None) -> Ground | None:
         """The surface under `position`, or None (World.ground, on the service).
@@ -156,7 +144,7 @@ class SpatialQueries:
         frame of `cell`'s landblock), the `cell` id, `walkable` and `water_depth` (metres, 0 on dry
         land); None when there is no surface within reach. Raises ServiceError (the kinds in this
         module's docstring), NoServiceError, RequestTimeout."""
-        return decode_ground(self._one("ground", _lb(position), _ground_item(position, max_drop), timeout))
+        return read_answer("ground", self._one("ground", _lb(position), _ground_item(position, max_drop), timeout))
 
     def grounds(self, positions: Sequence[Position], max_drop: float | None = None,
                 timeout: float | None = None) -> list[Ground | None | ServiceError]:
@@ -164,7 +152,7 @@ class SpatialQueries:
         within reach) or a ServiceError for a position the engine refused. Raises as `sights` does for a
         request refused whole."""
         items = [_ground_item(p, max_drop) for p in positions]
-        return self._many("ground", [_lb(p) for p in positions], items, decode_ground, timeout)
+        return self._many("ground", [_lb(p) for p in positions], items, partial(read_answer, "ground"), timeout)
 
     def place(self, spec: MoverSpec, position: Position, mode: str = "enter_world", slide: bool = True,
               timeout: float | None = None) -> PlacementResult:
@@ -178,7 +166,7 @@ class SpatialQueries:
         `water_contact`): what `Client.register` takes to start a mover standing. Raises ServiceError
         (`bad_value` for a bad `spec` or `mode`, and the kinds in this module's docstring),
         NoServiceError, RequestTimeout."""
-        return decode_placement(self._one("place", _lb(position), _place_item(spec, position, mode, slide), timeout))
+        return read_answer("place", self._one("place", _lb(position), _place_item(spec, position, mode, slide), timeout))
 
     def places(self, queries: Sequence[tuple[MoverSpec, Position]], mode: str = "enter_world", slide: bool = True,
                timeout: float | None = None) -> list[PlacementResult | ServiceError]:
@@ -186,7 +174,7 @@ class SpatialQueries:
         its PlacementResult or a ServiceError for a query the engine refused. Raises as `sights` does for
         a request refused whole."""
         items = [_place_item(s, p, mode, slide) for s, p in queries]
-        return self._many("place", [_lb(p) for _, p in queries], items, decode_placement, timeout)
+        return self._many("place", [_lb(p) for _, p in queries], items, partial(read_answer, "place"), timeout)
 
     # -- the column form (docs/protocol.md, "Query columns") ------------------------------------------
     def _columns(self, op: str, named: dict[str, Any], options: dict[str, Any] | None,

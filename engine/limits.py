@@ -22,6 +22,8 @@ __all__ = [
     "MAX_OBJECT_SIZE",
     "MIN_SPHERE_RADIUS",
     "MAX_RAY_RADIUS",
+    "MAX_PATH_BUDGET",
+    "MAX_PATH_DISTANCE",
     "MIN_SCALE",
     "MAX_SCALE",
     "TARGET_MARGIN",
@@ -64,6 +66,10 @@ MAX_OBJECT_SIZE: Final = BLOCK_LENGTH
 MIN_SPHERE_RADIUS: Final = 5 * EPSILON
 #: a swept sphere's radius (ray and sight queries), at most: a mover's largest sphere is far smaller
 MAX_RAY_RADIUS: Final = 10.0
+#: the largest node budget a path query may ask for (engine.navigation)
+MAX_PATH_BUDGET: Final = 5_000_000
+#: the longest path a path query may ask for, metres (the width of the world)
+MAX_PATH_DISTANCE: Final = 256 * 192.0
 MIN_SCALE: Final = 1e-3
 MAX_SCALE: Final = BLOCK_LENGTH
 #: how far past its landblock's edges a target origin may lie (x and y, in

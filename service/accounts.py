@@ -47,7 +47,8 @@ from typing import Any
 
 import zenoh
 
-from .wire import LB_QUERY_OPS, check_user_name, user_prefix
+from .protocol import LB_OPS
+from .wire import check_user_name, user_prefix
 
 __all__ = [
     "Accounts", "AccountsError", "INSTANCE_USER", "accounts_access_control", "apply_accounts",
@@ -57,7 +58,7 @@ __all__ = [
 #: The operations a user's session may ask for, each on its own key in the user's space: every per-landblock
 #: operation but the hand-over (instance to instance), the push, and the per-instance keys. A query on any
 #: other key of the space, a wildcard over the operation (`lb/XXYY/*`) included, is dropped.
-_CLIENT_LB_OPS = tuple(op for op in LB_QUERY_OPS if op != "handover")
+_CLIENT_LB_OPS = tuple(op for op in LB_OPS if op != "handover")
 _CLIENT_INSTANCE_KEYS = ("health", "stats", "landblocks")
 #: What the service may send a user's session, on that user's space only (its queryables and subscribers
 #: must be declared to the session for Zenoh to route the session's requests to them at all).

@@ -10,8 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from .columns import MOVE_FORMS
-from .queries import QUERY_OPS
-from .query_columns import QUERY_FORMS
+from .protocol import QUERY_FORMS, QUERY_OPS
 from .requests import PUBLISH_MODES
 from .wire import PROTOCOL_VERSION
 

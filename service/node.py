@@ -50,8 +50,9 @@ from .requests import (
     parse_update,
 )
 from .stats import ServiceStats
-from .queries import BATCH_FIELDS, QUERY_OPS, query_count, query_work
-from .wire import LB_QUERY_OPS, ErrorKind, Keys, lb_hex, parse_lb_hex
+from .protocol import BATCH_FIELDS, LB_OPS, QUERIES, QUERY_OPS
+from .queries import query_count, query_work
+from .wire import ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
 
@@ -162,7 +163,7 @@ class ServiceNode:
             self._thread.start()
         s = self.session
         for part in self.options.ownership.key_parts():
-            for op in LB_QUERY_OPS:
+            for op in LB_OPS:
                 if op == "handover" and not self.options.accept_handovers:
                     continue
                 # the handler stamps `_last_arrival` itself (no wrapper call per request)
@@ -432,8 +433,8 @@ class ServiceNode:
                 return work, column_count(msg) <= self.options.inline_max_moves
             batch = msg.get("moves")  # a list when given (parsed above), else one move
             return work, batch is None or len(batch) <= self.options.inline_max_moves
-        if op in QUERY_OPS:  # read-only: a small one runs in the callback like `get`
-            return work, query_count(msg, op) <= self.options.inline_max_moves
+        if op in QUERY_OPS:  # read-only: a small one of the cheap kinds runs in the callback like `get`
+            return work, QUERIES[op].inline_ok and query_count(msg, op) <= self.options.inline_max_moves
         # load and unload may read a landblock from disk: queued
         return work, op in ("register", "update", "remove", "get")
 

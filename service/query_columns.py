@@ -1,13 +1,12 @@
-"""The column form of the spatial queries: its wire schema, declared once per op.
+"""The column form of the queries, read and answered.
 
-A column query carries N queries of one op (sight, ray, ground, place) as
-packed little-endian arrays (msgpack `bin`), as a column move batch does
+A column query carries N queries of one op (sight, ray, ground, place, path)
+as packed little-endian arrays (msgpack `bin`), as a column move batch does
 (service/columns.py), and its reply carries the answers the same way
-(docs/protocol.md, "Query columns"). `QUERY_COLUMNS` below is the only place
-the columns are listed: decoding and checking (`parse_query_columns`), the
-service's encoding (`run_query_columns`), the client's packing and unpacking
-(clients/spatial.py) and the test that reads docs/protocol.md's tables all
-go through it.
+(docs/protocol.md, "Query columns", "Path columns"). The columns themselves
+are declared with each query in service/protocol/queries.py; this module
+reads a request's columns (`parse_query_columns`) and writes the answers
+(`run_query_columns`).
 
 Whole-request errors (a column of the wrong type, byte length or item
 count, an unknown or missing column, too many items) refuse the request
@@ -21,23 +20,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Final
+from typing import Any
 
 import numpy as np
 
-from engine.limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS
+from engine.limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS, UNIT_TOLERANCE
 
 from .column_request import _column_bytes, _type_name, refuse_bad_reals
-from .columns import Column, pack_columns
+from .columns import pack_columns
 from .errors import ProtocolError
-from .wire import MAX_BATCH, PROTOCOL_VERSION, ErrorKind
+from .protocol import BLOCKER_CODES, PLACEMENT_CODES, QUERIES, QUERY_COLUMNS, REASON_CODES, QueryColumns, read_options
+from .wire import PROTOCOL_VERSION, ErrorKind
 
 __all__ = [
-    "QueryColumns",
-    "QUERY_COLUMNS",
-    "BLOCKER_CODES",
-    "PLACEMENT_CODES",
-    "QUERY_FORMS",
     "QueryColumnRequest",
     "is_query_columns",
     "query_column_count",
@@ -46,105 +41,6 @@ __all__ = [
 ]
 
 Array = np.ndarray[Any, Any]
-
-#: Health's `query_forms`: the request forms every query op understands.
-QUERY_FORMS: Final = ("single", "batch", "columns")
-#: a reply's `blocker` code: the index in this tuple (engine.queries.results.BLOCKER_KINDS), 255 for none
-BLOCKER_CODES: Final = ("terrain", "cell", "building", "object")
-#: a place reply's `placement_result` code: the index in this tuple, 255 for a failed item
-PLACEMENT_CODES: Final = ("OK", "NoValidPosition", "NoCell(lost)")
-#: what a code column holds for "none" (and a failed item)
-NO_CODE: Final = 255
-
-
-@dataclass(frozen=True, slots=True)
-class QueryColumns:
-    """One op's column form: its request and reply columns and its reply `flags` bits (bit k is
-    `flags[k]`; bit 0 is always `resolved`). A request column is `required` or `optional` for the op
-    (Column.required / optional name the op); `count` is the request column whose length gives N."""
-
-    op: str
-    request: tuple[Column, ...]
-    reply: tuple[Column, ...]
-    flags: tuple[str, ...]
-    count: str
-
-    def bit(self, name: str) -> int:
-        return 1 << self.flags.index(name)
-
-    def request_column(self, name: str) -> Column:
-        return next(c for c in self.request if c.name == name)
-
-
-def _req(op: str, name: str, dtype: str, width: int, required: bool) -> Column:
-    return Column(name, dtype, width, required=(op,) if required else (), optional=() if required else (op,))
-
-
-def _at(op: str, optional: tuple[Column, ...]) -> tuple[Column, ...]:
-    """A point query's columns: its cell and origin, then `optional`."""
-    return (_req(op, "cell", "u32", 1, True), _req(op, "origin", "f64", 3, True)) + optional
-
-
-def _segment(op: str, radius_required: bool, viewer: bool) -> tuple[Column, ...]:
-    cols = (
-        _req(op, "from_cell", "u32", 1, True),
-        _req(op, "from_origin", "f64", 3, True),
-        _req(op, "to_cell", "u32", 1, True),
-        _req(op, "to_origin", "f64", 3, True),
-        _req(op, "radius", "f64", 1, radius_required),
-        _req(op, "target", "u64", 1, False),
-    )
-    return cols + ((_req(op, "viewer", "u64", 1, False),) if viewer else ())
-
-
-#: what a reply column holds where there is no value: NaN for reals, 255 for a u8 code, else 0
-_MISSING = {"f64": "NaN", "u8": "255", "u32": "0", "u64": "0"}
-
-
-def _out(*columns: tuple[str, str, int]) -> tuple[Column, ...]:
-    """Reply columns (name, dtype, per item), after the `flags` column every reply starts with."""
-    return (Column("flags", "u32", 1, missing="0"),) + tuple(
-        Column(name, dtype, width, missing=_MISSING[dtype]) for name, dtype, width in columns)
-
-
-_BLOCKER = (("blocker", "u8", 1), ("blocker_id", "u64", 1))
-
-QUERY_COLUMNS: Final[dict[str, QueryColumns]] = {
-    "sight": QueryColumns(
-        "sight",
-        _segment("sight", False, True),
-        _out(("cell", "u32", 1), ("stop", "f64", 3), ("normal", "f64", 3), *_BLOCKER),
-        ("resolved", "clear", "stop given", "normal given", "blocker_id given"),
-        "from_cell",
-    ),
-    "ray": QueryColumns(
-        "ray",
-        _segment("ray", True, False),
-        _out(("cell", "u32", 1), ("position", "f64", 3), ("normal", "f64", 3), ("distance", "f64", 1), *_BLOCKER),
-        ("resolved", "hit", "normal given", "blocker_id given"),
-        "from_cell",
-    ),
-    "ground": QueryColumns(
-        "ground",
-        _at("ground", (_req("ground", "max_drop", "f64", 1, False),)),
-        _out(("z", "f64", 1), ("plane", "f64", 4), ("cell", "u32", 1), ("water_depth", "f64", 1)),
-        ("resolved", "found", "walkable"),
-        "cell",
-    ),
-    "place": QueryColumns(
-        "place",
-        _at("place", (_req("place", "orientation", "f64", 4, False),)),
-        _out(("placement_result", "u8", 1), ("cell", "u32", 1), ("origin", "f64", 3), ("orientation", "f64", 4),
-             ("contact_plane", "f64", 4), ("contact_plane_cell", "u32", 1)),
-        ("resolved", "ok", "contact", "on_walkable", "water_contact", "contact_plane given",
-         "contact_plane_cell given"),
-        "cell",
-    ),
-}
-
-#: How far a given orientation's length may be from 1 (as the map form's `as_quat`).
-_UNIT_TOLERANCE = 1e-3
-
 
 @dataclass(slots=True)
 class QueryColumnRequest:
@@ -197,7 +93,7 @@ def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
         with np.errstate(invalid="ignore", over="ignore"):
             length = np.sqrt((q * q).sum(axis=1))
         given = (q != 0.0).any(axis=1)
-        for i in np.flatnonzero(given & ~(np.abs(length - 1.0) <= _UNIT_TOLERANCE)).tolist():
+        for i in np.flatnonzero(given & ~(np.abs(length - 1.0) <= UNIT_TOLERANCE)).tolist():
             req.refuse(i, ErrorKind.BAD_VALUE, f"columns.orientation[{i}]",
                        f"quaternion length {length[i]:.6g} is not 1 (all zeros: the identity)")
     name = QUERY_COLUMNS[req.op].count
@@ -209,16 +105,13 @@ def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
                    landblock=owner)
 
 
-def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
-                        read_options: Callable[[dict[str, Any]], dict[str, Any]] | None = None) -> QueryColumnRequest:
-    """`{"v": 1, "columns": {...}}` (a place also `mover`, `mode`, `slide`, read by `read_options`) to a
-    QueryColumnRequest; ProtocolError for anything that concerns the whole request."""
+def parse_query_columns(op: str, msg: dict[str, Any], lb: int) -> QueryColumnRequest:
+    """`{"v": 1, "columns": {...}}` (and the op's top-level options: a place's `mover`, `mode`, `slide`) to
+    a QueryColumnRequest; ProtocolError for anything that concerns the whole request."""
     spec = QUERY_COLUMNS[op]
-    from .queries import BATCH_FIELDS  # here: service.queries imports this module
-
-
-    if msg.get(op) is not None or msg.get(BATCH_FIELDS[op]) is not None:  # nil is as good as absent
-        raise ProtocolError(ErrorKind.BAD_VALUE, f"give exactly one of {op}, {BATCH_FIELDS[op]} or columns")
+    kind = QUERIES[op]
+    if msg.get(op) is not None or msg.get(kind.batch) is not None:  # nil is as good as absent
+        raise ProtocolError(ErrorKind.BAD_VALUE, f"give exactly one of {op}, {kind.batch} or columns")
     cols = msg.get("columns")
     if not isinstance(cols, dict):
         raise ProtocolError(ErrorKind.WRONG_TYPE, f"columns: expected a map, got {_type_name(cols)}", "columns")
@@ -234,9 +127,9 @@ def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
         if raw is not None:
             given[col.name] = raw
     n = len(given[spec.count]) // spec.request_column(spec.count).item_bytes
-    if n > MAX_BATCH:
+    if n > kind.max_batch:
         path = f"columns.{spec.count}"
-        raise ProtocolError(ErrorKind.TOO_LARGE, f"{path}: {n} items, at most {MAX_BATCH} allowed", path)
+        raise ProtocolError(ErrorKind.TOO_LARGE, f"{path}: {n} items, at most {kind.max_batch} allowed", path)
     arrays: dict[str, Array] = {}
     for col in spec.request:
         raw_bytes = given.get(col.name)
@@ -249,7 +142,7 @@ def parse_query_columns(op: str, msg: dict[str, Any], lb: int,
                                 "(every column holds one entry per item)", path)
         a = np.frombuffer(raw_bytes, dtype=col.np_dtype).astype(col.np_dtype.newbyteorder("="), copy=False)
         arrays[col.name] = a if col.width == 1 else a.reshape(n, col.width)
-    req = QueryColumnRequest(op, n, arrays, read_options(msg) if read_options is not None else {})
+    req = QueryColumnRequest(op, n, arrays, read_options(kind, msg))
     refuse_bad_reals(spec.request, arrays, n, req.bad)
     _bad_ranges(req, lb)
     return req
@@ -315,6 +208,13 @@ def _put(out: dict[str, Array], spec: QueryColumns, i: int, answer: Any, blocker
             out["plane"][i] = (n.x, n.y, n.z, answer.plane.d)
             out["cell"][i] = answer.cell
             out["water_depth"][i] = answer.water_depth
+    elif op == "path":
+        if answer.found:
+            bits |= spec.bit("found")
+        else:
+            out["reason"][i] = REASON_CODES.index(answer.reason)
+        out["length"][i] = answer.length
+        out["expanded"][i] = answer.expanded
     else:
         out["placement_result"][i] = PLACEMENT_CODES.index(answer.placement_result)
         for flag, value in (("ok", answer.ok), ("contact", answer.contact), ("on_walkable", answer.on_walkable),
@@ -335,6 +235,26 @@ def _put(out: dict[str, Array], spec: QueryColumns, i: int, answer: Any, blocker
     out["flags"][i] = bits
 
 
+def _lists(spec: QueryColumns, out: dict[str, Array], answers: list[Any]) -> dict[str, Array]:
+    """The ragged columns (a path's waypoints): every answered item's list, item after item, each item's
+    share found by its `waypoint_start` and `waypoint_count`."""
+    if not spec.ragged:
+        return {}
+    cells: list[int] = []
+    origins: list[tuple[float, float, float]] = []
+    for i, answer in enumerate(answers):
+        if answer is None:
+            continue
+        out["waypoint_start"][i] = len(cells)
+        out["waypoint_count"][i] = len(answer.waypoints)
+        for w in answer.waypoints:
+            cells.append(w.cell_id)
+            origins.append(w.frame.origin.as_tuple())
+    cell_col, origin_col = spec.ragged
+    return {cell_col.name: np.asarray(cells, dtype=cell_col.np_dtype),
+            origin_col.name: np.asarray(origins, dtype=origin_col.np_dtype).reshape(len(origins), 3)}
+
+
 def run_query_columns(req: QueryColumnRequest, items: Callable[[int], tuple[Any, ...]], run_one: RunOne,
                       to_error: Callable[[Exception, int], ProtocolError],
                       blocker_id: Callable[[int], int]) -> dict[str, Any]:
@@ -344,13 +264,18 @@ def run_query_columns(req: QueryColumnRequest, items: Callable[[int], tuple[Any,
     spec = QUERY_COLUMNS[req.op]
     out = _reply_arrays(spec, req.n)
     errors: list[dict[str, Any]] = []
+    answers: list[Any] = [None] * req.n
     for i in range(req.n):
         err = req.bad.get(i)
         if err is None:
             try:
-                _put(out, spec, i, run_one(i, items(i)), blocker_id)
+                answers[i] = answer = run_one(i, items(i))
+                _put(out, spec, i, answer, blocker_id)
                 continue
             except Exception as e:
                 err = to_error(e, i)
         errors.append({"index": i, "error": err.to_wire()})
-    return {"v": PROTOCOL_VERSION, "n": req.n, "columns": pack_columns(spec.reply, out), "errors": errors}
+    ragged = _lists(spec, out, answers)  # fills the items' list starts and counts in `out` first
+    columns = pack_columns(spec.reply, out)
+    columns.update(pack_columns(spec.ragged, ragged))
+    return {"v": PROTOCOL_VERSION, "n": req.n, "columns": columns, "errors": errors}

@@ -8,13 +8,10 @@ import time
 from collections import Counter, deque
 from typing import Any
 
+from .protocol import REQUEST_OPS
 from .wire import ErrorKind
 
 __all__ = ["LatencyWindow", "ServiceStats", "REQUEST_OPS"]
-
-#: Every operation counted in `requests` (each listed, 0 when none came: docs/protocol.md, Stats).
-REQUEST_OPS = ("move", "push", "register", "update", "remove", "get", "load", "unload", "handover", "health",
-               "stats", "landblocks", "sight", "ray", "ground", "place")
 
 
 class LatencyWindow:

@@ -166,8 +166,3 @@ class Keys:
     def errors(self) -> str:
         """Errors of fire-and-forget messages that name no (valid) object."""
         return f"{self.prefix}/errors"
-
-
-#: The per-landblock operations served as queryables (`<prefix>/lb/<XXYY>/<op>`).
-LB_QUERY_OPS = ("move", "register", "update", "remove", "get", "load", "unload", "handover",
-                "sight", "ray", "ground", "place")  # the last four: spatial queries (service/queries.py)

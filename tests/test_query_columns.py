@@ -21,7 +21,8 @@ import msgpack
 import pytest
 
 from service.errors import ProtocolError
-from service.query_columns import BLOCKER_CODES, PLACEMENT_CODES, QUERY_COLUMNS, QUERY_FORMS, parse_query_columns
+from service.protocol import BLOCKER_CODES, PLACEMENT_CODES, QUERY_COLUMNS, QUERY_FORMS, REASON_CODES
+from service.query_columns import parse_query_columns
 from service.wire import ErrorKind
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"
@@ -30,6 +31,8 @@ A9B4 = 0xA9B4
 
 def _section(heading: str) -> str:
     text = DOC.read_text(encoding="utf-8")
+    if f"\n{heading}\n" not in text and heading.startswith("#### "):  # a section of its own (### Path columns)
+        heading = heading[1:]
     start = text.index(f"\n{heading}\n")
     nxt = re.search(r"\n#{2,4} ", text[start + len(heading) + 2:])
     return text[start:start + len(heading) + 2 + (nxt.start() if nxt else len(text))]
@@ -53,8 +56,9 @@ def _tables(section: str) -> list[list[list[str]]]:
 def test_doc_tables_and_flag_bits_match_the_declaration(op: str) -> None:
     spec = QUERY_COLUMNS[op]
     section = _section(f"#### {op.capitalize()} columns")
-    request, reply = _tables(section)
+    request, reply, *ragged = _tables(section)
     assert [r[0] for r in request] == [c.name for c in spec.request]
+    assert [[r[0], r[1], int(r[2])] for r in (ragged[0] if ragged else [])] == [[c.name, c.dtype, c.width] for c in spec.ragged]
     for r, col in zip(request, spec.request):
         assert (r[1], int(r[2]), r[3]) == (col.dtype, col.width, "required" if op in col.required else "optional")
     assert [r[0] for r in reply] == [c.name for c in spec.reply]
@@ -72,6 +76,9 @@ def test_doc_codes_and_health_forms_match_the_declaration() -> None:
     place = " ".join(_section("#### Place columns").split())
     for code, name in enumerate(PLACEMENT_CODES):
         assert f"{code} `{name}`" in place
+    path = " ".join(_section("### Path columns").split())
+    for code, name in enumerate(REASON_CODES):
+        assert f"{code} `{name}`" in path
     health = _section("### Health")
     assert f"`{list(QUERY_FORMS)}`".replace("'", '"') in health
 
@@ -135,7 +142,8 @@ def test_item_errors_name_column_index_and_component_and_spare_the_others() -> N
     ray = parse_query_columns("ray", _segments(2, radius=struct.pack("<2d", 0.2, 0.0)), A9B4)
     assert [(i, e.path) for i, e in ray.bad.items()] == [(1, "columns.radius[1]")]
     q = struct.pack("<8d", 1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0)
-    place = parse_query_columns("place", {"v": 1, "columns": {"cell": struct.pack("<2I", 0xA9B4000B, 0xA9B4000B),
+    place = parse_query_columns("place", {"v": 1, "mover": {"spheres": [{"center": [0, 0, 0.5], "radius": 0.5}]},
+                                          "columns": {"cell": struct.pack("<2I", 0xA9B4000B, 0xA9B4000B),
                                                                "origin": struct.pack("<6d", *[1.0] * 6), "orientation": q}}, A9B4)
     assert [(i, e.path) for i, e in place.bad.items()] == [(1, "columns.orientation[1]")]
 

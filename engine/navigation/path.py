@@ -48,10 +48,8 @@ if TYPE_CHECKING:
 
 __all__ = ["find_path", "find_paths", "random_point", "probe_of", "MAX_BUDGET", "MAX_PATH_DISTANCE"]
 
-#: the largest node budget a query may ask for
-MAX_BUDGET = 5_000_000
-#: the longest path a query may ask for, metres (the width of the world)
-MAX_PATH_DISTANCE = 256 * 192.0
+MAX_BUDGET = limits.MAX_PATH_BUDGET
+MAX_PATH_DISTANCE = limits.MAX_PATH_DISTANCE
 #: graph nodes near the start (and the goal) tried as the search's first (last) node
 _ENDPOINT_NODES = 8
 
