@@ -13,10 +13,13 @@ A Starlette app served by uvicorn on loopback (default http://127.0.0.1:8765/):
 - `/api/events`: server-sent events, one `state` event per new State
   (`clients.view_board` subscribes to the service's state publications) and
   one `removed` event per mover the service no longer holds
-  (`clients.view_removals` asks after movers that fell quiet).
+  (`clients.view_removals` asks after movers that fell quiet);
+- `/api/paths`: the paths asked (`--path`, or two shift-clicks on the map,
+  posted to `/api/path`) with the service's answers, their waypoints for the
+  page to draw (`clients.view_paths`).
 
 The page colours movers by contact state, draws buildings and objects, pans
-and zooms, and shows a mover's State when clicked. A mover appears with its
+and zooms, shows a mover's State when clicked, and draws the paths asked. A mover appears with its
 first State published after the view started (the protocol has no "list
 every mover" query).
 """
@@ -28,11 +31,13 @@ import asyncio
 import sys
 import threading
 import time
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
 from .view_board import MoverBoard
 from .view_objects import ObjectSource
+from .view_paths import PathBook, outdoor_position, parse_path_words
 from .view_removals import RemovalWatch, held_by_service
 from .view_terrain import TerrainSource
 
@@ -51,6 +56,11 @@ def add_view_arguments(p: argparse.ArgumentParser) -> None:
     src = p.add_mutually_exclusive_group()
     src.add_argument("--scene", metavar="FILE", help="the scene the service serves (for the terrain; default the demo world)")
     src.add_argument("--dat-dir", metavar="DIR", help="the dat directory the service serves (for the terrain)")
+    p.add_argument("--path", nargs=8, action="append", default=[],
+                   metavar=("FROM_CELL", "X", "Y", "Z", "TO_CELL", "X", "Y", "Z"),
+                   help="ask the service for a path a player-sized walker can walk from one point to another (hex "
+                        "cell ids, landblock metres, as `acphys path --from ... --to ...`) and draw it on the map; "
+                        "repeat for more. On the page, shift-click two points for a path between them")
 
 
 class _Landblocks:
@@ -77,8 +87,10 @@ class _Landblocks:
 
 
 def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks | None, info: dict[str, Any],
-              objects: ObjectSource | None = None) -> Any:
-    """The Starlette application of the live map."""
+              objects: ObjectSource | None = None, paths: PathBook | None = None,
+              height_at: Callable[[int, float, float], float] | None = None) -> Any:
+    """The Starlette application of the live map. `paths` answers the paths asked; `height_at(cell, x, y)`
+    (the terrain's height) puts a shift-clicked point on the ground."""
     from sse_starlette.sse import EventSourceResponse
     from starlette.applications import Starlette
     from starlette.requests import Request
@@ -133,6 +145,27 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
     async def api_movers(_: Request) -> Response:
         return JSONResponse(board.snapshot())
 
+    async def api_paths(_: Request) -> Response:
+        return JSONResponse(paths.to_json() if paths is not None else [])
+
+    async def api_path(request: Request) -> Response:
+        """Two points in global map metres, {"from": [x, y], "to": [x, y]}: the path between them, answered
+        (the request waits for the service; the page draws it when it comes)."""
+        if paths is None or height_at is None:
+            return JSONResponse({"error": "this view asks no paths"}, status_code=404)
+        try:
+            body = await request.json()
+            xys = [(float(body[k][0]), float(body[k][1])) for k in ("from", "to")]
+        except (ValueError, TypeError, KeyError, IndexError) as e:
+            return JSONResponse({"error": f"not two points {{\"from\": [x, y], \"to\": [x, y]}}: {e}"},
+                                status_code=400)
+        try:
+            ends = [outdoor_position(x, y, height_at) for x, y in xys]
+        except Exception as e:  # off the map, or a landblock the view's world does not have
+            return JSONResponse({"error": f"no terrain there: {e}"}, status_code=404)
+        entry = await asyncio.to_thread(paths.answer, paths.add(ends[0], ends[1]))
+        return JSONResponse(entry.to_json())
+
     async def api_events(request: Request) -> Response:
         q = board.listen()
 
@@ -154,6 +187,8 @@ def build_app(board: MoverBoard, terrain: TerrainSource, landblocks: _Landblocks
         Route("/api/objects/{lb}", api_objects),
         Route("/api/movers", api_movers),
         Route("/api/events", api_events),
+        Route("/api/paths", api_paths),
+        Route("/api/path", api_path, methods=["POST"]),
         Mount("/static", StaticFiles(directory=static_dir), name="static"),
     ])
 
@@ -168,10 +203,17 @@ def run_view(args: argparse.Namespace) -> int:
     from service.world_source import open_world
 
     from .connection import connect_client
+    from .demo_walk import demo_mover
     from .demo_world import demo_scene_path
+    from .view_paths import PATH_TIMEOUT_S
     from .which_service import describe_service
 
     scene = args.scene if args.scene is not None or args.dat_dir is not None else str(demo_scene_path())
+    try:
+        asked = [parse_path_words(words) for words in args.path]
+    except argparse.ArgumentTypeError as e:
+        print(f"acphys view: --path: {e}", file=sys.stderr)
+        return 2
     try:
         world = open_world(scene=scene, dat_dir=args.dat_dir)
     except Exception as e:
@@ -190,7 +232,16 @@ def run_view(args: argparse.Namespace) -> int:
         info = {"prefix": client.keys.prefix, "connect": args.connect or ["tcp/127.0.0.1:7447"],
                 "world": args.dat_dir or scene, "instances": instances}
         world_lock = threading.Lock()  # the terrain and the objects read the one world from the server's threads
-        app = build_app(board, TerrainSource(world, lock=world_lock), lbs, info, ObjectSource(world, lock=world_lock))
+
+        def height_at(cell: int, x: float, y: float) -> float:
+            with world_lock:
+                return float(world.terrain_height(cell, x, y))
+
+        walker = demo_mover()  # player-sized, as `acphys path` has it
+        book = PathBook(lambda start, goal: client.path(walker, start, goal, timeout=PATH_TIMEOUT_S))
+        book.answer_in_background([book.add(start, goal) for start, goal in asked])
+        app = build_app(board, TerrainSource(world, lock=world_lock), lbs, info, ObjectSource(world, lock=world_lock),
+                        book, height_at)
         config = uvicorn.Config(app, host=args.host, port=args.port, log_level="warning", lifespan="off")
         server = uvicorn.Server(config)
 

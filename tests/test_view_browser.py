@@ -51,12 +51,12 @@ def _get(url: str, timeout: float = 2.0) -> Any:
         return json.loads(r.read())
 
 
-@pytest.fixture()
-def view() -> Iterator[tuple[ServiceProcess, str]]:
+def _view_process(extra: list[str]) -> Iterator[tuple[ServiceProcess, str]]:
+    """A service, and `acphys view` connected to it (with `extra` options), until the test is done."""
     with ServiceProcess(extra=["--prefix", PREFIX]) as svc:
         port = free_port()
         proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "view", "--connect", svc.endpoint,
-                                 "--prefix", PREFIX, "--port", str(port)],
+                                 "--prefix", PREFIX, "--port", str(port), *extra],
                                 cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         url = f"http://127.0.0.1:{port}/"
         try:
@@ -78,6 +78,20 @@ def view() -> Iterator[tuple[ServiceProcess, str]]:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait(10)
+
+
+@pytest.fixture()
+def view() -> Iterator[tuple[ServiceProcess, str]]:
+    yield from _view_process([])
+
+
+#: `acphys view --path`: from the north hills (landblock A9B5's outdoor cell 0x38) into the house's room
+PATH_WORDS = ["A9B50038", "150", "180", "41.5", "A9B50100", "108", "108", "40"]
+
+
+@pytest.fixture()
+def path_view() -> Iterator[tuple[ServiceProcess, str]]:
+    yield from _view_process(["--path", *PATH_WORDS])
 
 
 @pytest.fixture()
@@ -374,3 +388,61 @@ def test_the_live_map_lays_out_its_labels_key_buildings_and_list(view: tuple[Ser
                 c.remove(i)
     severe = [e for e in browser.get_log("browser") if e.get("level") == "SEVERE"]
     assert severe == [], severe
+
+
+def test_the_live_map_draws_the_paths_asked(path_view: tuple[ServiceProcess, str], browser: Any) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    from clients.demo_walk import demo_mover
+    from clients.demo_world import demo_scene_path
+    from clients.view_paths import parse_path_words
+    from engine import load_scene
+
+    _, url = path_view
+    browser.get(url)
+    js = browser.execute_script
+    _wait(lambda: js("return window.acphysView && window.acphysView.terrainReady()") == 4, "the terrain")
+    # the --path, answered and drawn: one polyline through as many points as the world's own path has waypoints
+    local = load_scene(str(demo_scene_path())).path(demo_mover(), *parse_path_words(PATH_WORDS))
+    assert local.found
+
+    def drawn(n: int) -> Any:
+        def ready() -> Any:
+            paths = js("return window.acphysView.paths()")
+            lay = js("return window.acphysView.layout()")
+            done = len(paths) == n and not any(p["pending"] for p in paths) and len(lay.get("paths", [])) == n
+            return (paths, lay) if done else None
+        return ready
+
+    paths, lay = _wait(drawn(1), "the --path drawn", timeout=120.0)
+    (p,), (line,) = paths, lay["paths"]
+    assert p["found"] and line["found"] and len(line["points"]) == len(local.waypoints) == len(p["waypoints"])
+    for (px, py), w in zip(line["points"], local.waypoints):  # where the page put each waypoint, in pixels
+        gx, gy = (w.cell_id >> 24) * 192.0 + w.origin.x, ((w.cell_id >> 16) & 0xFF) * 192.0 + w.origin.y
+        sx, sy = js("return window.acphysView.toScreen(arguments[0], arguments[1])", gx, gy)
+        assert (px, py) == pytest.approx((sx, sy), abs=0.01)
+    listed = browser.find_elements(By.CSS_SELECTOR, "#paths li")
+    assert len(listed) == 1 and f"{len(local.waypoints)} waypoints" in listed[0].text
+
+    # two shift-clicks: a path between those points, asked by the page and drawn
+    canvas = browser.find_element(By.ID, "map")
+    rect = canvas.rect
+    cw, ch = rect["width"], rect["height"]
+    start, goal = js("return window.acphysView.toScreen(arguments[0], arguments[1])", 0xA9 * 192.0 + 130.0,
+                     0xB5 * 192.0 + 98.0), js("return window.acphysView.toScreen(arguments[0], arguments[1])",
+                                               0xA9 * 192.0 + 60.0, 0xB5 * 192.0 + 58.0)
+    for px, py in (start, goal):
+        ActionChains(browser).key_down(Keys.SHIFT).move_to_element_with_offset(canvas, px - cw / 2, py - ch / 2) \
+            .click().key_up(Keys.SHIFT).perform()
+    paths, lay = _wait(drawn(2), "the shift-clicked path drawn", timeout=120.0)
+    q, line = paths[1], lay["paths"][1]
+    assert q["found"] and q["from"]["cell"] == "A9B5002D" and q["to"]["cell"] == "A9B50013"
+    assert len(line["points"]) == len(q["waypoints"]) >= 2
+    # its ends where the clicks were (within a pixel's worth of metres, plus placement's 0.25 m)
+    scale = js("return window.acphysView.view().scale")
+    for (px, py), (cx, cy) in ((line["points"][0], start), (line["points"][-1], goal)):
+        assert math.hypot(px - cx, py - cy) <= 1.5 + 0.25 * scale
+    errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    assert not errors, errors

@@ -23,6 +23,9 @@ pytest.importorskip("uvicorn")
 pytest.importorskip("sse_starlette")
 
 PREFIX = "acphys-view-api-test"
+#: the path `acphys view --path` asks for: from the north hills (global 150, 372: landblock A9B5, its outdoor
+#: cell 6 * 8 + 7 + 1 = 0x38) to the middle of the house's room (EnvCell A9B50100, on its floor at 40 m)
+PATH_WORDS = ["A9B50038", "150", "180", "41.5", "A9B50100", "108", "108", "40"]
 
 
 def _get(url: str) -> tuple[int, Any]:
@@ -38,7 +41,7 @@ def view_url() -> Iterator[tuple[str, ServiceProcess]]:
     with ServiceProcess(extra=["--prefix", PREFIX]) as svc:
         port = free_port()
         proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "view", "--connect", svc.endpoint,
-                                 "--prefix", PREFIX, "--port", str(port)],
+                                 "--prefix", PREFIX, "--port", str(port), "--path", *PATH_WORDS],
                                 cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         url = f"http://127.0.0.1:{port}/"
         try:
@@ -226,3 +229,72 @@ def test_the_view_drops_a_mover_the_service_removed(view_url: tuple[str, Service
         while key in {m["id"] for m in _get(url + "api/movers")[1]}:
             assert time.monotonic() < deadline, "the view still lists the removed mover"
             time.sleep(0.2)
+
+
+def _post(url: str, body: Any) -> tuple[int, Any]:
+    req = urllib.request.Request(url, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"},
+                                 method="POST")
+    try:
+        with urllib.request.urlopen(req, timeout=120.0) as r:  # loopback only; a path may build graphs first
+            return r.status, json.loads(r.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read())
+
+
+def _same_waypoints(served: list[dict[str, Any]], local: Any) -> None:
+    assert [w["cell"] for w in served] == [f"{p.cell_id:08X}" for p in local.waypoints]
+    assert [w["landblock"] for w in served] == [p.cell_id >> 16 for p in local.waypoints]
+    for w, p in zip(served, local.waypoints):
+        assert w["origin"] == pytest.approx([p.origin.x, p.origin.y, p.origin.z], abs=1e-4)
+
+
+def test_the_view_serves_the_paths_asked_as_the_world_finds_them(view_url: tuple[str, ServiceProcess]) -> None:
+    from clients.demo_walk import demo_mover
+    from clients.demo_world import demo_scene_path
+    from clients.view_paths import parse_path_words
+    from engine import load_scene
+    from engine.geometry import Position, Vec3
+
+    url, _ = view_url
+    deadline = time.monotonic() + 120.0  # the service builds the graph of the cells the search reaches first
+    while True:
+        status, paths = _get(url + "api/paths")
+        assert status == 200 and len(paths) == 1
+        if not paths[0]["pending"] or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    (p,) = paths
+    assert p["number"] == 1 and not p["pending"] and not p["error"]
+    assert p["from"]["cell"] == "A9B50038" and p["to"] == {"cell": "A9B50100", "landblock": 0xA9B5,
+                                                           "origin": [108.0, 108.0, 40.0]}
+    # the same path as the world loaded here finds for the same walker, asked in the same order
+    world = load_scene(str(demo_scene_path()))
+    walker = demo_mover()
+    local = world.path(walker, *parse_path_words(PATH_WORDS))
+    assert local.found and p["found"] and p["length"] == pytest.approx(local.length, abs=1e-3)
+    _same_waypoints(p["waypoints"], local)
+    # into the room: outdoors first, then in its EnvCell to the end (in once, not out again)
+    indoors = [int(w["cell"][4:], 16) >= 0x100 for w in p["waypoints"]]
+    assert not indoors[0] and indoors[-1] and indoors == sorted(indoors)
+    assert p["waypoints"][-1]["cell"] == "A9B50100"
+
+    # two points posted, as two shift-clicks on the page send them (global metres: landblock column * 192 + x)
+    a9b5 = (0xA9 * 192.0, 0xB5 * 192.0)
+    start_xy, goal_xy = (a9b5[0] + 130.0, a9b5[1] + 98.0), (a9b5[0] + 60.0, a9b5[1] + 58.0)  # the pad; the hills west
+    status, q = _post(url + "api/path", {"from": list(start_xy), "to": list(goal_xy)})
+    assert status == 200 and q["number"] == 2 and q["found"], q
+    # on the terrain there, in the outdoor cells of landblock A9B5's (130, 98) and (60, 58):
+    # 5 * 8 + 4 + 1 = 0x2D and 2 * 8 + 2 + 1 = 0x13
+    assert q["from"]["cell"] == "A9B5002D" and q["from"]["origin"][:2] == [130.0, 98.0]
+    assert q["to"]["cell"] == "A9B50013" and q["to"]["origin"][:2] == [60.0, 58.0]
+    start = Position.at(0xA9B5002D, Vec3(130.0, 98.0, world.terrain_height(0xA9B5002D, 130.0, 98.0)))
+    goal = Position.at(0xA9B50013, Vec3(60.0, 58.0, world.terrain_height(0xA9B50013, 60.0, 58.0)))
+    assert q["from"]["origin"][2] == pytest.approx(start.origin.z) and q["to"]["origin"][2] == pytest.approx(goal.origin.z)
+    _same_waypoints(q["waypoints"], world.path(walker, start, goal))
+    assert [e["number"] for e in _get(url + "api/paths")[1]] == [1, 2]
+    # what is not two points is refused with a reason, and so is a point where the world has no land
+    for bad in ({"from": list(start_xy)}, {"from": [1.0, 2.0], "to": ["x", 1.0]}):
+        status, err = _post(url + "api/path", bad)
+        assert status == 400 and "not two points" in err["error"], bad
+    status, err = _post(url + "api/path", {"from": list(start_xy), "to": [10.0, 10.0]})  # landblock 0000
+    assert status == 404 and "no terrain there" in err["error"]

@@ -11,6 +11,7 @@
   const COLOURS = { walkable: "#18c018", steep: "#ff8c00", air: "#1e5aff", idle: "#999999" };
   const BUILDING = { fill: "#d9c7a0", stroke: "#222222" };   // sandstone: apart from the reddish steep tint
   const OBJECT = { fill: "#7d7d7d", stroke: "#222222" };
+  const PATH = { line: "#d0009a", halo: "rgba(255,255,255,0.85)", missing: "#555555" };
   const LABELS = window.acphysLabels;
 
   const canvas = document.getElementById("map");
@@ -21,13 +22,16 @@
   const stateEl = document.getElementById("state");
   const selectedEl = document.getElementById("selected");
   const hintEl = document.getElementById("hint");
+  const pathsEl = document.getElementById("paths");
 
   const view = { cx: 0, cy: 0, scale: 1, fitted: false };   // scale: pixels per metre
   const terrain = new Map();   // "A9B4" -> {x0, y0, image (canvas) or null}
   const outlines = new Map();  // "A9B4" -> {buildings: [...], objects: [...]} (global metres)
   const movers = new Map();    // id hex -> {state, x, y, trail: [[x, y], ...]}
   const heightRange = { lo: null, hi: null };   // of the terrain drawn (metres), for the key
-  let layout = { labels: [], fixed: {}, dots: [] };   // where the last frame put things (for tests)
+  let paths = [];              // the paths asked (/api/paths): from, to, found, waypoints (landblock metres)
+  let pathStart = null;        // the first shift-click's point, global metres, until the second
+  let layout = { labels: [], fixed: {}, dots: [], paths: [] };   // where the last frame put things (for tests)
   let selected = null;
   let info = null;
   let updates = 0, removals = 0;
@@ -243,6 +247,79 @@
 
   function dotRadius() { return Math.max(5, 0.48 * view.scale); }
 
+  // -- paths ---------------------------------------------------------------------------------
+  function pointXY(p) { return [(p.landblock >> 8) * LANDBLOCK_M + p.origin[0], (p.landblock & 0xff) * LANDBLOCK_M + p.origin[1]]; }
+
+  async function refreshPaths() {
+    let got;
+    try { got = (await fetchJSON("/api/paths")).body; } catch (e) { return; }
+    if (JSON.stringify(got) !== JSON.stringify(paths)) { paths = got; renderPaths(); dirty = true; }
+  }
+
+  function describePath(p) {
+    const head = "#" + p.number + " ";
+    if (p.pending) return head + "asking the service…";
+    if (p.error) return head + "not answered: " + p.error;
+    if (!p.found) return head + "no path: " + p.reason + (p.detail ? " (" + p.detail + ")" : "");
+    return head + p.length.toFixed(1) + " m, " + p.waypoints.length + " waypoints, " + p.to.cell;
+  }
+
+  function renderPaths() {
+    pathsEl.replaceChildren(...paths.map(p => {
+      const li = document.createElement("li");
+      li.textContent = describePath(p);
+      li.className = p.pending ? "pending" : p.found ? "found" : "missing";
+      return li;
+    }));
+  }
+
+  // each path's waypoints as a polyline (a dot at each waypoint, the start a circle, the goal a square); one not
+  // found as a thin dashed line from where to where; returns what was drawn, in canvas pixels
+  function drawPaths() {
+    const drawn = [];
+    for (const p of paths) {
+      const found = p.found && p.waypoints.length > 1;
+      const pts = (found ? p.waypoints : [p.from, p.to]).map(w => toScreen(...pointXY(w)));
+      ctx.beginPath();
+      pts.forEach(([px, py], k) => { if (k) ctx.lineTo(px, py); else ctx.moveTo(px, py); });
+      if (found) {
+        ctx.strokeStyle = PATH.halo; ctx.lineWidth = 5; ctx.stroke();
+        ctx.strokeStyle = PATH.line; ctx.lineWidth = 2.5; ctx.stroke();
+        ctx.fillStyle = PATH.line;
+        for (const [px, py] of pts) { ctx.beginPath(); ctx.arc(px, py, 3, 0, 2 * Math.PI); ctx.fill(); }
+      } else {
+        ctx.setLineDash([5, 5]); ctx.strokeStyle = PATH.missing; ctx.lineWidth = 1.5; ctx.stroke(); ctx.setLineDash([]);
+      }
+      const [sx, sy] = pts[0], [ex, ey] = pts[pts.length - 1];
+      ctx.lineWidth = 1.5; ctx.strokeStyle = "#000";
+      ctx.fillStyle = "#00a000"; ctx.beginPath(); ctx.arc(sx, sy, 6, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+      ctx.fillStyle = found ? "#c00000" : PATH.missing; ctx.fillRect(ex - 5, ey - 5, 10, 10); ctx.strokeRect(ex - 5, ey - 5, 10, 10);
+      drawn.push({ number: p.number, found, pending: !!p.pending, points: pts });
+    }
+    if (pathStart) {   // the first shift-click, waiting for the second
+      const [px, py] = toScreen(pathStart[0], pathStart[1]);
+      ctx.fillStyle = "#00a000"; ctx.strokeStyle = "#fff"; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.arc(px, py, 6, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+    }
+    return drawn;
+  }
+
+  async function pathClick(px, py) {
+    const xy = toWorld(px, py);
+    if (!pathStart) { pathStart = xy; dirty = true; setHint("shift-click the goal"); return; }
+    const from = pathStart;
+    pathStart = null; dirty = true; setHint("asking the service for a path…");
+    try {
+      const r = await fetch("/api/path", { method: "POST", headers: { "Content-Type": "application/json" },
+                                          body: JSON.stringify({ from, to: xy }) });
+      const body = await r.json();
+      setHint(r.ok ? describePath(body) : body.error);
+    } catch (e) { setHint("the view server does not answer"); }
+    await refreshPaths();
+  }
+
+  function setHint(text) { document.getElementById("path-hint").textContent = text; }
+
   function draw() {
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.fillStyle = "#445"; ctx.fillRect(0, 0, canvas.width, canvas.height);
@@ -256,6 +333,7 @@
       squares.push([id, { x0: sx, y0: sy, x1: sx + size, y1: sy + size }]);
     }
     const shapes = drawOutlines();
+    const drawnPaths = drawPaths();
     const r = dotRadius(), dots = [];
     for (const [id, m] of movers) {
       const cls = contactClass(m.state);
@@ -275,6 +353,7 @@
     fixed.hint = hint;
     drawLabels(squares, dots, fixed);
     layout.shapes = shapes;
+    layout.paths = drawnPaths;
   }
 
   // landblock names and mover ids, each where it covers no other label, no mover and none of the fixed marks
@@ -416,7 +495,10 @@
   let drag = null;
   canvas.addEventListener("mousedown", e => { drag = { x: e.offsetX, y: e.offsetY, cx: view.cx, cy: view.cy, moved: false }; canvas.style.cursor = "grabbing"; });
   window.addEventListener("mouseup", e => {
-    if (drag && !drag.moved && e.target === canvas) { const id = nearestMover(e.offsetX, e.offsetY); if (id) select(id); }
+    if (drag && !drag.moved && e.target === canvas) {
+      if (e.shiftKey) pathClick(e.offsetX, e.offsetY);
+      else { const id = nearestMover(e.offsetX, e.offsetY); if (id) select(id); }
+    }
     drag = null; canvas.style.cursor = "grab";
   });
   canvas.addEventListener("mousemove", e => {
@@ -451,7 +533,9 @@
     events.addEventListener("state", e => take(JSON.parse(e.data)));
     events.addEventListener("removed", e => drop(JSON.parse(e.data).id));
     events.onopen = () => { statusEl.dataset.live = "1"; };
+    await refreshPaths();
     setInterval(refreshLandblocks, 5000);
+    setInterval(refreshPaths, 2000);   // a --path answered meanwhile, or another page's
     setInterval(() => { dirty = true; showState(); }, 1000);   // idle colours, "s ago"
     requestAnimationFrame(frame);
   }
@@ -469,6 +553,7 @@
     outlines: () => [...outlines.values()],
     heightRange: () => ({ lo: heightRange.lo, hi: heightRange.hi }),
     layout: () => JSON.parse(JSON.stringify(layout)),
+    paths: () => JSON.parse(JSON.stringify(paths)),
     selected: () => selected,
     view: () => ({ cx: view.cx, cy: view.cy, scale: view.scale }),
     setView: (cx, cy, scale) => { view.cx = cx; view.cy = cy; view.scale = scale; view.fitted = true; dirty = true; },
