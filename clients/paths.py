@@ -21,8 +21,8 @@ from typing import Any, cast
 from engine.geometry import Position
 from engine.navigation.results import PathResult
 from engine.world.types import MoverSpec
-from service.codec import decode_position, encode_mover_spec, encode_position
 from service.errors import ProtocolError
+from service.protocol import BATCH_FIELDS, MAX_PATH_BATCH, read_answer, write_answer, write_query
 from service.wire import ErrorKind
 
 from .errors import ServiceError
@@ -30,47 +30,34 @@ from .errors import ServiceError
 __all__ = ["PathQueries", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
 
 #: most paths one batch request may hold (docs/protocol.md, "Paths"): `paths` splits longer lists
-MAX_PATHS_PER_REQUEST = 64
+MAX_PATHS_PER_REQUEST = MAX_PATH_BATCH
 _OP = "path"
-_BATCH = "paths"
+_BATCH = BATCH_FIELDS[_OP]
 
 
 def _path_item(walker: MoverSpec | int, start: Position | None, goal: Position, max_distance: float | None,
                budget: int | None, avoid_movers: bool) -> dict[str, Any]:
     """One path query's wire map (protocol.md, "Paths"): the walker, `from` for a MoverSpec, `to` and the
     options that differ from the defaults."""
-    item: dict[str, Any]
-    if isinstance(walker, MoverSpec):
-        item = {"mover": encode_mover_spec(walker), "from": encode_position(start)}
-    else:
-        item = {"id": walker}
-    item["to"] = encode_position(goal)
-    if max_distance is not None:
-        item["max_distance"] = max_distance
-    if budget is not None:
-        item["budget"] = budget
-    if avoid_movers:
-        item["avoid_movers"] = True
-    return item
+    spec = walker if isinstance(walker, MoverSpec) else None
+    return write_query(_OP, mover=spec, id=None if spec is not None else walker, from_=start, to=goal,
+                       max_distance=max_distance, budget=budget, avoid_movers=True if avoid_movers else None)
 
 
 def read_path_answer(wire: Any) -> PathResult:
     """A path answer map as a PathResult (waypoints as Positions with their cells); ServiceError
     `malformed` for a map that is not one."""
     try:
-        waypoints = [decode_position(w, f"path.waypoints[{i}]") for i, w in enumerate(wire.get("waypoints") or [])]
-        reason = wire.get("reason")
-        return PathResult(bool(wire["found"]), waypoints, float(wire.get("length", 0.0)),
-                          int(wire.get("expanded", 0)), None if reason is None else str(reason),
-                          str(wire.get("detail", "")))
+        result: PathResult = read_answer(_OP, wire)
     except (AttributeError, KeyError, TypeError, ValueError, ProtocolError) as e:
         raise ServiceError(ErrorKind.MALFORMED, f"unreadable path answer: {e}") from None
+    return result
 
 
 def path_answer_map(result: PathResult) -> dict[str, Any]:
     """A PathResult as its answer map, as docs/protocol.md gives it (what `acphys path --json` prints)."""
-    return {"found": result.found, "waypoints": [encode_position(p) for p in result.waypoints],
-            "length": result.length, "expanded": result.expanded, "reason": result.reason, "detail": result.detail}
+    answer: dict[str, Any] = write_answer(_OP, result)
+    return answer
 
 
 def _check_walker(walker: MoverSpec | int, start: Position | None, where: str) -> None:

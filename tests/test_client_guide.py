@@ -110,3 +110,17 @@ def test_the_guides_example_runs_against_a_service() -> None:
     assert st.contact and st.on_walkable
     assert st.position.origin.z == pytest.approx(demo_world().terrain_height(0xA9B4000B, 40.0, 50.0), abs=0.05)
     assert health["movers"] == 0
+
+
+def test_the_paths_example_runs_against_a_service() -> None:
+    """The "Paths" section's example, on the demo world: the path is found, and the mover that walks it
+    with moves as the guarantee says ends within 0.25 m of the goal."""
+    (example,) = [b for b in python_blocks(GUIDE.read_text(encoding="utf-8")) if "c.path(" in b]
+    assert DEFAULT_ENDPOINT in example
+    with ServiceProcess() as svc:
+        namespace = run_blocks([example], {DEFAULT_ENDPOINT: svc.endpoint})
+        with Client([svc.endpoint]) as check:
+            (health,) = check.health()
+    assert namespace["route"].found
+    assert namespace["arrived"].get_offset(namespace["goal"]).length() <= 0.25
+    assert health["movers"] == 0
