@@ -21,7 +21,15 @@ import msgpack
 import pytest
 
 from service.errors import ProtocolError
-from service.protocol import BLOCKER_CODES, PLACEMENT_CODES, QUERY_COLUMNS, QUERY_FORMS, REASON_CODES
+from service.protocol import (
+    BLOCKER_CODES,
+    PLACEMENT_CODES,
+    QUERY_COLUMNS,
+    QUERY_FORMS,
+    QUERY_OPS,
+    REASON_CODES,
+    REQUEST_OPS,
+)
 from service.query_columns import parse_query_columns
 from service.wire import ErrorKind
 
@@ -81,6 +89,9 @@ def test_doc_codes_and_health_forms_match_the_declaration() -> None:
         assert f"{code} `{name}`" in path
     health = _section("### Health")
     assert f"`{list(QUERY_FORMS)}`".replace("'", '"') in health
+    assert f"`{list(QUERY_OPS)}`".replace("'", '"') in health
+    stats = " ".join(_section("### Stats").split())
+    assert ", ".join(f"`{op}`" for op in REQUEST_OPS) + " is listed" in stats
 
 
 def test_doc_worked_example_is_the_request_it_describes() -> None:
