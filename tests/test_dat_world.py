@@ -15,11 +15,13 @@ from typing import Any
 import pytest
 
 import engine
-from engine import EngineError, LandblockNotLoadedError, MoverSpec, Position, SphereSpec, Vec3, World
+from engine import EngineError, LandblockNotLoadedError, Position, Vec3, World
 from engine.formats.dat import DatError
 from engine.formats.dat_world import DAT_DIR_ENV, DatLandblockSource, open_dat_world
 from engine.formats.trace import mover_spec_from_case
 from engine.terrain.landblock import LandblockTerrain
+
+from benchmarks.scenes import PLAYER
 from support.dat_records import scene_to_dat_files, write_scene_dats
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, write_dat
 from support.shared_data import DATS, load_scene_json, load_trace, require_shared, scene_path
@@ -27,13 +29,6 @@ from support.shared_data import DATS, load_scene_json, load_trace, require_share
 require_shared()  # every test here reads the shared dats or traces
 
 A, B = 0xA9B4, 0xAAB4  # two landblocks side by side in x
-PLAYER = MoverSpec(
-    spheres=[SphereSpec((0.0, 0.0, 0.48), 0.48), SphereSpec((0.0, 0.0, 1.35), 0.48)],
-    step_up_height=0.4,
-    step_down_height=0.4,
-    state=["Contact", "OnWalkable", "IsPlayer", "EdgeSlide"],
-    gravity=True,
-)
 
 
 def _trace(name: str) -> dict[str, Any]:

@@ -18,6 +18,7 @@ import engine
 from engine import MoverSpec, OutOfRangeError, Plane, Position, SphereSpec, Vec3
 from engine.constants import MAX_VELOCITY
 from engine.errors import EngineError, NonFiniteError
+from benchmarks.scenes import PLAYER
 from engine.limits import FLOAT32_MAX, MAX_OBJECT_SIZE, TARGET_MARGIN
 
 HEIGHTS = [b * 0.5 for b in range(256)]
@@ -33,8 +34,6 @@ def flat_world() -> engine.World:
     })
 
 
-PLAYER = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.48), 0.48), SphereSpec((0.0, 0.0, 1.35), 0.48)],
-                   step_up_height=0.4, step_down_height=0.4, state=["Contact", "OnWalkable", "IsPlayer", "EdgeSlide"])
 GROUND = Plane(Vec3(0.0, 0.0, 1.0), -50.0)
 
 

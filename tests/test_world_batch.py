@@ -12,8 +12,9 @@ import struct
 from typing import Any
 
 import engine
-from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
+from engine import MoverSpec, Plane, Position, Vec3
 from engine.errors import NonFiniteError, UnknownCellError
+from benchmarks.scenes import PLAYER
 from engine.world.batch import (
     INTS_PER_ROW,
     MOTION,
@@ -27,8 +28,6 @@ from engine.world.batch import (
 )
 
 HEIGHTS = [float(i) * 0.5 for i in range(256)]
-PLAYER = MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.48), 0.48), SphereSpec((0.0, 0.0, 1.35), 0.48)],
-                   step_up_height=0.4, step_down_height=0.4, state=["Contact", "OnWalkable", "IsPlayer", "EdgeSlide"])
 #: a creature's shape without IsPlayer: players pass through each other, not through it
 CREATURE = MoverSpec(spheres=PLAYER.spheres, state=["Contact", "OnWalkable"])
 GROUND = Plane(Vec3(0.0, 0.0, 1.0), -50.0)
