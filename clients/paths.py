@@ -33,6 +33,10 @@ __all__ = ["PathQueries", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
 MAX_PATHS_PER_REQUEST = MAX_PATH_BATCH
 _OP = "path"
 _BATCH = BATCH_FIELDS[_OP]
+#: how many times a path answered "building" is asked again before that answer is returned: each ask
+#: builds up to the service's `--path-work` more of the graph (10,000 placements and walks by default, a
+#: landblock's graph being about 60,000), so 100 asks cover the graphs of more than a dozen landblocks
+MAX_BUILDING_ASKS = 100
 
 
 def _path_item(walker: MoverSpec | int, start: Position | None, goal: Position, max_distance: float | None,
@@ -74,6 +78,10 @@ def _check_walker(walker: MoverSpec | int, start: Position | None, where: str) -
         raise TypeError(f"{where}: the walker is a MoverSpec or a registered mover's id, not {type(walker).__name__}")
 
 
+def _building(answer: PathResult | ServiceError | None) -> bool:
+    return isinstance(answer, PathResult) and answer.reason == "building"
+
+
 class PathQueries:
     """The path queries, mixed into `Client` (which gives them `_lb_request` and `landblock_of`): call them
     on a Client."""
@@ -90,7 +98,7 @@ class PathQueries:
 
     def path(self, walker: MoverSpec | int, start: Position | None, goal: Position, *,
              max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
-             timeout: float | None = None) -> PathResult:
+             timeout: float | None = None, keep_asking: bool = True) -> PathResult:
         """A path `walker` can walk from `start` to `goal` (World.path, on the service): a `PathResult`.
 
         `walker`: a `MoverSpec` (the shape and step heights of what will walk), with `start` the Position
@@ -117,8 +125,11 @@ class PathQueries:
         walker's `seq` included.
 
         The first path that reaches a landblock builds that landblock's graph for the walker's size
-        (about a second of the service's time per landblock): give such a query a longer `timeout`
-        (seconds; None: the client's).
+        (about a second of the service's time per landblock, the interpreted engine's many times more). The
+        service does it in shares (`acphys serve --path-work`), answering "building" after each so that
+        everyone's moves go on meanwhile; with `keep_asking` (the default) this method asks again, up to
+        MAX_BUILDING_ASKS times, and returns the first other answer. `timeout` is per request (seconds;
+        None: the client's).
 
         Raises ValueError for a MoverSpec without `start`, an id with a `start`, or an id that is not a
         uint64 above 0 (TypeError for a walker of neither kind); ServiceError: `unknown_mover` (no such
@@ -127,13 +138,17 @@ class PathQueries:
         _check_walker(walker, start, "path")
         item = _path_item(walker, start, goal, max_distance, budget, avoid_movers)
         mover_id = None if isinstance(walker, MoverSpec) else walker
-        reply = self._lb_request(self._start_landblock(walker, start), _OP, {"v": 1, _OP: item}, mover_id,
-                                 timeout=timeout)
-        return read_path_answer(reply[_OP])
+        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
+            reply = self._lb_request(self._start_landblock(walker, start), _OP, {"v": 1, _OP: item}, mover_id,
+                                     timeout=timeout)
+            result = read_path_answer(reply[_OP])
+            if result.reason != "building":
+                break
+        return result
 
     def paths(self, walker: MoverSpec | int, pairs: Sequence[tuple[Position | None, Position]], *,
               max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
-              timeout: float | None = None) -> list[PathResult | ServiceError]:
+              timeout: float | None = None, keep_asking: bool = True) -> list[PathResult | ServiceError]:
         """`path` of one walker for each (start, goal) pair, in order: one entry per pair, its PathResult
         or a ServiceError for a pair the service refused alone. A not-found path is a PathResult with
         `found` False, not an error.
@@ -146,7 +161,8 @@ class PathQueries:
         several requests, sent one after the other); the answers are put back in the pairs' order.
         Raises ValueError / TypeError as `path` does, naming the pair; ServiceError when a request is
         refused whole (a field error, whose path indexes that request's share of the pairs); NoServiceError,
-        RequestTimeout. `timeout` is per request."""
+        RequestTimeout. `timeout` is per request; `keep_asking` as `path`'s, for the pairs answered
+        "building"."""
         for i, (start, _goal) in enumerate(pairs):
             _check_walker(walker, start, f"paths[{i}]")
         out: list[PathResult | ServiceError | None] = [None] * len(pairs)
@@ -154,16 +170,21 @@ class PathQueries:
         for i, (start, _goal) in enumerate(pairs):
             by_lb.setdefault(self._start_landblock(walker, start), []).append(i)
         mover_id = None if isinstance(walker, MoverSpec) else walker
-        for lb, idx in by_lb.items():
-            for k in range(0, len(idx), MAX_PATHS_PER_REQUEST):
-                share = idx[k:k + MAX_PATHS_PER_REQUEST]
-                items = [_path_item(walker, pairs[i][0], pairs[i][1], max_distance, budget, avoid_movers)
-                         for i in share]
-                reply = self._lb_request(lb, _OP, {"v": 1, _BATCH: items}, mover_id, timeout=timeout)
-                answers = reply.get(_BATCH)
-                if not isinstance(answers, list) or len(answers) != len(share):
-                    raise ServiceError(ErrorKind.MALFORMED, f"a paths reply of {len(share)} items does not match the request")
-                for i, a in zip(share, answers, strict=True):
-                    out[i] = (ServiceError.from_wire(a["error"]) if isinstance(a, dict) and "error" in a
-                              else read_path_answer(a))
+        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
+            for lb, idx in by_lb.items():
+                for k in range(0, len(idx), MAX_PATHS_PER_REQUEST):
+                    share = idx[k:k + MAX_PATHS_PER_REQUEST]
+                    items = [_path_item(walker, pairs[i][0], pairs[i][1], max_distance, budget, avoid_movers)
+                             for i in share]
+                    reply = self._lb_request(lb, _OP, {"v": 1, _BATCH: items}, mover_id, timeout=timeout)
+                    answers = reply.get(_BATCH)
+                    if not isinstance(answers, list) or len(answers) != len(share):
+                        raise ServiceError(ErrorKind.MALFORMED, f"a paths reply of {len(share)} items does not match the request")
+                    for i, a in zip(share, answers, strict=True):
+                        out[i] = (ServiceError.from_wire(a["error"]) if isinstance(a, dict) and "error" in a
+                                  else read_path_answer(a))
+            # the pairs answered "building" are asked again, the others kept
+            by_lb = {lb: still for lb, idx in by_lb.items() if (still := [i for i in idx if _building(out[i])])}
+            if not by_lb:
+                break
         return cast(list[PathResult | ServiceError], out)  # every pair answered above

@@ -21,6 +21,7 @@ from .logs import add_log_arguments, configure_logging
 from .request_log import ERRORS
 from .accounts import Accounts, add_accounts_arguments, apply_accounts, no_logins_file
 from .node import NodeOptions, ServiceNode
+from .queries import DEFAULT_PATH_WORK
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
 from .state_layout import regroup_state
@@ -32,6 +33,16 @@ from .zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
 __all__ = ["add_serve_arguments", "serve", "main"]
 
 log = logging.getLogger("acphys.service")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
 
 
 def add_serve_arguments(p: argparse.ArgumentParser) -> None:
@@ -53,6 +64,10 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S",
                    help="seconds to wait for another instance to take a mover crossing into its landblock "
                         "(default %(default)s)")
+    p.add_argument("--path-work", type=_positive_int, default=DEFAULT_PATH_WORK, metavar="N",
+                   help="graph building one path query may do before it answers 'building' (placements and walks; "
+                        "about 20 us each on the compiled engine): bounds how long a path into land whose "
+                        "navigation graph is not built yet holds up everyone's moves (default %(default)s)")
     add_log_arguments(p)
     p.add_argument("--workers", default="1", metavar="N",
                    help="engine processes behind one router (service/workers.py): a count or 'auto' (the CPUs); "
@@ -122,7 +137,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         return 2
     options = NodeOptions(
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
-        info_prefix=worker_info, accept_handovers=cluster is not None, tune_heap=True,
+        info_prefix=worker_info, accept_handovers=cluster is not None, tune_heap=True, path_work=args.path_work,
     )
     stop = threading.Event()
 

@@ -51,7 +51,7 @@ from .requests import (
 )
 from .stats import ServiceStats
 from .protocol import BATCH_FIELDS, LB_OPS, QUERIES, QUERY_OPS
-from .queries import query_count, query_work
+from .queries import DEFAULT_PATH_WORK, query_count, query_work
 from .wire import ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
@@ -75,6 +75,9 @@ class NodeOptions:
     #: publish a move's State only while some subscriber's key expression meets `P/obj/*/state` (Zenoh's
     #: matching status, read once per request); False publishes every State whoever listens
     skip_unwatched_states: bool = True
+    #: the graph building one path query may do before it answers `building` (engine World.path's `work`):
+    #: a path into land whose graph is not built yet holds the engine thread, and everyone's moves, this long
+    path_work: int = DEFAULT_PATH_WORK
     #: run a request in the Zenoh callback when the engine is idle (see the module's docstring)
     inline: bool = True
     #: the largest batch run in a callback (~10 ms of the interpreted engine); larger ones are queued
@@ -487,7 +490,7 @@ class ServiceNode:
             return lambda: core.handover_in(handover)
         if op in QUERY_OPS:
             work = query_work(op, lb, msg, core.world, lambda i, path: core._record(i, path).engine_id,
-                              lambda e: core._by_engine.get(e, 0))
+                              lambda e: core._by_engine.get(e, 0), path_work=self.options.path_work)
             return lambda: self._query_item_errors(op, lb, work())
         raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
 

@@ -34,7 +34,12 @@ from .query_columns import (
 from .validate import field_path
 from .wire import PROTOCOL_VERSION, ErrorKind
 
-__all__ = ["query_work", "query_count"]
+__all__ = ["query_work", "query_count", "DEFAULT_PATH_WORK"]
+
+#: the graph building (placements and walks, about 20 us each on the compiled engine) one path query may do
+#: before it answers `building`, keeping what it built: about 0.2 s of the engine thread, which everyone's
+#: moves wait behind (`acphys serve --path-work`)
+DEFAULT_PATH_WORK = 10_000
 
 IdMap = Callable[[int, str], int]  # (wire mover id, its request path) -> engine id (raises ProtocolError)
 
@@ -69,13 +74,13 @@ def _place(world: Any, item: Item, ids: IdMap, at: Callable[[str], str], lb: int
     return world.place(*item)
 
 
-def _path(world: Any, item: Item, ids: IdMap, at: Callable[[str], str], lb: int) -> Any:
+def _path(world: Any, item: Item, ids: IdMap, at: Callable[[str], str], lb: int, work: int | None = None) -> Any:
     spec, wire_id, start, goal, max_distance, budget, avoid_movers = item
     walker = spec
     if spec is None:  # a registered walker starts where it stands, which must be in the key's landblock
         walker = ids(wire_id, at("id"))
         in_landblock(world.mover(walker).position, lb, at("id"))
-    return world.path(walker, start, goal, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers)
+    return world.path(walker, start, goal, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers, work=work)
 
 
 _RUN: dict[str, Callable[[Any, Item, IdMap, Callable[[str], str], int], Any]] = {
@@ -111,17 +116,24 @@ def _column_error(op: str, e: Exception, i: int) -> ProtocolError:
     return to_protocol_error(e, f"columns.{column}[{i}]")
 
 
+def _runner(op: str, path_work: int | None) -> Callable[[Any, Item, IdMap, Callable[[str], str], int], Any]:
+    if op == "path":
+        return lambda world, item, ids, at, lb: _path(world, item, ids, at, lb, path_work)
+    return _RUN[op]
+
+
 def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: IdMap,
-               blocker_id: Callable[[int], int]) -> Callable[[], dict[str, Any]]:
+               blocker_id: Callable[[int], int], *, path_work: int | None = None) -> Callable[[], dict[str, Any]]:
     """Read a query request now (ProtocolError on bad input); the closure runs it on the engine and
     returns the reply map. A batch answers per item: an item the engine refuses (an unknown cell, an
     unloaded landblock) gets `{"error": Error}` in its place and the others their answers. A column
-    request (service/query_columns.py) is answered in columns, item by item as the map form would."""
+    request (service/query_columns.py) is answered in columns, item by item as the map form would.
+    `path_work` bounds each path's graph building (World.path's `work`)."""
     if is_query_columns(msg):
-        return _column_work(op, lb, msg, world, ids, blocker_id)
+        return _column_work(op, lb, msg, world, ids, blocker_id, path_work)
     single, items = read_request(op, msg, lb)
     assert lb is not None  # read_request refuses a wildcard
-    key_lb, run_op = lb, _RUN[op]
+    key_lb, run_op = lb, _runner(op, path_work)
 
     def answer(item: Item, path: str) -> Any:
         try:
@@ -178,11 +190,11 @@ def _column_item(req: QueryColumnRequest, i: int) -> Item:
 
 
 def _column_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: IdMap,
-                 blocker_id: Callable[[int], int]) -> Callable[[], dict[str, Any]]:
+                 blocker_id: Callable[[int], int], path_work: int | None) -> Callable[[], dict[str, Any]]:
     if lb is None:
         raise ProtocolError(ErrorKind.BAD_VALUE, f"a {op} query needs a literal landblock in its key, not a wildcard")
     req = parse_query_columns(op, msg, lb)
-    key_lb, run_op = lb, _RUN[op]
+    key_lb, run_op = lb, _runner(op, path_work)
 
     def run() -> dict[str, Any]:
         return run_query_columns(

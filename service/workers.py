@@ -247,6 +247,7 @@ class WorkerSupervisor:
         argv += ["--scene", a.scene] if a.scene is not None else ["--dat-dir", a.dat_dir]
         argv += ["--own", ownership.to_text(), "--mode", "client", "--cluster", str(self._worker_cluster),
                  "--prefix", a.prefix, "--queue", str(a.queue), "--handover-timeout", str(a.handover_timeout),
+                 "--path-work", str(a.path_work),
                  "--log-level", a.log_level, "--log-format", getattr(a, "log_format", "text"),
                  "--worker-info", f"{private_prefix(a.prefix, self.instance)}/{index}", "--worker-parent", str(os.getpid())]
         if self.accounts is not None:

@@ -246,3 +246,18 @@ def test_avoid_movers_goes_round_a_creature_in_the_way(client: Client) -> None:
         assert min(gaps) >= 1.0 + 0.48 - 0.02, gaps
     finally:
         client.remove(st.id)
+
+
+def test_a_path_answered_building_is_asked_again_until_it_is_answered() -> None:
+    # the demo house from the north hills: a path the graph must find, on a service whose share of graph
+    # building per query (--path-work) is small, so that the first ask cannot finish it
+    hills = Position.at(0xA9B50038, Vec3(150.0, 180.0, 41.5))
+    room = Position.at(0xA9B50100, Vec3(108.0, 108.0, 40.0))
+    with ServiceProcess(extra=["--path-work", "500"]) as small, Client([small.endpoint], timeout=60.0) as c:
+        c.wait_ready()
+        first = c.path(WALKER, hills, room, keep_asking=False)
+        assert (first.found, first.reason) == (False, "building")
+        found = c.path(WALKER, hills, room)
+        assert found.found and found.waypoints[-1].cell_id == 0xA9B50100
+        [batch] = c.paths(WALKER, [(hills, room)])  # the graph is built now: answered at the first ask
+        assert isinstance(batch, engine.PathResult) and [where(p) for p in batch.waypoints] == [where(p) for p in found.waypoints]

@@ -191,3 +191,30 @@ def test_follow_walks_a_found_path_and_stops_at_a_wall() -> None:
     assert world.follow(blocked, [start, goal]) == 0
     here = world.mover_state(blocked).position.frame.origin
     assert here.x < 108.0 - 0.25 - 0.48 + 0.05  # held on the wall's west face
+
+
+# -- a share of graph building per query -------------------------------------------------------------------
+
+
+def test_a_share_of_building_answers_building_and_asking_again_finishes_the_same_path() -> None:
+    start, goal = at(100.0, 80.0, GROUND), at(116.0, 80.0, GROUND)  # across the wall: the graph is needed
+    expected = walled_world().path(PLAYER, start, goal)  # another world, its graph built in one go
+    assert expected.found and expected.expanded > 0
+    world = walled_world()
+    answers = []
+    for _ in range(400):  # bounded: each ask builds at least one tile or one node's edges
+        answers.append(world.path(PLAYER, start, goal, work=40))
+        if answers[-1].reason != "building":
+            break
+    first, last = answers[0], answers[-1]
+    assert first.reason == "building" and not first.found and first.waypoints == []
+    assert "ask again" in first.detail
+    assert len(answers) > 2  # the building was spread over several asks
+    # what each ask built was kept: the last answer is the one a graph built in one go gives
+    assert last.found and [spot(p) for p in last.waypoints] == [spot(p) for p in expected.waypoints]
+    assert last.length == expected.length
+    # and a built graph answers at once, whatever the share
+    again = world.path(PLAYER, start, goal, work=1)
+    assert again.found and [spot(p) for p in again.waypoints] == [spot(p) for p in expected.waypoints]
+    with pytest.raises(engine.OutOfRangeError):
+        world.path(PLAYER, start, goal, work=0)

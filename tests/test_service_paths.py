@@ -239,3 +239,38 @@ def test_health_lists_the_path_query_and_stats_count_it(session: zenoh.Session) 
     assert "path" in health["queries"]
     ok, stats = ask(session, "acphys/stats", {})
     assert stats["requests"]["path"] > 0
+
+
+# -- a share of graph building per query (protocol.md, "Cost, and `building`") ---------------------------------
+#: from the north hills into the demo house's room (EnvCell A9B50100): round the house and in at its door,
+#: a path only the graph finds
+HILLS = {"cell": 0xA9B50038, "origin": [150.0, 180.0, 41.5]}
+ROOM = {"cell": 0xA9B50100, "origin": [108.0, 108.0, 40.0]}
+
+
+def test_a_query_past_its_share_of_building_is_answered_building_and_asked_again_finishes(session: zenoh.Session) -> None:
+    with ServiceProcess(extra=["--path-work", "500"]) as small:
+        s = raw_session(small.endpoint)
+        try:
+            answers = []
+            for _ in range(200):  # bounded: each ask builds 500 placements and walks more, and keeps them
+                ok, reply = raw_query(s, "acphys/lb/A9B5/path", msgpack.packb(
+                    {"v": 1, "path": {"mover": PLAYER, "from": HILLS, "to": ROOM}}), timeout=120.0)
+                assert ok
+                answers.append(reply["path"])
+                if answers[-1]["reason"] != "building":
+                    break
+        finally:
+            s.close()
+    first, last = answers[0], answers[-1]
+    assert (first["found"], first["reason"], first["waypoints"]) == (False, "building", [])
+    assert "ask again" in first["detail"]
+    assert len(answers) > 2
+    # the service with the default share (the module's) builds the same graph in fewer asks: same answer
+    ok, reply = ask(session, "acphys/lb/A9B5/path", {"path": {"mover": PLAYER, "from": HILLS, "to": ROOM}})
+    for _ in range(50):
+        if reply["path"]["reason"] != "building":
+            break
+        ok, reply = ask(session, "acphys/lb/A9B5/path", {"path": {"mover": PLAYER, "from": HILLS, "to": ROOM}})
+    assert last["found"] and last == reply["path"]
+    assert last["waypoints"][-1]["cell"] == ROOM["cell"]

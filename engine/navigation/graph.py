@@ -44,7 +44,8 @@ if TYPE_CHECKING:
     from ..world.landblock import Landblock
     from ..world.world import World
 
-__all__ = ["NavGraph", "Tile", "GraphStats", "place_probe", "global_coords", "LONG_LINK_SPAN"]
+__all__ = [
+    "GraphWorkExhausted", "NavGraph", "Tile", "GraphStats", "place_probe", "global_coords", "LONG_LINK_SPAN"]
 
 #: how far a long link (a drop, a steep slope) may reach, metres: one steep 24 m cell and a lattice step
 LONG_LINK_SPAN: Final = 36.0
@@ -91,6 +92,10 @@ class GraphStats:
     edges: int
 
 
+class GraphWorkExhausted(Exception):
+    """A query's allowance of graph building ran out before it could answer (NavGraph.work_allowed)."""
+
+
 class NavGraph:
     """The graph of one walker class in one World (engine.navigation.cache keeps them)."""
 
@@ -111,6 +116,11 @@ class NavGraph:
         self._env_boxes: dict[int, list[tuple[int, float, float, float, float, float, float]]] = {}
         #: walks made building edges (a measure of the work done)
         self.walks = 0
+        #: the graph building (placements and walks) the current query may still start: a tile or a
+        #: node's edges is begun only while `work_done < work_allowed`, and finished once begun, so what
+        #: is built is whole and kept; negative: no limit (engine.navigation.path sets both per query)
+        self.work_allowed = -1
+        self.work_done = 0
         #: (global x, y) // resolution -> the keys of the nodes there: the spatial index of nodes_near
         self._grid: dict[tuple[int, int], list[int]] = {}
 
@@ -159,6 +169,7 @@ class NavGraph:
         cell = landblock.get_cell(cell_id)
         if cell is None:
             return None
+        self._begin_work()
         self._note_landblock(cell_id >> 16)
         tile = Tile(cell_id)
         radius = self.walker.radius
@@ -174,6 +185,7 @@ class NavGraph:
         #: bucket -> indices of this tile's nodes in and around it (the merge test's neighbours)
         taken: dict[tuple[int, int], list[int]] = {}
         probe = self.probe
+        self.work_done += len(candidates)
         for _, x, y, z in candidates:
             self._fresh.restore()
             if not place_probe(self.world, probe, Position.at(cell_id, Vec3(x, y, z)), False):
@@ -195,6 +207,10 @@ class NavGraph:
             self._grid.setdefault(self._bucket(tile.gx[i], tile.gy[i]), []).append((cell_id << 16) | i)
         self.tiles[cell_id] = tile
         return tile
+
+    def _begin_work(self) -> None:
+        if 0 <= self.work_allowed <= self.work_done:
+            raise GraphWorkExhausted(f"{self.work_done:,} placements and walks")
 
     def _bucket(self, gx: float, gy: float) -> tuple[int, int]:
         s = self.nav.resolution
@@ -279,6 +295,8 @@ class NavGraph:
         known = tile.edges.get(i)
         if known is not None:
             return known
+        self._begin_work()
+        self.work_done += 1
         targets: array[int] = array("q")
         costs: array[float] = array("d")
         probe = self.probe
@@ -291,6 +309,7 @@ class NavGraph:
             def attempt(target: int) -> None:
                 start.restore()
                 self.walks += 1
+                self.work_done += 1
                 if walk_toward(world.landscape, probe, self.position(target), self.nav):
                     tx, ty, tz = self.coords(target)
                     targets.append(target)

@@ -36,7 +36,7 @@ from ..errors import EngineError, LandblockNotLoadedError, OutOfRangeError, Unkn
 from ..geometry import Position, Vec3
 from ..world.mover import Mover
 from ..world.types import MoverSpec
-from .graph import NavGraph, global_coords, place_probe
+from .graph import GraphWorkExhausted, NavGraph, global_coords, place_probe
 from .results import PathResult
 from .search import GOAL, astar, settle
 from .settings import NavSettings
@@ -132,22 +132,45 @@ def _loaded(world: World, point: Position, name: str) -> PathResult | None:
     return None
 
 
+def _check_work(work: int | None) -> int:
+    """The graph building a query may start (placements and walks; -1: no limit)."""
+    if work is None:
+        return -1
+    if isinstance(work, bool) or not isinstance(work, int) or work < 1:
+        raise OutOfRangeError(f"work must be a whole number of placements and walks, at least 1, got {work!r}")
+    return work
+
+
+def _still_building(graph: NavGraph, e: GraphWorkExhausted) -> PathResult:
+    return PathResult(False, reason="building", detail=(
+        f"the walker's graph of this area is still being built: this query built what its allowance let it ({e}), "
+        "which is kept; ask again"))
+
+
 def find_path(world: World, walker: Walker, start: Position | None, goal: Position, *, max_distance: float | None = None,
-              budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+              budget: int | None = None, avoid_movers: bool = False, work: int | None = None) -> PathResult:
     """A path the walker can walk from `start` to `goal` (World.path)."""
     nav = world.navigation.settings
     distance_cap, node_budget = _check_query({"start": start, "goal": goal}, max_distance, budget, nav)
+    allowed = _check_work(work)
     w = _Walker(world, walker, avoid_movers)
+    graph = world.navigation.graph_for(w.probe)
+    graph.work_allowed, graph.work_done = allowed, 0
     try:
         return _find(world, w, start, goal, distance_cap, node_budget, nav)
+    except GraphWorkExhausted as e:
+        return _still_building(graph, e)
     finally:
+        graph.work_allowed = -1
         w.done()
 
 
 def find_paths(world: World, walker: Walker, pairs: Sequence[tuple[Position | None, Position]], *,
-               max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False) -> list[PathResult]:
+               max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
+               work: int | None = None) -> list[PathResult]:
     """`find_path` for each (start, goal) pair, on one graph (World.paths)."""
-    return [find_path(world, walker, s, g, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers) for s, g in pairs]
+    return [find_path(world, walker, s, g, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers, work=work)
+            for s, g in pairs]
 
 
 def _start_state(world: World, w: _Walker, start: Position | None, nav: NavSettings) -> tuple[Position | None, PathResult | None]:
@@ -327,37 +350,49 @@ def _prove(landscape: Landscape, probe: Mover, points: list[Position], nav: NavS
 
 
 def random_point(world: World, walker: Walker, near: Position | None, radius: float, *, seed: int | None = None,
-                 budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+                 budget: int | None = None, avoid_movers: bool = False, work: int | None = None) -> PathResult:
     """A random point the walker can reach from `near` (World.random_point): a path to it."""
     nav = world.navigation.settings
     _, node_budget = _check_query({"near": near}, None, budget, nav)
     r = limits.check_number(radius, "radius")
     if not 0.0 < r <= 1000.0:
         raise OutOfRangeError(f"radius must be above 0 and at most 1000 m, got {radius!r}")
+    allowed = _check_work(work)
     w = _Walker(world, walker, avoid_movers)
+    graph = world.navigation.graph_for(w.probe)
+    graph.work_allowed, graph.work_done = allowed, 0
     try:
-        first, answer = _start_state(world, w, near, nav)
-        if answer is not None:
-            return answer
-        assert first is not None
-        start_state = ProbeState(w.probe)
-        graph = world.navigation.graph_for(w.probe)
-        sources = _sources(world, graph, start_state, w.probe, nav)
-        if not sources:
-            return PathResult(False, reason="unreachable", detail="no graph node near the start is joined to it by a walk")
-        settled = settle(graph, sources, 3.0 * r, node_budget)
-        cx, cy, _ = global_coords(first)
-        inside = sorted(k for k in settled if math.hypot(graph.coords(k)[0] - cx, graph.coords(k)[1] - cy) <= r)
-        rng = random.Random(seed)
-        rng.shuffle(inside)
-        for key in inside[:8]:
-            start_state.restore()
-            found = _route(world, w, first, start_state, graph.position(key), MAX_PATH_DISTANCE, node_budget, nav)
-            if found.found:
-                return found
-        return PathResult(False, expanded=len(settled), reason="unreachable", detail=f"no reachable point within {r:g} m")
+        return _random_point(world, w, near, r, seed, node_budget, nav)
+    except GraphWorkExhausted as e:
+        return _still_building(graph, e)
     finally:
+        graph.work_allowed = -1
         w.done()
+
+
+def _random_point(world: World, w: _Walker, near: Position | None, r: float, seed: int | None, node_budget: int,
+                  nav: NavSettings) -> PathResult:
+    """random_point's search, its graph's allowance set."""
+    first, answer = _start_state(world, w, near, nav)
+    if answer is not None:
+        return answer
+    assert first is not None
+    start_state = ProbeState(w.probe)
+    graph = world.navigation.graph_for(w.probe)
+    sources = _sources(world, graph, start_state, w.probe, nav)
+    if not sources:
+        return PathResult(False, reason="unreachable", detail="no graph node near the start is joined to it by a walk")
+    settled = settle(graph, sources, 3.0 * r, node_budget)
+    cx, cy, _ = global_coords(first)
+    inside = sorted(k for k in settled if math.hypot(graph.coords(k)[0] - cx, graph.coords(k)[1] - cy) <= r)
+    rng = random.Random(seed)
+    rng.shuffle(inside)
+    for key in inside[:8]:
+        start_state.restore()
+        found = _route(world, w, first, start_state, graph.position(key), MAX_PATH_DISTANCE, node_budget, nav)
+        if found.found:
+            return found
+    return PathResult(False, expanded=len(settled), reason="unreachable", detail=f"no reachable point within {r:g} m")
 
 
 def probe_of(world: World, walker: Walker) -> Mover:

@@ -24,7 +24,9 @@ class PathResult:
     (the start's or the goal's landblock is not loaded), "start_invalid"
     (the walker cannot stand at the start: no place to stand within the
     arrival tolerance of it, horizontally, as a new object is placed there),
-    "goal_invalid" (nor at the goal).
+    "goal_invalid" (nor at the goal), "building" (the query was given an
+    allowance of graph building, `work`, and spent it before it could
+    answer: what it built is kept, so asking again goes further).
     """
 
     found: bool

@@ -8,7 +8,7 @@ from typing import Final
 __all__ = ["NavSettings", "DEFAULT_NAV", "REASONS"]
 
 #: why a path was not found (PathResult.reason)
-REASONS: Final = ("unreachable", "budget", "not_loaded", "start_invalid", "goal_invalid")
+REASONS: Final = ("unreachable", "budget", "not_loaded", "start_invalid", "goal_invalid", "building")
 
 
 @dataclass(frozen=True, slots=True)

@@ -326,7 +326,7 @@ class World:
         return self._navigation
 
     def path(self, walker: Walker, start: Position | None, goal: Position, *, max_distance: float | None = None,
-             budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+             budget: int | None = None, avoid_movers: bool = False, work: int | None = None) -> PathResult:
         """A path `walker` (a MoverSpec, or a registered mover's id with `start` None: it starts where it
         stands) can walk from `start` to `goal`: a PathResult.
 
@@ -337,14 +337,18 @@ class World:
         `add_mover(spec, waypoints[0], placement="enter_world")` places it. Other movers are not
         obstacles unless `avoid_movers` (then the movers standing now are), and the guarantee holds while
         the world stays as it was asked in. `max_distance` bounds the path's length, metres; `budget`
-        the graph nodes the search may expand (NavSettings.budget by default). A path not found says
-        why in `reason` (engine.navigation.results.PathResult)."""
-        return navigation_path.find_path(self, walker, start, goal, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers)
+        the graph nodes the search may expand (NavSettings.budget by default). `work` bounds the graph
+        building this query may start (placements and walks; None: no bound): a service answering many
+        clients on one thread gives each query a share and answers "building" past it, the work done
+        kept for the next. A path not found says why in `reason` (engine.navigation.results.PathResult)."""
+        return navigation_path.find_path(self, walker, start, goal, max_distance=max_distance, budget=budget,
+                                         avoid_movers=avoid_movers, work=work)
 
     def paths(self, walker: Walker, pairs: Sequence[tuple[Position | None, Position]], *, max_distance: float | None = None,
-              budget: int | None = None, avoid_movers: bool = False) -> list[PathResult]:
+              budget: int | None = None, avoid_movers: bool = False, work: int | None = None) -> list[PathResult]:
         """`path` for each (start, goal) pair: a list of PathResult."""
-        return navigation_path.find_paths(self, walker, pairs, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers)
+        return navigation_path.find_paths(self, walker, pairs, max_distance=max_distance, budget=budget,
+                                          avoid_movers=avoid_movers, work=work)
 
     def reachable(self, walker: Walker, a: Position | None, b: Position, *, max_distance: float | None = None,
                   budget: int | None = None, avoid_movers: bool = False) -> bool:
@@ -352,10 +356,11 @@ class World:
         return self.path(walker, a, b, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers).found
 
     def random_point(self, walker: Walker, near: Position | None, radius: float, *, seed: int | None = None,
-                     budget: int | None = None, avoid_movers: bool = False) -> PathResult:
+                     budget: int | None = None, avoid_movers: bool = False, work: int | None = None) -> PathResult:
         """A random point within `radius` metres (horizontally) of `near` that the walker can reach, as a
         PathResult whose last waypoint is the point (the wandering query); `seed` makes it repeatable."""
-        return navigation_path.random_point(self, walker, near, radius, seed=seed, budget=budget, avoid_movers=avoid_movers)
+        return navigation_path.random_point(self, walker, near, radius, seed=seed, budget=budget, avoid_movers=avoid_movers,
+                                            work=work)
 
     def follow(self, mover_id: int, waypoints: Sequence[Position]) -> int:
         """Walk a registered mover over a path's waypoints (it stands at the first) by World.move, as the
