@@ -560,6 +560,10 @@ def write(results: dict[str, Any]) -> None:
         from .bench_durability import section as durability_section
 
         lines += durability_section(results["durability"], meta_line(results["durability"]))
+    if "wire_decoding" in results:
+        from .bench_wire_decoding import section as wire_section
+
+        lines += wire_section(results["wire_decoding"], meta_line(results["wire_decoding"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

@@ -26,7 +26,8 @@ from typing import Any
 from . import common
 from .common import log
 
-SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation", "durability")
+SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation", "durability",
+            "wire_decoding")
 
 
 def _git_commit() -> str:
@@ -197,6 +198,14 @@ def main(argv: list[str] | None = None) -> int:
             except Exception as e:  # noqa: BLE001 - the doc says why instead
                 log(f"instructions benchmark failed: {type(e).__name__}: {e}")
                 data = {"unavailable": f"the run failed: {type(e).__name__}: {e}"}
+        elif section == "wire_decoding":
+            from . import bench_wire_decoding
+
+            data = bench_wire_decoding.run(args.quick)
+            if "skipped" in data and "skipped" not in results.get(section, {"skipped": ""}):
+                # without msgspec only the service's half runs: the stored comparison is kept
+                log(f"wire decoding: {data['skipped']}; the stored comparison is kept")
+                continue
         elif section == "memory":
             from . import bench_memory
 
