@@ -44,12 +44,16 @@ from ..objects.obstacle import MoverObstacle
 if TYPE_CHECKING:
     from ..transition.sphere_path import SpherePath
 
-__all__ = ["ShapeBounds", "may_touch", "mover_bounds"]
+__all__ = ["ShapeBounds", "PathReach", "may_touch", "mover_bounds", "path_reach"]
 
 #: Slack added to every box side: the narrow phase places the shapes in single
 #: precision (errors of order 1e-5 m at landblock scale) and overlaps within
 #: EPSILON count; a centimetre covers both many times over.
 MARGIN: Final = 0.01
+#: How much wider than may_touch's test the cell loop's first look is
+#: (path_reach): comparisons that round differently by an ulp cannot pass
+#: over a mover may_touch would keep.
+SLACK: Final = 1e-6
 
 
 class ShapeBounds:
@@ -127,3 +131,35 @@ def may_touch(obstacle: MoverObstacle, path: SpherePath) -> bool:
         ):
             return True
     return False
+
+
+#: path_reach's answer: (can the loop look first, the check cell's landblock,
+#: min x, max x, min y, max y)
+PathReach = tuple[bool, int, float, float, float, float]
+
+
+def path_reach(path: SpherePath) -> PathReach:
+    """The footprint every may_touch test of the path's spheres at the check
+    position looks within: the x and y extent of the (up to two) spheres, each
+    grown by the radius may_touch grows it by, plus SLACK, in the frame of the
+    check cell's landblock. A mover in that landblock whose box misses it
+    would fail may_touch; the cell's loop passes over it without calling it.
+
+    The first field is False when may_touch culls nothing (no spheres, or a
+    single-sphere path in collide mode): then nothing may be passed over.
+    Computed again after every obstacle test the loop runs (a test may move
+    the check position or shift the spheres)."""
+    num_sphere = path.num_sphere
+    block = path.check_pos.cell_id >> 16
+    if num_sphere == 0 or (path.collide and num_sphere < 2):
+        return (False, block, 0.0, 0.0, 0.0, 0.0)
+    foot_radius = path.global_sphere[0].radius
+    lo_x = lo_y = math.inf
+    hi_x = hi_y = -math.inf
+    for i in range(num_sphere if num_sphere < 2 else 2):
+        sphere = path.global_sphere[i]
+        c = sphere.center
+        r = (sphere.radius if sphere.radius > foot_radius else foot_radius) + SLACK
+        lo_x, lo_y = min(lo_x, c.x - r), min(lo_y, c.y - r)
+        hi_x, hi_y = max(hi_x, c.x + r), max(hi_y, c.y + r)
+    return (True, block, lo_x, hi_x, lo_y, hi_y)

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Final, TYPE_CHECKING
 
 from ..geometry import Position, Sphere, Vec3
 from ..terrain.water import ENTIRELY_WATER_DEPTH, SHORE_DEPTH, WaterType
 from ..objects.obstacle import MoverObstacle
 from ..transition.state import InsertType, TransitionState
-from .broad_phase import may_touch
+from .broad_phase import PathReach, may_touch, mover_bounds, path_reach
 
 if TYPE_CHECKING:
     from ..objects.obstacle import Obstacle
@@ -19,6 +19,9 @@ if TYPE_CHECKING:
     from .cell_array import CellArray
 
 __all__ = ["ObjCell", "EntryRestriction"]
+
+#: path_reach's answer when nothing is culled
+_NO_REACH: Final[PathReach] = (False, 0, 0.0, 0.0, 0.0, 0.0)
 
 #: Signature of an entry-restriction hook: (cell, transition) -> TransitionState.
 EntryRestriction = Callable[["ObjCell", "Transition"], int] | None
@@ -82,6 +85,9 @@ class ObjCell:
             return TransitionState.OK
         mover = transition.object_info.obj
         cull = transition.settings.skip_far_movers
+        # first a look at a mover's box in x and y against the footprint of the path's spheres: most movers
+        # of a crowd fail it, and it costs four comparisons instead of may_touch's whole test
+        look, block, lo_x, hi_x, lo_y, hi_y = path_reach(path) if cull else _NO_REACH
         for i in range(len(shadows) - 1, -1, -1):
             obj = shadows[i]
             if obj is mover:
@@ -89,6 +95,11 @@ class ObjCell:
             if cull and isinstance(obj, MoverObstacle):
                 if obj.mover is mover:
                     continue  # the path's own shadow (its test answers OK at once)
+                if look:
+                    box = mover_bounds(obj)
+                    if (box.max_x < lo_x or box.min_x > hi_x or box.max_y < lo_y or box.min_y > hi_y) \
+                            and box.position.cell_id >> 16 == block:
+                        continue
                 if not may_touch(obj, path):
                     continue
             state = obj.find_obj_collisions(transition)
@@ -97,6 +108,8 @@ class ObjCell:
                 if path.insert_type == InsertType.PLACEMENT and obj.ethereal:
                     continue
                 return state
+            if cull:  # the test may have moved the check position or the spheres
+                look, block, lo_x, hi_x, lo_y, hi_y = path_reach(path)
         return TransitionState.OK
 
     # -- membership ---------------------------------------------------------
