@@ -36,7 +36,6 @@ from engine.world.batch import (
     run_batch,
 )
 from engine.world.mover import Mover
-from librt.strings import BytesWriter
 from engine.world.transient import NAMED_BITS as TRANSIENT_BITS
 from engine.world.types import MoveResult
 
@@ -91,6 +90,7 @@ _TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FL
 _STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _GONE = bytes(MOVER_STATE_BYTES)
+_LE_U64 = np.dtype("<u8")
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
 
 
@@ -147,7 +147,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     out.gather = req.publish == "batch" and bus.batch_watched()
     rows = out.rows
     if core.log is not None:
-        rows.states = BytesWriter()  # each row's mover as it stands after its move, for the state log
+        rows.states = core.log.row_states()  # each row's mover as it stands after its move, for the state log
     kind = _KIND[req.kind]
     # the columns as flat lists of Python floats: the map form's values exactly (msgpack float64)
     vectors = arrays[_MAIN_COLUMN[req.kind]].ravel().tolist()
@@ -244,14 +244,17 @@ def _journal(core: ServiceCore, req: ColumnRequest, out: ColumnResults, upto: in
     raw = states.getvalue()
     if lo or len(raw) != upto * MOVER_STATE_BYTES:
         raw = raw[lo * MOVER_STATE_BYTES:upto * MOVER_STATE_BYTES]
-    if 0 in seqs:  # some did not resolve (a resolved move's seq is at least 1): their rows are left out
+    # (all(): a truth test per seq, cheaper than `0 in seqs`'s comparisons)
+    if not all(seqs):  # some did not resolve (a resolved move's seq is at least 1): their rows are left out
         seq_array = np.array(seqs, dtype="<u8")
         resolved = seq_array != 0
         raw = np.frombuffer(raw, dtype=f"V{MOVER_STATE_BYTES}")[resolved].tobytes()
         log.moved_rows(np.ascontiguousarray(ids[resolved], "<u8").tobytes(), seq_array[resolved].tobytes(), raw,
                        int(resolved.sum()))
     else:
-        log.moved_rows(np.ascontiguousarray(ids, "<u8").tobytes(), array("Q", seqs).tobytes(), raw, len(seqs))
+        # a request's id column is little-endian uint64 already (parse_column_request), its slices contiguous
+        id_bytes = ids.tobytes() if ids.dtype == _LE_U64 else np.ascontiguousarray(ids, "<u8").tobytes()
+        log.moved_rows(id_bytes, array("Q", seqs).tobytes(), raw, len(seqs))
 
 
 def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],

@@ -338,11 +338,8 @@ class Journal:
             start = -1
             try:
                 if records:
-                    data = b"".join([b for parts in records for b in _framed(parts)])
                     start = os.lseek(self._fd, 0, os.SEEK_END)
-                    view = memoryview(data)
-                    while view:
-                        view = view[os.write(self._fd, view):]
+                    _write_all(self._fd, [b for parts in records for b in _framed(parts)])
                 if sync:
                     os.fdatasync(self._fd)
                     self.syncs += 1
@@ -415,6 +412,23 @@ class Journal:
                     os.close(self._fd)
                 self._fd = -1
         return self.generation + 1
+
+
+#: buffers one writev takes at most (IOV_MAX: 1024 on Linux and the BSDs)
+_IOV_MAX: Final = 1024
+
+
+def _write_all(fd: int, pieces: list[bytes]) -> None:
+    """Write `pieces` in order, as if joined, with writev: the records' bytes are not first copied into one
+    buffer (a megabyte at a time under every-second). A short write goes on where it stopped."""
+    i, n = 0, len(pieces)
+    while i < n:
+        done = os.writev(fd, pieces[i:i + _IOV_MAX])
+        while i < n and done >= len(pieces[i]):
+            done -= len(pieces[i])
+            i += 1
+        if done:  # stopped inside piece i: the rest of it first
+            pieces[i] = pieces[i][done:]
 
 
 def _fsync_dir(path: Path) -> None:

@@ -128,7 +128,7 @@ class MoverLog:
     """The core's writer of records: the moves of the request running are gathered (`moved`, `moved_rows`)
     and become one MOVES record at `commit` (or before a record of another kind, keeping the order)."""
 
-    __slots__ = ("journal", "_ids", "_seqs", "_states", "_count")
+    __slots__ = ("journal", "_ids", "_seqs", "_states", "_count", "_row_states")
 
     def __init__(self, journal: Journal) -> None:
         self.journal = journal
@@ -136,6 +136,15 @@ class MoverLog:
         self._seqs = array("Q")
         self._states = BytesWriter()
         self._count = 0
+        self._row_states = BytesWriter()
+
+    def row_states(self) -> BytesWriter:
+        """The writer a column batch's engine rows put each mover's state in (BatchRows.states), emptied: one
+        for every request, so that its buffer is not grown from nothing again (a copy at each doubling) for
+        each. Its bytes are valid until the next request's call; `moved_rows` is given a copy."""
+        w = self._row_states
+        w.truncate(0)
+        return w
 
     @property
     def always(self) -> bool:
@@ -165,7 +174,7 @@ class MoverLog:
         parts = (RECORD_HEAD.pack(MOVES, n), self._ids.tobytes(), self._seqs.tobytes(), self._states.getvalue())
         self._ids = array("Q")
         self._seqs = array("Q")
-        self._states = BytesWriter()
+        self._states.truncate(0)  # (its bytes were copied: the buffer is kept, not grown again)
         self._count = 0
         self.journal.append(*parts, moves=n)
 

@@ -170,20 +170,50 @@ def test_a_failed_write_leaves_no_half_record_and_is_written_again(tmp_path: Pat
     j = Journal(state, 0, "always")
     j.append(b"first")
     j.commit()
-    real_write = os.write
+    real_writev = os.writev
 
-    def half_then_full(fd: int, data: bytes) -> int:  # a disk that fills up in the middle of a write
-        real_write(fd, bytes(data[:len(data) // 2]))
+    def half_then_full(fd: int, pieces: list[bytes]) -> int:  # a disk that fills up in the middle of a write
+        data = b"".join(pieces)
+        os.write(fd, data[:len(data) // 2])
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(journal_module.os, "write", half_then_full)
+    monkeypatch.setattr(journal_module.os, "writev", half_then_full)
     j.append(b"second, which fails")
     with pytest.raises(OSError):
         j.commit()
     assert read_journal(journal_path(state, 0)).records == [b"first"]  # nothing of the second in the file
-    monkeypatch.setattr(journal_module.os, "write", real_write)
+    monkeypatch.setattr(journal_module.os, "writev", real_writev)
     j.append(b"third")
     j.commit()
     j.close()
     f = read_journal(journal_path(state, 0))
     assert f.records == [b"first", b"second, which fails", b"third"] and f.torn is None
+
+
+def test_short_writes_go_on_where_they_stopped(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A write that takes only some of the bytes (allowed of any write) leaves the records whole and in order:
+    here every writev writes at most 7 bytes, so each stops inside a frame's header or payload."""
+    import os
+
+    import service.journal as journal_module
+
+    real_writev = os.writev
+    calls = 0
+
+    def seven_at_most(fd: int, pieces: list[bytes]) -> int:
+        nonlocal calls
+        calls += 1
+        return real_writev(fd, [b"".join(pieces)[:7]])
+
+    state = tmp_path / "s.state"
+    j = Journal(state, 0, "always")
+    monkeypatch.setattr(journal_module.os, "writev", seven_at_most)
+    j.append(b"one", b"two", moves=1)
+    j.append(b"a record of thirty-one bytes...", moves=1)
+    j.commit()
+    monkeypatch.setattr(journal_module.os, "writev", real_writev)
+    j.close()
+    f = read_journal(journal_path(state, 0))
+    assert f.records == [b"onetwo", b"a record of thirty-one bytes..."] and f.torn is None
+    # two frames: 12-byte headers, payloads of 6 and 31 bytes: 61 bytes, 7 at a time
+    assert calls == 9
