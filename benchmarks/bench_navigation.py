@@ -398,4 +398,4 @@ def _findings(data: dict[str, Any]) -> list[str]:
                 "included; where the straight walk fails the A* adds its own (the table above) and the walks to and "
                 "from the graph at both ends. Paths that need no search (the straight walk arrives) cost about one "
                 "walk: the 50 m row."]
-    return out + bus_finding(data.get("bus"))
+    return out + bus_finding(data.get("bus"), data.get("meta", {}).get("machine", {}).get("cpus") or 2)

@@ -191,8 +191,9 @@ def bus_section(bus: dict[str, Any] | None) -> list[str]:
     return out + [""]
 
 
-def bus_finding(bus: dict[str, Any] | None) -> list[str]:
-    """The finding on the bus's cost per path, from this run's figures."""
+def bus_finding(bus: dict[str, Any] | None, cpus: int = 2) -> list[str]:
+    """The finding on the bus's cost per path, from this run's figures (`cpus`: the machine's, to say
+    when its load was above them)."""
     if not bus or "failed" in bus or not bus.get("sets"):
         return []
     sets = bus["sets"]
@@ -208,4 +209,8 @@ def bus_finding(bus: dict[str, Any] | None) -> list[str]:
             f"form {q['columns_mean_ms']:.2f} ms: a batch shares one round trip among its paths, so what the bus "
             "adds to a batched path is its share of that trip and of the encoding of its waypoints. "
             + ("Every form found the same paths as the library." if agree else
-               "The forms did not all find as many paths as the library: see the table's last column.")]
+               "The forms did not all find as many paths as the library: see the table's last column.")
+            + (f" The machine was busy through this part (load average {bus['loadavg_before'][0]:.1f} on {cpus} "
+               "cores, other work running): a single path's time swings by milliseconds between repeats, so what the "
+               "bus adds is read from the per-pair median, and a figure below zero is that noise."
+               if bus.get("loadavg_before") and bus["loadavg_before"][0] > cpus else "")]
