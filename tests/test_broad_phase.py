@@ -27,7 +27,7 @@ import engine
 import engine.objects.obstacle
 import engine.transition.state
 from engine import MoverSpec, Position, Quat, Sphere, SphereSpec, Vec3
-from engine.cells.broad_phase import MARGIN, may_touch, mover_bounds
+from engine.cells.broad_phase import MARGIN, SLACK, may_touch, mover_bounds, path_reach
 from engine.geometry import Frame
 from engine.transition.sphere_path import SpherePath
 from engine.world import shadows
@@ -97,6 +97,34 @@ def test_a_small_head_reaches_as_far_as_the_foot() -> None:
     assert may_touch(obstacle, path)  # type: ignore[arg-type]
     path.global_sphere[1].center = Vec3(51.3, 50.0, 51.35)  # beyond 50.49 + 0.75
     assert not may_touch(obstacle, path)  # type: ignore[arg-type]
+
+
+def test_the_footprint_the_cell_loop_looks_at_first() -> None:
+    # a foot of 0.75 m at (45, 50) and a head of 0.3 m at (51.2, 50.5): both reach 0.75 m (the foot's radius)
+    path = _path(LB | 0x13, [Vec3(45.0, 50.0, 50.48), Vec3(51.2, 50.5, 51.35)], radius=0.75)
+    path.global_sphere[1].radius = 0.3
+    look, block, lo_x, hi_x, lo_y, hi_y = path_reach(path)
+    assert look and block == LB >> 16
+    assert (lo_x, hi_x) == pytest.approx((44.25 - SLACK, 51.95 + SLACK), abs=1e-12)
+    assert (lo_y, hi_y) == pytest.approx((49.25 - SLACK, 51.25 + SLACK), abs=1e-12)
+    # nothing is looked past when may_touch culls nothing
+    assert not path_reach(_path(LB | 0x13, [Vec3(45.0, 50.0, 50.48)], collide=True))[0]
+
+
+def test_a_box_outside_the_footprint_fails_may_touch() -> None:
+    # the cell loop passes over a mover whose box misses the footprint without asking may_touch: it must say no
+    world = _flat_world()
+    obstacle = _obstacle(world, TWO_SPHERES, 50.0, 50.0)
+    b = mover_bounds(obstacle)  # type: ignore[arg-type]
+    for x in (50.90, 50.96, 50.97, 50.98, 51.5, 49.03, 49.04, 48.0):
+        for y in (50.0, 50.97, 50.98):
+            path = _path(LB | 0x13, [Vec3(x, y, 50.48), Vec3(x, y, 51.35)])
+            _, _, lo_x, hi_x, lo_y, hi_y = path_reach(path)
+            if b.max_x < lo_x or b.min_x > hi_x or b.max_y < lo_y or b.min_y > hi_y:
+                assert not may_touch(obstacle, path), (x, y)  # type: ignore[arg-type]
+    # the box reaches x = 50.49; from x = 50.98 the footprint misses it, at 50.96 it does not
+    assert path_reach(_path(LB | 0x13, [Vec3(50.98, 50.0, 50.48)]))[2] > b.max_x
+    assert path_reach(_path(LB | 0x13, [Vec3(50.96, 50.0, 50.48)]))[2] < b.max_x
 
 
 def test_a_single_sphere_in_collide_mode_is_never_culled() -> None:
