@@ -1,7 +1,8 @@
 """Decoding and checking a column request (docs/protocol.md, "Column batches").
 
-Everything that concerns the whole request (the `kind`, a column's type,
-byte length or item count, the batch limit, `publish`) raises
+Everything that concerns the whole request (the `kind`, a column name the
+form does not know, a column's type, byte length or item count, the batch
+limit, `publish`) raises
 ProtocolError here, before anything runs. Bad values inside a column
 (NaN, ±infinity, beyond float32's range, `dt` out of range, a
 non-unit orientation) fail only their item: they are found with a few
@@ -163,6 +164,13 @@ def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
     cols = msg.get("columns")
     if not isinstance(cols, dict):
         raise ProtocolError(ErrorKind.WRONG_TYPE, f"columns: expected a map, got {_type_name(cols)}", "columns")
+    for name in cols:
+        if name not in REQUEST_BY_NAME:
+            # refused, not ignored: a misspelt optional column (`velocty`) would otherwise run every item
+            # without it. The same rule and message as the query column forms' (service/query_columns.py)
+            path = f"columns.{str(name)[:40]}"
+            raise ProtocolError(ErrorKind.BAD_VALUE,
+                                f"{path}: not a column of move (columns: {', '.join(sorted(REQUEST_BY_NAME))})", path)
     kind = _parse_kind(msg)
     publish = _parse_publish(msg)
     given: dict[str, bytes] = {}

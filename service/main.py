@@ -28,7 +28,7 @@ from .state_layout import regroup_state
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX, user_prefix
 from .workers import DEFAULT_WORKER_RESTARTS
-from .zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
+from .zconfig import DEFAULT_ENDPOINT, bound_messages, make_config, zenoh_reason
 
 __all__ = ["add_serve_arguments", "serve", "main"]
 
@@ -116,6 +116,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             config_file=args.zenoh_config, listen=listen, connect=args.connect, mode=args.mode,
             multicast=args.multicast_scouting,
         )
+        bound_messages(config, args.zenoh_config)
         ownership = Ownership.parse(args.own)
         accounts = Accounts.from_args(args)
         cluster = security_setup(config, args)

@@ -52,7 +52,7 @@ from .requests import (
 from .stats import ServiceStats
 from .protocol import BATCH_FIELDS, LB_OPS, QUERIES, QUERY_OPS
 from .queries import DEFAULT_PATH_WORK, query_count, query_work
-from .wire import ErrorKind, Keys, lb_hex, parse_lb_hex
+from .wire import MAX_PAYLOAD, ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
 
@@ -314,8 +314,15 @@ class ServiceNode:
 
     @staticmethod
     def _payload(query_or_sample: Any) -> bytes | None:
+        """The payload's bytes; `too_large` by its length alone, before it is copied out of Zenoh's buffer
+        (copying a flood of 20-60 MB payloads only to refuse them left the process 150 MB larger)."""
         p = query_or_sample.payload
-        return None if p is None else p.to_bytes()
+        if p is None:
+            return None
+        size = len(p)
+        if size > MAX_PAYLOAD:
+            raise ProtocolError(ErrorKind.TOO_LARGE, f"payload of {size} bytes exceeds {MAX_PAYLOAD}")
+        return p.to_bytes()
 
     def _key_lb(self, key: str, op: str) -> int | None:
         """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none.
@@ -546,6 +553,9 @@ class ServiceNode:
         self.stats.request("push")
         logged = requests_logged()
         try:
+            # the queries' rule for keys: a put on `P/lb/A9B4/*` or `P/lb/**` reaches this subscriber too,
+            # but names no operation, so nothing runs (docs/protocol.md, "Key expressions")
+            self._key_lb(str(sample.key_expr), "push")
             msg = decode_envelope(self._payload(sample))
             if is_column_request(msg):
                 self._on_push_columns(msg, received)

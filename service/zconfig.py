@@ -12,6 +12,14 @@ after the sender's session has closed. A service answering many short-lived
 bulk clients then grew by about 20 MB of RSS per client session, for good
 (docs/performance.md, "Memory"). Loopback TCP costs these message sizes
 nothing measurable.
+
+A serving instance's session also assembles no message over
+`SERVICE_MAX_MESSAGE` (`bound_messages`): Zenoh's default limit is 1 GiB,
+and a flood of 20-60 MB requests, each refused `too_large`, left the
+service's RSS 10-25 MB higher for good even when the payloads were never
+copied out of Zenoh (its reassembly buffers stay with the allocator). Past
+this limit Zenoh drops the message while reassembling it, before it is
+whole (docs/protocol.md, "Limits and known gaps").
 """
 
 from __future__ import annotations
@@ -21,19 +29,26 @@ import re
 
 import zenoh
 
-from .wire import DEFAULT_PORT
+from .wire import DEFAULT_PORT, MAX_PAYLOAD
 
-__all__ = ["DEFAULT_ENDPOINT", "make_config", "SHM_KEY", "zenoh_reason"]
+__all__ = ["DEFAULT_ENDPOINT", "make_config", "bound_messages", "SHM_KEY", "MAX_MESSAGE_KEY", "SERVICE_MAX_MESSAGE",
+           "zenoh_reason"]
 
 DEFAULT_ENDPOINT = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 SHM_KEY = "transport/shared_memory/enabled"
+MAX_MESSAGE_KEY = "transport/link/rx/max_message_size"
+#: The largest message a serving instance's Zenoh session assembles: the largest request (MAX_PAYLOAD) and
+#: 1 MiB more, so a payload a little over the limit (a client's honest mistake) still reaches the service
+#: and is answered `too_large`. Measured (a 20-60 MB flood, tests/test_service_oversized.py): RSS 8 % above
+#: its start with this limit, 13-21 % with 8 MiB, 40 % with 16 MiB, 250 % with Zenoh's 1 GiB.
+SERVICE_MAX_MESSAGE = MAX_PAYLOAD + (1 << 20)
 
 
-def _file_sets_shm(config_file: str) -> bool:
-    """Whether a config file mentions the shared-memory transport at all (then its choice stands)."""
+def _file_mentions(config_file: str, word: str) -> bool:
+    """Whether a config file mentions `word` (a setting) at all: then its choice stands, not ours."""
     try:
         with open(config_file, encoding="utf-8") as f:
-            return "shared_memory" in f.read()
+            return word in f.read()
     except OSError:  # zenoh.Config.from_file has already read it; be conservative
         return True
 
@@ -52,7 +67,7 @@ def make_config(
     log the session in to a service run with accounts (Zenoh's usrpwd authentication, service/accounts.py)."""
     if config_file:
         cfg = zenoh.Config.from_file(config_file)
-        if not _file_sets_shm(config_file):
+        if not _file_mentions(config_file, "shared_memory"):
             cfg.insert_json5(SHM_KEY, "false")
     else:
         cfg = zenoh.Config()
@@ -77,6 +92,15 @@ def make_config(
             raise ValueError(f"user {user!r} needs a password")
         cfg.insert_json5("transport/auth/usrpwd", json.dumps({"user": user, "password": password}))
     return cfg
+
+
+def bound_messages(cfg: zenoh.Config, config_file: str | None = None) -> None:
+    """Give a serving instance's config the receive limit `SERVICE_MAX_MESSAGE`, unless its config file
+    sets `max_message_size` itself (then that choice stands). Not for clients, nor for a router, which
+    forwards replies whose size the service does not bound."""
+    if config_file and _file_mentions(config_file, "max_message_size"):
+        return
+    cfg.insert_json5(MAX_MESSAGE_KEY, json.dumps(SERVICE_MAX_MESSAGE))
 
 
 #: where Zenoh's messages say which of its own source lines raised them (" at /.../endpoint.rs:615.")

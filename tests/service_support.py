@@ -277,6 +277,9 @@ class _Payload:
     def __init__(self, data: bytes) -> None:
         self.data = data
 
+    def __len__(self) -> int:  # as zenoh.ZBytes: the node refuses a payload by its length before copying it
+        return len(self.data)
+
     def to_bytes(self) -> bytes:
         return self.data
 

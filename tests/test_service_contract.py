@@ -138,8 +138,9 @@ def test_a_step_that_changes_nothing_still_counts(session: zenoh.Session) -> Non
     assert second["state"]["position"]["origin"][2] == pytest.approx(80.0 - 0.588, abs=1e-3)
 
 
-# "too_large: payload over 4 MiB" for a push too: answered on P/errors and counted, however large, once it
-# arrives; the Python client refuses to send one (Zenoh's default DROP congestion control may lose it unseen)
+# "too_large: payload over 4 MiB" for a push too: answered on P/errors and counted; "a payload over 5 MiB
+# never reaches the service": Zenoh drops it, unanswered and uncounted. The Python client refuses to send one
+# (Zenoh's default DROP congestion control may lose it unseen)
 def test_an_oversized_push_is_answered_and_counted(session: zenoh.Session) -> None:
     import threading
 
@@ -157,10 +158,13 @@ def test_an_oversized_push_is_answered_and_counted(session: zenoh.Session) -> No
     sub = session.declare_subscriber("acphys/errors", on_error)
     try:
         ok, before = raw_query(session, "acphys/stats", None)
-        # 50 MiB: Zenoh's own limit (transport/link/rx/max_message_size) is 1 GiB, so it reaches the service
-        # when sent with congestion control BLOCK
+        # with congestion control BLOCK both reach the service's Zenoh session, in order: 50 MiB, over its
+        # receive limit (transport/link/rx/max_message_size), is dropped there; 4 MiB and 200 kB is answered
         session.put("acphys/lb/A9B4/push", b"\x00" * (50 << 20), congestion_control=zenoh.CongestionControl.BLOCK)
+        session.put("acphys/lb/A9B4/push", b"\x00" * ((4 << 20) + 200_000),
+                    congestion_control=zenoh.CongestionControl.BLOCK)
         assert wait_until(lambda: bool(errors), timeout=20.0)
+        assert len(errors) == 1
         assert errors[0]["error"]["kind"] == "too_large" and errors[0]["key"] == "acphys/lb/A9B4/push"
         ok, after = raw_query(session, "acphys/stats", None)
         assert after["errors"]["too_large"] == before["errors"]["too_large"] + 1
