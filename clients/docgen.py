@@ -92,12 +92,13 @@ navigation graph whose every edge the client's own transition walked, and proven
 the walker's shape before it is answered ([protocol.md, "Paths"](protocol.md#paths)). The walker is a
 shape (a `MoverSpec`, with its start) or a registered mover's id (it starts where it stands). The
 answer is the engine's `PathResult`; nothing is moved. Walk its waypoints in turn with moves of at most
-3 m straight toward the next one, until within 0.25 m of it, and the walker reaches each, the goal last.
-The first path to reach a landblock builds its graph there (about a second of the service's time), so
-give such a query a longer timeout. On the demo world (`acphys serve`):
+3 m straight toward the next one, until within 0.25 m of it, and the walker reaches each, the goal last:
+`Client.follow` walks a registered mover so. `Client.random_point` finds a point to wander to, and the
+path there. The first path to reach a landblock builds its graph there, in shares the service answers
+`building` between (so that everyone's moves go on); the client asks again by itself. On the demo world
+(`acphys serve`):
 
 ```python
-import math
 from clients import Client
 from engine import MoverSpec, SphereSpec, Position, Vec3
 
@@ -113,16 +114,10 @@ with Client(["tcp/127.0.0.1:7447"], timeout=30.0) as c:
     print(route.found, f"{route.length:.1f} m", len(route.waypoints), "waypoints")
     me = c.register(standing, start, contact_plane=ground.plane).id  # a mover standing there
     route = c.path(me, None, goal)                   # a registered mover, from where it stands
-    for waypoint in route.waypoints[1:]:             # the walk the guarantee is about
-        here = c.get(me)[0].position
-        for _ in range(math.ceil(here.get_offset(waypoint).length() / 3.0) + 3):
-            offset = here.get_offset(waypoint)
-            if offset.length() <= 0.25:
-                break
-            step = offset * min(1.0, 3.0 / offset.length())
-            here = c.move(me, Position(here.cell_id, here.frame.with_origin(here.frame.origin + step))).position
-    arrived = c.get(me)[0].position
-    print(arrived, f"{arrived.get_offset(goal).length():.2f} m from the goal")
+    walked = c.follow(me, route.waypoints)           # the walk the guarantee is about
+    print(walked.arrived(route.waypoints), walked.moves, "moves:", walked.state.position)
+    wander = c.random_point(me, None, 20.0, seed=7)  # somewhere within 20 m it can walk to
+    print(wander.found, wander.end)
     c.remove(me)
 ```
 """,

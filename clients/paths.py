@@ -15,19 +15,42 @@ included.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, cast
 
 from engine.geometry import Position
 from engine.navigation.results import PathResult
+from engine.navigation.settings import DEFAULT_NAV
 from engine.world.types import MoverSpec
 from service.errors import ProtocolError
 from service.protocol import BATCH_FIELDS, MAX_PATH_BATCH, read_answer, write_answer, write_query
 from service.wire import ErrorKind
 
 from .errors import ServiceError
+from .types import MoverState
 
-__all__ = ["PathQueries", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
+__all__ = ["PathQueries", "Followed", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
+
+#: the walk a path's guarantee is about (docs/protocol.md, "Paths"): moves of at most this many metres
+#: toward the next waypoint, until within ARRIVAL of it
+STRIDE = DEFAULT_NAV.stride
+ARRIVAL = DEFAULT_NAV.arrival_tolerance
+
+
+@dataclass(frozen=True, slots=True)
+class Followed:
+    """How a `Client.follow` went: how many waypoints after the first the mover reached (all of them:
+    `len(waypoints) - 1`), the moves it sent, and the mover's State after the last one."""
+
+    reached: int
+    moves: int
+    state: MoverState
+
+    def arrived(self, waypoints: Sequence[Position]) -> bool:
+        """Whether it reached every waypoint, the goal last."""
+        return self.reached == len(waypoints) - 1
 
 #: most paths one batch request may hold (docs/protocol.md, "Paths"): `paths` splits longer lists
 MAX_PATHS_PER_REQUEST = MAX_PATH_BATCH
@@ -83,11 +106,13 @@ def _building(answer: PathResult | ServiceError | None) -> bool:
 
 
 class PathQueries:
-    """The path queries, mixed into `Client` (which gives them `_lb_request` and `landblock_of`): call them
-    on a Client."""
+    """The path queries, mixed into `Client` (which gives them `_lb_request` and `landblock_of`, `get` and
+    `move`): call them on a Client."""
 
     _lb_request: Callable[..., dict[str, Any]]
     landblock_of: Callable[..., int]
+    get: Callable[..., tuple[MoverState, Any]]
+    move: Callable[..., MoverState]
 
     def _start_landblock(self, walker: MoverSpec | int, start: Position | None) -> int:
         """The landblock whose key a query of `walker` from `start` goes to."""
@@ -188,3 +213,54 @@ class PathQueries:
             if not by_lb:
                 break
         return cast(list[PathResult | ServiceError], out)  # every pair answered above
+
+    def random_point(self, walker: MoverSpec | int, near: Position | None, radius: float, *, seed: int | None = None,
+                     budget: int | None = None, avoid_movers: bool = False, timeout: float | None = None,
+                     keep_asking: bool = True) -> PathResult:
+        """A random point the walker can walk to within `radius` metres (horizontally, above 0 and at most
+        1,000) of `near`, and the path there (World.random_point, on the service): the wandering query of
+        a creature's AI. The answer is a PathResult whose last waypoint is the point, kept by the same
+        guarantee as `path`'s. `seed` makes the choice repeatable (None: the service's choice).
+
+        The walker is a MoverSpec with `near` given, or a registered mover's id with `near` None (it
+        wanders from where it stands). Raises as `path` does; `keep_asking` and `timeout` as `path`'s."""
+        _check_walker(walker, near, "random_point")
+        spec = walker if isinstance(walker, MoverSpec) else None
+        item = write_query("random_point", mover=spec, id=None if spec is not None else walker, near=near, radius=radius,
+                           seed=seed, budget=budget, avoid_movers=True if avoid_movers else None)
+        mover_id = None if spec is not None else walker
+        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
+            reply = self._lb_request(self._start_landblock(walker, near), "random_point",
+                                     {"v": 1, "random_point": item}, mover_id, timeout=timeout)
+            result = read_path_answer(reply["random_point"])
+            if result.reason != "building":
+                break
+        return result
+
+    def follow(self, mover_id: int, waypoints: Sequence[Position], *, timeout: float | None = None) -> Followed:
+        """Walk registered mover `mover_id`, standing at `waypoints[0]`, along a path's waypoints, as the
+        path's guarantee says (docs/protocol.md, "Paths"): toward each waypoint in turn, moves of at most
+        3 m straight at it (the last aimed exactly at it), each from where the mover stands and in the
+        frame of its cell, until within 0.25 m, at most ceil(leg / 3) + 3 moves a leg. A leg that does not
+        arrive stops the walk (the world changed since the path was asked: a mover in the way, a landblock
+        unloaded): `Followed.reached` says how far it got. Each move is a `Client.move`, published as any
+        other; the client library's own moves, so the mover's `seq` counts them.
+
+        Raises as `move` does (ServiceError, NoServiceError, RequestTimeout); `timeout` is per move."""
+        state = self.get(mover_id, timeout=timeout)[0]
+        moves = 0
+        for reached, waypoint in enumerate(waypoints[1:]):
+            here = state.position
+            for _ in range(math.ceil(here.get_offset(waypoint).length() / STRIDE) + 3):
+                offset = here.get_offset(waypoint)
+                distance = offset.length()
+                if distance <= ARRIVAL:
+                    break
+                step = offset if distance <= STRIDE else offset * (STRIDE / distance)
+                state = self.move(mover_id, Position(here.cell_id, here.frame.with_origin(here.frame.origin + step)),
+                             timeout=timeout)
+                moves += 1
+                here = state.position
+            if here.get_offset(waypoint).length() > ARRIVAL:
+                return Followed(reached, moves, state)
+        return Followed(max(0, len(waypoints) - 1), moves, state)

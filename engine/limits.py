@@ -24,6 +24,7 @@ __all__ = [
     "MAX_RAY_RADIUS",
     "MAX_PATH_BUDGET",
     "MAX_PATH_DISTANCE",
+    "MAX_WANDER_RADIUS",
     "MIN_SCALE",
     "MAX_SCALE",
     "TARGET_MARGIN",
@@ -70,6 +71,8 @@ MAX_RAY_RADIUS: Final = 10.0
 MAX_PATH_BUDGET: Final = 5_000_000
 #: the longest path a path query may ask for, metres (the width of the world)
 MAX_PATH_DISTANCE: Final = 256 * 192.0
+#: the widest circle a random-point query may ask for a point in, metres
+MAX_WANDER_RADIUS: Final = 1000.0
 MIN_SCALE: Final = 1e-3
 MAX_SCALE: Final = BLOCK_LENGTH
 #: how far past its landblock's edges a target origin may lie (x and y, in

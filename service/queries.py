@@ -1,4 +1,4 @@
-"""The queries on the bus, run: `<prefix>/lb/<XXYY>/{sight,ray,ground,place,path}`.
+"""The queries on the bus, run: `<prefix>/lb/<XXYY>/{sight,ray,ground,place,path,random_point}`.
 
 What each query's request and answer hold is declared in service/protocol/ (docs/protocol.md, "Spatial
 queries" and "Paths"); this module only runs them. A request is read on the callback thread (the
@@ -83,8 +83,17 @@ def _path(world: Any, item: Item, ids: IdMap, at: Callable[[str], str], lb: int,
     return world.path(walker, start, goal, max_distance=max_distance, budget=budget, avoid_movers=avoid_movers, work=work)
 
 
+def _random_point(world: Any, item: Item, ids: IdMap, at: Callable[[str], str], lb: int, work: int | None = None) -> Any:
+    spec, wire_id, near, radius, seed, budget, avoid_movers = item
+    walker = spec
+    if spec is None:  # a registered walker wanders from where it stands, which must be in the key's landblock
+        walker = ids(wire_id, at("id"))
+        in_landblock(world.mover(walker).position, lb, at("id"))
+    return world.random_point(walker, near, radius, seed=seed, budget=budget, avoid_movers=avoid_movers, work=work)
+
+
 _RUN: dict[str, Callable[[Any, Item, IdMap, Callable[[str], str], int], Any]] = {
-    "sight": _sight, "ray": _ray, "ground": _ground, "place": _place, "path": _path}
+    "sight": _sight, "ray": _ray, "ground": _ground, "place": _place, "path": _path, "random_point": _random_point}
 assert set(_RUN) == set(QUERIES), "every declared query is run here"
 
 #: the engine's argument names -> the request's field names, for errors that name their field
@@ -94,12 +103,14 @@ _ENGINE_FIELDS = {
     "ground": {"position": "position", "spec": "mover"},
     "place": {"position": "position", "spec": "mover"},
     "path": {"start": "from", "goal": "to"},
+    "random_point": {"near": "near", "radius": "radius"},
 }
 #: ... and in the column form, the column that names an item's value (the count column for the others)
 _ENGINE_COLUMNS = {
     "sight": {"a": "from_cell", "b": "to_cell"}, "ray": {"start": "from_cell", "end": "to_cell"},
     "ground": {"position": "cell"}, "place": {"position": "cell", "spec": "cell"},
     "path": {"start": "from_cell", "goal": "to_cell"},
+    "random_point": {"near": "near_cell", "radius": "radius"},
 }
 
 
@@ -119,6 +130,8 @@ def _column_error(op: str, e: Exception, i: int) -> ProtocolError:
 def _runner(op: str, path_work: int | None) -> Callable[[Any, Item, IdMap, Callable[[str], str], int], Any]:
     if op == "path":
         return lambda world, item, ids, at, lb: _path(world, item, ids, at, lb, path_work)
+    if op == "random_point":
+        return lambda world, item, ids, at, lb: _random_point(world, item, ids, at, lb, path_work)
     return _RUN[op]
 
 
@@ -181,6 +194,9 @@ def _column_item(req: QueryColumnRequest, i: int) -> Item:
         return (position("cell", "origin"), opt("max_drop"))
     if req.op == "place":
         return (o["mover"], position("cell", "origin", "orientation"), o["mode"], o["slide"])
+    if req.op == "random_point":
+        return (o["mover"], None, position("near_cell", "near_origin"), opt("radius", False), opt("seed", False),
+                o["budget"], o["avoid_movers"])
     start, end = position("from_cell", "from_origin"), position("to_cell", "to_origin")
     if req.op == "path":
         return (o["mover"], None, start, end, o["max_distance"], o["budget"], o["avoid_movers"])

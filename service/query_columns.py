@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from engine.limits import MAX_RAY_RADIUS, MIN_SPHERE_RADIUS, UNIT_TOLERANCE
+from engine.limits import MAX_RAY_RADIUS, MAX_WANDER_RADIUS, MIN_SPHERE_RADIUS, UNIT_TOLERANCE
 
 from .column_request import _column_bytes, _type_name, refuse_bad_reals
 from .columns import pack_columns
@@ -71,22 +71,25 @@ def query_column_count(msg: dict[str, Any], op: str) -> int:
     return len(raw) // spec.request_column(spec.count).item_bytes if isinstance(raw, bytes) else 0
 
 
+#: (column, the values out of range, what they must be) of each op: the ranges its map form's fields hold
+_RANGES: dict[str, tuple[tuple[str, Callable[[Array], Array], str], ...]] = {
+    "sight": (("radius", lambda v: ~((v >= MIN_SPHERE_RADIUS) & (v <= MAX_RAY_RADIUS)) & (v != 0.0),
+               f"be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m (0: the default)"),),
+    "ray": (("radius", lambda v: ~((v >= MIN_SPHERE_RADIUS) & (v <= MAX_RAY_RADIUS)),
+             f"be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m"),),
+    "ground": (("max_drop", lambda v: v < 0.0, "not be negative"),),
+    "random_point": (("radius", lambda v: ~((v > 0.0) & (v <= MAX_WANDER_RADIUS)),
+                      f"be above 0 and at most {MAX_WANDER_RADIUS:,.0f} m"),),
+}
+
+
 def _bad_ranges(req: QueryColumnRequest, lb: int) -> None:
-    """A radius outside MIN_SPHERE_RADIUS .. MAX_RAY_RADIUS (for a sight 0 is the default), a max_drop below 0,
-    a non-unit orientation, a start outside the key's landblock."""
+    """A value outside its range (_RANGES), a non-unit orientation, a start outside the key's landblock."""
     a = req.arrays
-    ray = req.op == "ray"
-
-    def bad_radius(v: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
-        out: np.ndarray[Any, Any] = ~((v >= MIN_SPHERE_RADIUS) & (v <= MAX_RAY_RADIUS))
-        return out if ray else out & (v != 0.0)
-
-    radius_range = f"be from {MIN_SPHERE_RADIUS:g} to {MAX_RAY_RADIUS:g} m" + ("" if ray else " (0: the default)")
-    for name, low, must in (("radius", bad_radius, radius_range),
-                            ("max_drop", lambda v: v < 0.0, "not be negative")):
+    for name, out_of_range, must in _RANGES.get(req.op, ()):
         values = a.get(name)
         if values is not None:
-            for i in np.flatnonzero(low(values)).tolist():
+            for i in np.flatnonzero(out_of_range(values)).tolist():
                 req.refuse(i, ErrorKind.BAD_VALUE, f"columns.{name}[{i}]", f"must {must}, got {values[i]}")
     q = a.get("orientation")
     if q is not None:
@@ -208,7 +211,7 @@ def _put(out: dict[str, Array], spec: QueryColumns, i: int, answer: Any, blocker
             out["plane"][i] = (n.x, n.y, n.z, answer.plane.d)
             out["cell"][i] = answer.cell
             out["water_depth"][i] = answer.water_depth
-    elif op == "path":
+    elif op in ("path", "random_point"):
         if answer.found:
             bits |= spec.bit("found")
         else:

@@ -113,8 +113,9 @@ def test_the_guides_example_runs_against_a_service() -> None:
 
 
 def test_the_paths_example_runs_against_a_service() -> None:
-    """The "Paths" section's example, on the demo world: the path is found, and the mover that walks it
-    with moves as the guarantee says ends within 0.25 m of the goal."""
+    """The "Paths" section's example, on the demo world: the path is found, the mover that follows it
+    (Client.follow: moves as the guarantee says) ends within 0.25 m of the goal, and the point it wanders
+    to lies within the 20 m asked."""
     (example,) = [b for b in python_blocks(GUIDE.read_text(encoding="utf-8")) if "c.path(" in b]
     assert DEFAULT_ENDPOINT in example
     with ServiceProcess() as svc:
@@ -122,5 +123,11 @@ def test_the_paths_example_runs_against_a_service() -> None:
         with Client([svc.endpoint]) as check:
             (health,) = check.health()
     assert namespace["route"].found
-    assert namespace["arrived"].get_offset(namespace["goal"]).length() <= 0.25
+    walked = namespace["walked"]
+    assert walked.arrived(namespace["route"].waypoints)
+    assert walked.state.position.get_offset(namespace["goal"]).length() <= 0.25
+    wander = namespace["wander"]
+    assert wander.found and wander.end is not None
+    d = walked.state.position.get_offset(wander.end)
+    assert (d.x * d.x + d.y * d.y) ** 0.5 <= 20.0 + 0.25
     assert health["movers"] == 0

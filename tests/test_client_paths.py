@@ -261,3 +261,37 @@ def test_a_path_answered_building_is_asked_again_until_it_is_answered() -> None:
         assert found.found and found.waypoints[-1].cell_id == 0xA9B50100
         [batch] = c.paths(WALKER, [(hills, room)])  # the graph is built now: answered at the first ask
         assert isinstance(batch, engine.PathResult) and [where(p) for p in batch.waypoints] == [where(p) for p in found.waypoints]
+
+
+def test_follow_walks_a_registered_mover_along_its_path_and_random_point_finds_somewhere_near(flat: ServiceProcess) -> None:
+    start, goal = at(60.0, 60.0), at(120.0, 100.0)
+    with Client([flat.endpoint], timeout=30.0) as c:
+        c.wait_ready()
+        ground = c.ground(at(60.0, 60.0, FLAT_Z + 1.0))
+        assert ground is not None
+        me = c.register(human(contact=True), start, contact_plane=ground.plane).id  # standing there
+        try:
+            route = c.path(me, None, goal)
+            assert route.found
+            seq_before = c.get(me)[0].seq
+            walked = c.follow(me, route.waypoints)
+            assert walked.arrived(route.waypoints) and walked.reached == len(route.waypoints) - 1
+            # open flat ground: the straight distance in strides of 3 m (the last 0.25 m need no move), and at
+            # most one short move more a leg
+            legs = len(route.waypoints) - 1
+            assert math.ceil((route.length - 0.25 * legs) / 3.0) <= walked.moves <= math.ceil(route.length / 3.0) + legs
+            assert walked.state.seq == seq_before + walked.moves  # every move the walk sent, counted
+            assert walked.state.position.get_offset(goal).length() <= 0.25
+            wander = c.random_point(me, None, 10.0, seed=3)
+            assert wander.found and wander.end is not None
+            d = walked.state.position.get_offset(wander.end)
+            assert math.hypot(d.x, d.y) <= 10.0 + 0.25
+            again = c.random_point(me, None, 10.0, seed=3)
+            assert [where(p) for p in again.waypoints] == [where(p) for p in wander.waypoints]
+            # a waypoint the walk cannot reach (48 m up in the air) stops it there: nothing reached
+            here = walked.state.position
+            up = Position(here.cell_id, here.frame.with_origin(here.frame.origin + Vec3(0.0, 0.0, 48.0)))
+            stuck = c.follow(me, [here, up])
+            assert stuck.reached == 0 and not stuck.arrived([here, up])
+        finally:
+            c.remove(me)

@@ -63,7 +63,7 @@ def _tables(section: str) -> list[list[list[str]]]:
 @pytest.mark.parametrize("op", list(QUERY_COLUMNS))
 def test_doc_tables_and_flag_bits_match_the_declaration(op: str) -> None:
     spec = QUERY_COLUMNS[op]
-    section = _section(f"#### {op.capitalize()} columns")
+    section = _section(f"#### {op.replace('_', ' ').capitalize()} columns")
     request, reply, *ragged = _tables(section)
     assert [r[0] for r in request] == [c.name for c in spec.request]
     assert [[r[0], r[1], int(r[2])] for r in (ragged[0] if ragged else [])] == [[c.name, c.dtype, c.width] for c in spec.ragged]

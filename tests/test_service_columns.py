@@ -526,7 +526,7 @@ def test_push_columns_moves_and_reports_errors(service: ServiceProcess, client: 
 def test_health_lists_the_column_form_and_the_queries(client: Client) -> None:
     (h,) = client.health()
     assert h.get("move_forms") == ["move", "moves", "columns"]
-    assert h.get("queries") == ["sight", "ray", "ground", "place", "path"]
+    assert h.get("queries") == ["sight", "ray", "ground", "place", "path", "random_point"]
 
 
 def test_client_refuses_wrong_shapes_before_sending(client: Client) -> None:

@@ -99,11 +99,12 @@ def test_a_landblock_nobody_owns_gets_no_reply() -> None:
 
 
 # "requests: requests received per operation (move, push, register, update, remove, get, load, unload,
-# handover, health, stats, landblocks, sight, ray, ground, place)"; errors by kind; "every known key is listed,
+# handover, health, stats, landblocks, sight, ray, ground, place, path, random_point)"; errors by kind; "every
+# known key is listed,
 # 0 when none"
 def test_stats_list_every_operation_and_error_kind_with_zero() -> None:
     documented_ops = {"move", "push", "register", "update", "remove", "get", "load", "unload", "handover",
-                      "health", "stats", "landblocks", "sight", "ray", "ground", "place"}
+                      "health", "stats", "landblocks", "sight", "ray", "ground", "place", "path", "random_point"}
     documented_kinds = {"malformed", "too_large", "unsupported_version", "missing_field", "wrong_type",
                         "bad_value", "non_finite", "unknown_mover", "duplicate_mover", "wrong_landblock", "moved",
                         "unknown_cell", "landblock_not_loaded", "landblock_unavailable", "landblock_in_use", "forbidden",

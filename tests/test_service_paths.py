@@ -274,3 +274,53 @@ def test_a_query_past_its_share_of_building_is_answered_building_and_asked_again
         ok, reply = ask(session, "acphys/lb/A9B5/path", {"path": {"mover": PLAYER, "from": HILLS, "to": ROOM}})
     assert last["found"] and last == reply["path"]
     assert last["waypoints"][-1]["cell"] == ROOM["cell"]
+
+
+# -- random points (protocol.md, "Random points") ------------------------------------------------------------
+def test_a_random_point_is_within_its_radius_repeatable_by_seed_and_a_path_there(session: zenoh.Session) -> None:
+    near = on_land(session, 60.0, 60.0)
+    query = {"mover": PLAYER, "near": near, "radius": 15.0, "seed": 11}
+    ok, reply = ask(session, "acphys/lb/A9B4/random_point", {"random_point": query})
+    assert ok
+    point = reply["random_point"]
+    assert point["found"] and point["reason"] is None
+    end = point["waypoints"][-1]["origin"]
+    assert distance(end[:2], near["origin"][:2]) <= 15.0 + TOLERANCE
+    assert distance(point["waypoints"][0]["origin"][:2], near["origin"][:2]) <= TOLERANCE
+    # the same seed, the same point; the answer is a path, as a path query to that point would walk
+    ok, again = ask(session, "acphys/lb/A9B4/random_point", {"random_point": query})
+    assert again["random_point"] == point
+    ok, batch = ask(session, "acphys/lb/A9B4/random_point", {"random_points": [query, {**query, "seed": 12}]})
+    assert batch["random_points"][0] == point
+
+
+def test_random_point_refusals_name_their_fields(session: zenoh.Session) -> None:
+    near = on_land(session, 60.0, 60.0)
+    key = "acphys/lb/A9B4/random_point"
+    for radius, kind in ((0.0, "bad_value"), (1000.5, "bad_value"), (-3.0, "bad_value"), ("far", "wrong_type")):
+        err = error_of(session, {"random_point": {"mover": PLAYER, "near": near, "radius": radius}}, key=key)
+        assert (err["kind"], err["path"]) == (kind, "random_point.radius")
+    err = error_of(session, {"random_point": {"mover": PLAYER, "radius": 5.0}}, key=key)
+    assert (err["kind"], err["path"]) == ("missing_field", "random_point.near")
+    err = error_of(session, {"random_point": {"mover": PLAYER, "near": near}}, key=key)
+    assert (err["kind"], err["path"]) == ("missing_field", "random_point.radius")
+    err = error_of(session, {"random_point": {"mover": PLAYER, "near": near, "radius": 5.0, "seed": -1}}, key=key)
+    assert (err["kind"], err["path"]) == ("bad_value", "random_point.seed")
+
+
+def test_random_point_columns_answer_as_the_map_form(session: zenoh.Session) -> None:
+    near = on_land(session, 60.0, 60.0)
+    columns = {"near_cell": _pack("2I", near["cell"], near["cell"]), "near_origin": _pack("6d", *near["origin"] * 2),
+               "radius": _pack("2d", 15.0, 2000.0), "seed": _pack("2Q", 11, 11)}
+    ok, reply = ask(session, "acphys/lb/A9B4/random_point", {"mover": PLAYER, "columns": columns})
+    assert ok, reply
+    assert [(e["index"], e["error"]["kind"], e["error"]["path"]) for e in reply["errors"]] == \
+        [(1, "bad_value", "columns.radius[1]")]
+    c = reply["columns"]
+    count = struct.unpack("<2I", c["waypoint_count"])
+    ok, single = ask(session, "acphys/lb/A9B4/random_point",
+                     {"random_point": {"mover": PLAYER, "near": near, "radius": 15.0, "seed": 11}})
+    waypoints = single["random_point"]["waypoints"]
+    assert count == (len(waypoints), 0)
+    origins = struct.unpack(f"<{3 * count[0]}d", c["waypoint_origin"])
+    assert [list(origins[3 * r:3 * r + 3]) for r in range(count[0])] == [p["origin"] for p in waypoints]

@@ -68,7 +68,7 @@ def test_one_face_health_stats_and_landblocks(client: Client) -> None:
     # what the service understands, as a single instance announces it (docs/protocol.md, Health)
     assert health["protocol"] == 1 and health["publish"] == ["each", "batch"]
     assert health["move_forms"] == ["move", "moves", "columns"]
-    assert health["queries"] == ["sight", "ray", "ground", "place", "path"]
+    assert health["queries"] == ["sight", "ray", "ground", "place", "path", "random_point"]
     (stats,) = client.stats()
     assert stats["workers"] == 2 and stats.instance == health.instance
     (lbs,) = client.landblocks()

@@ -355,8 +355,8 @@ def random_point(world: World, walker: Walker, near: Position | None, radius: fl
     nav = world.navigation.settings
     _, node_budget = _check_query({"near": near}, None, budget, nav)
     r = limits.check_number(radius, "radius")
-    if not 0.0 < r <= 1000.0:
-        raise OutOfRangeError(f"radius must be above 0 and at most 1000 m, got {radius!r}")
+    if not 0.0 < r <= limits.MAX_WANDER_RADIUS:
+        raise OutOfRangeError(f"radius must be above 0 and at most {limits.MAX_WANDER_RADIUS:g} m, got {radius!r}")
     allowed = _check_work(work)
     w = _Walker(world, walker, avoid_movers)
     graph = world.navigation.graph_for(w.probe)

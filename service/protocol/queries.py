@@ -18,17 +18,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final
 
-from engine.limits import MAX_PATH_DISTANCE, MAX_RAY_RADIUS, MIN_SPHERE_RADIUS
+from engine.limits import MAX_PATH_DISTANCE, MAX_RAY_RADIUS, MAX_WANDER_RADIUS, MIN_SPHERE_RADIUS
 from engine.navigation.results import PathResult
 from engine.navigation.settings import REASONS
 from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
 
 from ..columns import Column
 from ..errors import ProtocolError
-from ..validate import field_path
+from ..validate import as_uint, field_path
 from ..wire import MAX_BATCH, ErrorKind
 from . import answers as a
-from .fields import BOOL, ID, MOVER, POSITION, Choice, Count, Field, Real
+from .fields import BOOL, ID, MOVER, POSITION, Choice, Count, Field, Kind, Real
 
 __all__ = [
     "QueryKind",
@@ -155,24 +155,36 @@ def _segment_fields(radius_required: bool) -> tuple[Field, ...]:
             Field("radius", _RADIUS, required=radius_required), Field("target", ID))
 
 
-def _path_walker(m: dict[str, Any], path: str) -> None:
-    """A path's walker is exactly one of `mover` and `id`; a `mover` walks from `from`, an `id` from where
-    it stands."""
-    has_mover, has_id, has_from = (m.get(k) is not None for k in ("mover", "id", "from"))
-    if has_mover == has_id:
-        p = field_path(path, "mover")
-        kind = ErrorKind.BAD_VALUE if has_mover else ErrorKind.MISSING_FIELD
-        raise ProtocolError(kind, f"{path}: give exactly one of mover (a MoverSpec, with from) and id (a registered "
-                            "mover, which starts where it stands)", p if not has_mover else field_path(path, "id"))
-    if has_mover and not has_from:
-        p = field_path(path, "from")
-        raise ProtocolError(ErrorKind.MISSING_FIELD, f"{p}: required field is missing (a mover walker's start)", p)
-    if has_id and has_from:
-        p = field_path(path, "from")
-        raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: a registered mover (id) starts where it stands; leave from out", p)
+def _walker_rule(start: str) -> Check:
+    """A path's (or random point's) walker is exactly one of `mover` and `id`; a `mover` walks from
+    `start`, an `id` from where it stands."""
+    def check(m: dict[str, Any], path: str) -> None:
+        has_mover, has_id, has_start = (m.get(k) is not None for k in ("mover", "id", start))
+        if has_mover == has_id:
+            kind = ErrorKind.BAD_VALUE if has_mover else ErrorKind.MISSING_FIELD
+            raise ProtocolError(kind, f"{path}: give exactly one of mover (a MoverSpec, with {start}) and id (a "
+                                "registered mover, which starts where it stands)",
+                                field_path(path, "id" if has_mover else "mover"))
+        if has_mover and not has_start:
+            p = field_path(path, start)
+            raise ProtocolError(ErrorKind.MISSING_FIELD, f"{p}: required field is missing (a mover walker's start)", p)
+        if has_id and has_start:
+            p = field_path(path, start)
+            raise ProtocolError(ErrorKind.BAD_VALUE, f"{p}: a registered mover (id) starts where it stands; leave {start} out", p)
+    return check
 
 
 _PATH_OPTIONS = (Field("max_distance", _PATH_DISTANCE), Field("budget", _BUDGET), Field("avoid_movers", BOOL, default=False))
+_WANDER_RADIUS = Real(0.0, MAX_WANDER_RADIUS, lambda v: f"must be above 0 and at most {MAX_WANDER_RADIUS:,.0f} m, got {v}",
+                      low_open=True)
+_SEED = Kind("uint64", as_uint)
+#: a path's answer, and a random point's (a path to the point)
+_PATH_ANSWER = a.out(("found", a.FLAG), ("waypoints", a.POSITIONS), ("length", a.REAL), ("expanded", a.COUNT),
+                     ("reason", a.TEXT), ("detail", a.TEXT))
+#: ... in columns: one row per item, the waypoints ragged
+_PATH_REPLY = _out(("length", "f64", 1), ("expanded", "u32", 1), ("reason", "u8", 1), ("waypoint_start", "u32", 1),
+                   ("waypoint_count", "u32", 1))
+_WAYPOINTS = (Column("waypoint_cell", "u32", 1), Column("waypoint_origin", "f64", 3))
 
 # -- the declarations ------------------------------------------------------------------------------------
 SIGHT = QueryKind(
@@ -245,25 +257,38 @@ PATH = QueryKind(
     "path", "paths",
     (Field("mover", MOVER), Field("id", ID), Field("from", POSITION, start=True), Field("to", POSITION, required=True))
     + _PATH_OPTIONS,
-    a.out(("found", a.FLAG), ("waypoints", a.POSITIONS), ("length", a.REAL), ("expanded", a.COUNT),
-          ("reason", a.TEXT), ("detail", a.TEXT)),
+    _PATH_ANSWER,
     PathResult,
     QueryColumns(
-        "path",
-        _segment("path"),
-        _out(("length", "f64", 1), ("expanded", "u32", 1), ("reason", "u8", 1), ("waypoint_start", "u32", 1),
-             ("waypoint_count", "u32", 1)),
-        ("resolved", "found"),
-        "from_cell",
-        options=(Field("mover", MOVER, required=True),) + _PATH_OPTIONS,
-        ragged=(Column("waypoint_cell", "u32", 1), Column("waypoint_origin", "f64", 3)),
+        "path", _segment("path"), _PATH_REPLY, ("resolved", "found"), "from_cell",
+        options=(Field("mover", MOVER, required=True),) + _PATH_OPTIONS, ragged=_WAYPOINTS,
     ),
     max_batch=MAX_PATH_BATCH,
     inline_ok=False,
-    check=_path_walker,
+    check=_walker_rule("from"),
 )
 
-QUERIES: Final[dict[str, QueryKind]] = {k.op: k for k in (SIGHT, RAY, GROUND, PLACE, PATH)}
+RANDOM_POINT = QueryKind(
+    "random_point", "random_points",
+    (Field("mover", MOVER), Field("id", ID), Field("near", POSITION, start=True),
+     Field("radius", _WANDER_RADIUS, required=True), Field("seed", _SEED), Field("budget", _BUDGET),
+     Field("avoid_movers", BOOL, default=False)),
+    _PATH_ANSWER,
+    PathResult,
+    QueryColumns(
+        "random_point",
+        (_req("random_point", "near_cell", "u32", 1, True), _req("random_point", "near_origin", "f64", 3, True),
+         _req("random_point", "radius", "f64", 1, True), _req("random_point", "seed", "u64", 1, False)),
+        _PATH_REPLY, ("resolved", "found"), "near_cell",
+        options=(Field("mover", MOVER, required=True), Field("budget", _BUDGET), Field("avoid_movers", BOOL, default=False)),
+        ragged=_WAYPOINTS,
+    ),
+    max_batch=MAX_PATH_BATCH,
+    inline_ok=False,
+    check=_walker_rule("near"),
+)
+
+QUERIES: Final[dict[str, QueryKind]] = {k.op: k for k in (SIGHT, RAY, GROUND, PLACE, PATH, RANDOM_POINT)}
 QUERY_OPS: Final = tuple(QUERIES)
 #: the query ops and the field of their batch form
 BATCH_FIELDS: Final = {k.op: k.batch for k in QUERIES.values()}
