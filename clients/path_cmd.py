@@ -18,6 +18,7 @@ from typing import Any
 
 from engine.navigation.results import PathResult
 from engine.world.types import MoverSpec
+from service.main import positive_int
 
 from .cli_failures import USAGE, CommandFailed
 from .cli_values import PositionAction, hex_id, number
@@ -104,16 +105,6 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _budget(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number of graph nodes") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: a budget is at least 1 node")
-    return value
-
-
 def _distance(text: str) -> float:
     value = number(text)
     if value <= 0.0:
@@ -135,7 +126,7 @@ def add_path_command(subparsers: Any, conn_args: Callable[[argparse.ArgumentPars
     p.add_argument("--mover", metavar="FILE", help="the walker's MoverSpec as a JSON file (default: player-sized)")
     p.add_argument("--landblock", type=parse_landblock, help="the landblock (hex XXYY) the --id mover is in")
     p.add_argument("--max-distance", type=_distance, metavar="M", help="the longest path wanted, metres")
-    p.add_argument("--budget", type=_budget, metavar="N",
+    p.add_argument("--budget", type=positive_int, metavar="N",
                    help="graph nodes the search may expand (default the service's, 10000)")
     p.add_argument("--avoid-movers", action="store_true", help="the movers standing now are obstacles")
     conn_args(p)

@@ -35,7 +35,8 @@ __all__ = ["add_serve_arguments", "serve", "main"]
 log = logging.getLogger("acphys.service")
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number, at least 1 (`--path-work`; the client's `acphys path --budget`)."""
     try:
         value = int(text)
     except ValueError:
@@ -64,7 +65,7 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--handover-timeout", type=float, default=2.0, metavar="S",
                    help="seconds to wait for another instance to take a mover crossing into its landblock "
                         "(default %(default)s)")
-    p.add_argument("--path-work", type=_positive_int, default=DEFAULT_PATH_WORK, metavar="N",
+    p.add_argument("--path-work", type=positive_int, default=DEFAULT_PATH_WORK, metavar="N",
                    help="graph building one path query may do before it answers 'building' (placements and walks; "
                         "about 20 us each on the compiled engine): bounds how long a path into land whose "
                         "navigation graph is not built yet holds up everyone's moves (default %(default)s)")
