@@ -198,6 +198,16 @@ class ServiceCore:
             )
         raise ProtocolError(ErrorKind.UNKNOWN_MOVER, f"no mover {mover_id:X} here", path)
 
+    def engine_id(self, mover_id: int, path: str | None = None) -> int:
+        """The engine's id of mover `mover_id` held here; ProtocolError `moved` or `unknown_mover` naming
+        `path` otherwise (a query's `target`, `viewer`, or a path's walker)."""
+        return self._record(mover_id, path).engine_id
+
+    def wire_id(self, engine_id: int) -> int:
+        """The wire id of the engine's object `engine_id` when it is one of this instance's movers, else 0
+        (a static object of a landblock): how a query's Blocker names it."""
+        return self._by_engine.get(engine_id, 0)
+
     def _collide_ids(self, r: MoveResult) -> list[int]:
         """The wire ids of the movers a result touched (the engine's ids translated)."""
         return [self._by_engine[e] for e in r.collide_objects if e in self._by_engine] if r.collide_objects else []

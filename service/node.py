@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 from typing import Any, cast
 from collections.abc import Callable
 
-import msgpack
 import zenoh
 
 from .column_moves import push_columns, reply_message, run_columns
@@ -33,7 +32,7 @@ from .capabilities import capabilities
 from .core import ServiceCore
 from .errors import ProtocolError
 from . import heap
-from .frames import STATE_HEAD, pack, results_message, state_message
+from .frames import STATE_HEAD, pack
 from .jobqueue import JobQueue
 from .messages import HEALTH, LANDBLOCK_LIST, STATS
 from .ownership import Ownership
@@ -42,16 +41,13 @@ from .request_log import ERRORS, LoggedQuery, log_request, requests_logged
 from .requests import (
     ItemError,
     decode_envelope,
-    parse_handover,
-    parse_id,
     parse_moves,
-    parse_register,
     parse_single_move,
-    parse_update,
 )
 from .stats import ServiceStats
-from .protocol import BATCH_FIELDS, LB_OPS, QUERIES, QUERY_OPS
-from .queries import DEFAULT_PATH_WORK, query_count, query_work
+from .dispatch import OPERATIONS, Operation, Work
+from .protocol import BATCH_FIELDS, LB_OPS
+from .queries import DEFAULT_PATH_WORK
 from .wire import MAX_PAYLOAD, ErrorKind, Keys, lb_hex, parse_lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
@@ -60,9 +56,6 @@ log = logging.getLogger("acphys.service")
 
 #: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
 _LB_KEY_CACHE = 65536
-#: the operations that change the world every tenant shares (`NodeOptions.world_admin`); the only ones
-#: that may come with an empty payload
-_WORLD_OPS = frozenset(("load", "unload"))
 
 
 @dataclass(slots=True)
@@ -270,7 +263,7 @@ class ServiceNode:
                 return True
         return self.queue.offer(job, self._lane)
 
-    def _world_changed(self, answer: dict[str, Any]) -> dict[str, Any]:
+    def world_changed(self, answer: dict[str, Any]) -> dict[str, Any]:
         """After a landblock load or unload (the engine lock held): the heap settled again, when tuned."""
         if self.options.tune_heap and not answer.get("already"):
             heap.settle()
@@ -353,7 +346,8 @@ class ServiceNode:
 
     # -- per-landblock queries -----------------------------------------------------
     def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
-        world_op = op in _WORLD_OPS  # asked once per handler, not per request
+        operation = OPERATIONS[op]  # looked up once per handler, not per request
+        world_op = operation.changes_world
         forbidden = world_op and not self.options.world_admin
 
         def handler(query: zenoh.Query) -> None:
@@ -370,14 +364,14 @@ class ServiceNode:
                                         "the service's --admin users may send it")
                 msg = decode_envelope(self._payload(query), allow_empty=world_op)
                 if logged is not None:
-                    logged.items = _item_count(op, msg)
+                    logged.items = _item_count(operation, msg)
                 if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
                     # one move (the common request): run straight to its reply, without `_work`'s closures
                     single = self._single_move_job(query, msg, received)
                     if not self._submit(single, True):
                         self._refuse(query)
                     return
-                work, small = self._prepare(op, lb, msg, received)
+                work, small = self._prepare(operation, lb, msg, received)
             except ProtocolError as e:
                 self._reply_err(query, e)
                 return
@@ -433,75 +427,15 @@ class ServiceNode:
 
         return job
 
-    def _prepare(self, op: str, lb: int | None, msg: dict[str, Any],
-                 received: float) -> tuple[Callable[[], dict[str, Any] | bytes], bool]:
-        """Decode on the callback thread. The closure returned runs with the engine lock held; the flag
-        says whether it is short enough to run in the callback."""
-        work = self._work(op, lb, msg, received)
-        if op == "move":
-            if is_column_request(msg):
-                return work, column_count(msg) <= self.options.inline_max_moves
-            batch = msg.get("moves")  # a list when given (parsed above), else one move
-            return work, batch is None or len(batch) <= self.options.inline_max_moves
-        if op in QUERY_OPS:  # read-only: a small one of the cheap kinds runs in the callback like `get`
-            return work, QUERIES[op].inline_ok and query_count(msg, op) <= self.options.inline_max_moves
-        # load and unload may read a landblock from disk: queued
-        return work, op in ("register", "update", "remove", "get")
+    def _prepare(self, operation: Operation, lb: int | None, msg: dict[str, Any],
+                 received: float) -> tuple[Work, bool]:
+        """Decode on the callback thread (service/dispatch.py). The closure returned runs with the engine
+        lock held; the flag says whether it is short enough to run in the callback."""
+        work = operation.prepare(self, lb, msg, received)
+        inline = operation.inline
+        return work, inline == "always" or (inline == "small" and operation.count(msg) <= self.options.inline_max_moves)
 
-    def _work(self, op: str, lb: int | None, msg: dict[str, Any],
-              received: float) -> Callable[[], dict[str, Any] | bytes]:
-        core = self.core
-        assert core is not None
-        if op == "move" and is_column_request(msg):
-            return self._column_work(msg, received, lb)
-        if op == "move":
-            batch = parse_moves(msg)
-            if batch.single:
-                item = batch.items[0]
-                assert not isinstance(item, ItemError)
-                return lambda: state_message(core.move_one(item, received, batch_mode=batch.publish_batch))
-
-            def run_batch() -> bytes:
-                results = core.moves(batch, received)
-                entries: list[bytes] = []
-                for i, r in enumerate(results):
-                    if isinstance(r, ItemError):
-                        self.stats.error(r.error.kind)
-                        self._item_error(op, lb, r.error, i, r.id)
-                        entries.append(msgpack.packb(r.to_wire(), use_bin_type=True))
-                    else:
-                        entries.append(r)
-                return results_message(entries)
-
-            return run_batch
-        if op == "register":
-            req = parse_register(msg)
-            return lambda: core.register(req)
-        if op == "update":
-            mover_id, spec = parse_update(msg)
-            return lambda: core.update(mover_id, spec)
-        if op == "remove":
-            mover_id = parse_id(msg)
-            return lambda: core.remove(mover_id)
-        if op == "get":
-            mover_id = parse_id(msg)
-            return lambda: core.get(mover_id)
-        if op == "load":
-            assert lb is not None
-            return lambda: self._world_changed(core.load(lb))
-        if op == "unload":
-            assert lb is not None
-            return lambda: self._world_changed(core.unload(lb))
-        if op == "handover":
-            handover = parse_handover(msg)
-            return lambda: core.handover_in(handover)
-        if op in QUERY_OPS:
-            work = query_work(op, lb, msg, core.world, lambda i, path: core._record(i, path).engine_id,
-                              lambda e: core._by_engine.get(e, 0), path_work=self.options.path_work)
-            return lambda: self._query_item_errors(op, lb, work())
-        raise ProtocolError(ErrorKind.BAD_VALUE, f"unknown operation {op!r}")
-
-    def _query_item_errors(self, op: str, lb: int | None, content: dict[str, Any]) -> dict[str, Any]:
+    def query_item_errors(self, op: str, lb: int | None, content: dict[str, Any]) -> dict[str, Any]:
         """A query batch's reply, its failed items logged (a WARNING each, as every error answered is):
         `{"error": ...}` in the map form's list, the `errors` of the column form."""
         failed = [(i, item["error"]) for i, item in enumerate(content.get(BATCH_FIELDS[op]) or ())
@@ -513,12 +447,12 @@ class ServiceNode:
                 ERRORS.error(str(err.get("kind")), op, key, str(err.get("message")), item=index, path=err.get("path"))
         return content
 
-    def _item_error(self, op: str, lb: int | None, err: ProtocolError, index: int, mover_id: int | None) -> None:
+    def item_error(self, op: str, lb: int | None, err: ProtocolError, index: int, mover_id: int | None) -> None:
         """The WARNING line of one failed item of a batch (service/request_log.py)."""
         key = self.keys.lb(lb_hex(lb) if lb is not None else "*", op)
         ERRORS.error(err.kind, op, key, err.message, item=index, id=mover_id, path=err.path)
 
-    def _column_work(self, msg: dict[str, Any], received: float, lb: int | None) -> Callable[[], bytes]:
+    def column_work(self, msg: dict[str, Any], received: float, lb: int | None) -> Callable[[], bytes]:
         """A column request (docs/protocol.md, "Column batches"): checked here, run by the closure."""
         core, bus = self.core, self.bus
         assert core is not None and bus is not None
@@ -528,7 +462,7 @@ class ServiceNode:
             out, packed = run_columns(core, req, received)
             for i, mid, err in out.errors:
                 self.stats.error(err.kind)
-                self._item_error("move", lb, err, i, mid)
+                self.item_error("move", lb, err, i, mid)
             if packed:
                 bus.publish_batch(packed)
             return reply_message(out)
@@ -657,17 +591,10 @@ class ServiceNode:
                 self._run_job(job)  # on the engine thread, which holds the engine lock
 
 
-def _item_count(op: str, msg: dict[str, Any]) -> int | None:
+def _item_count(operation: Operation, msg: dict[str, Any]) -> int | None:
     """How many items a request holds, for its DEBUG line (1 for an operation on one mover or landblock;
     None when the request is too malformed to tell: its error follows)."""
     try:
-        if op == "move":
-            if is_column_request(msg):
-                return column_count(msg)
-            moves = msg.get("moves")
-            return len(moves) if isinstance(moves, list) else 1
-        if op in QUERY_OPS:
-            return query_count(msg, op)
+        return operation.count(msg)
     except Exception:
         return None
-    return 1

@@ -10,6 +10,7 @@ import pytest
 
 from engine import World, load_scene
 from service import heap
+from service.dispatch import OPERATIONS
 from service.node import NodeOptions, ServiceNode
 from service.zconfig import make_config
 from service_support import DEMO_SCENE, endpoint, free_port
@@ -71,10 +72,10 @@ def test_a_serving_node_settles_at_start_and_after_each_load_and_unload(
     try:
         assert calls == ([0, 1] if tuned else [])  # tuned once, settled once, at start
         lb = sorted(world.loaded_landblocks())[-1]
-        assert node._work("unload", lb, {"v": 1}, 0.0)() == {"landblock": lb, "loaded": False}
-        assert node._work("load", lb, {"v": 1}, 0.0)() == {"landblock": lb, "loaded": True, "already": False}
+        assert OPERATIONS["unload"].prepare(node, lb, {"v": 1}, 0.0)() == {"landblock": lb, "loaded": False}
+        assert OPERATIONS["load"].prepare(node, lb, {"v": 1}, 0.0)() == {"landblock": lb, "loaded": True, "already": False}
         assert calls == ([0, 1, 1, 1] if tuned else [])
-        node._work("load", lb, {"v": 1}, 0.0)()  # already loaded: nothing changed, nothing to settle
+        OPERATIONS["load"].prepare(node, lb, {"v": 1}, 0.0)()  # already loaded: nothing changed, nothing to settle
         assert calls == ([0, 1, 1, 1] if tuned else [])
     finally:
         node.shutdown(timeout=5.0)
