@@ -18,7 +18,7 @@ from typing import Any
 
 from engine.navigation.results import PathResult
 from engine.world.types import MoverSpec
-from service.main import positive_int
+from service.command import positive_int
 
 from .cli_failures import USAGE, CommandFailed
 from .cli_values import PositionAction, hex_id, number

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
-import threading
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -25,6 +23,7 @@ from .queries import DEFAULT_PATH_WORK
 from .persistence import Persistence, add_state_arguments
 from .security import add_security_arguments, security_setup
 from .state_layout import regroup_state
+from .command import positive_int, stop_on_signals
 from .ownership import Ownership
 from .wire import DEFAULT_PREFIX, user_prefix
 from .workers import DEFAULT_WORKER_RESTARTS
@@ -33,17 +32,6 @@ from .zconfig import DEFAULT_ENDPOINT, bound_messages, make_config, zenoh_reason
 __all__ = ["add_serve_arguments", "serve", "main"]
 
 log = logging.getLogger("acphys.service")
-
-
-def positive_int(text: str) -> int:
-    """An argparse type: a whole number, at least 1 (`--path-work`; the client's `acphys path --budget`)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def add_serve_arguments(p: argparse.ArgumentParser) -> None:
@@ -141,14 +129,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
         prefix=args.prefix, ownership=ownership, queue_capacity=args.queue, handover_timeout=args.handover_timeout,
         info_prefix=worker_info, accept_handovers=cluster is not None, tune_heap=True, path_work=args.path_work,
     )
-    stop = threading.Event()
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        log.info("signal %d: shutting down", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = stop_on_signals(log, "shutting down")
     nodes: list[ServiceNode] = []
     for user, persistence in zip(users, persistences):
         info = f"{worker_info}/u/{user}" if worker_info and user is not None else worker_info

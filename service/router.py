@@ -18,17 +18,15 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import signal
 import sys
-import threading
 from collections.abc import Callable
-from typing import Any
 
 import zenoh
 
 from .accounts import Accounts, apply_accounts, no_logins_file
 from .logs import add_log_arguments, configure_logging
 from .security import ClusterConfig, apply_security
+from .command import stop_on_signals
 from .wire import DEFAULT_PREFIX
 from .zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
 
@@ -83,14 +81,7 @@ def run_router(args: argparse.Namespace) -> int:
     listen = args.listen
     if listen is None and not args.zenoh_config:
         listen = [DEFAULT_ENDPOINT]
-    stop = threading.Event()
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        log.info("signal %d: stopping the router", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = stop_on_signals(log, "stopping the router")
     try:
         cluster = ClusterConfig.load(args.cluster) if args.cluster else None
         accounts = Accounts.load(args.users) if args.users else None

@@ -73,6 +73,7 @@ from .router import router_config
 from .security import ClusterConfig
 from .state_layout import regroup_state, worker_state_path
 from .stats import ServiceStats
+from .command import positive_int, stop_on_signals
 from .wire import ErrorKind, Keys, user_prefix
 from .zconfig import DEFAULT_ENDPOINT, zenoh_reason
 
@@ -108,21 +109,15 @@ def worker_count(text: str | int | None) -> int:
     """`--workers`: a positive count, or `auto` for the CPUs this process may run on."""
     if text is None:
         return 1
-    if isinstance(text, int):
-        n = text
-    elif text.strip().lower() == "auto":
+    if isinstance(text, str) and text.strip().lower() == "auto":
         try:
-            n = len(os.sched_getaffinity(0))
+            return len(os.sched_getaffinity(0))
         except AttributeError:  # not Linux
-            n = os.cpu_count() or 1
-    else:
-        try:
-            n = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"--workers takes a positive count or 'auto', not {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"--workers must be at least 1, not {n}")
-    return n
+            return os.cpu_count() or 1
+    try:
+        return positive_int(str(text))
+    except argparse.ArgumentTypeError as e:
+        raise argparse.ArgumentTypeError(f"--workers takes a positive count or 'auto': {e}") from None
 
 
 def private_prefix(prefix: str, parent: str) -> str:
@@ -528,14 +523,7 @@ def serve_workers(args: argparse.Namespace, count: int) -> int:
     if getattr(args, "worker_restarts", 0) < 0:
         print("acphys serve: --worker-restarts must be 0 or more", file=sys.stderr)
         return 2
-    stop = threading.Event()
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        log.info("signal %d: stopping the workers", signum)
-        stop.set()
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = stop_on_signals(log, "stopping the workers")
     sup = WorkerSupervisor(args, count)
     try:
         sup.start()
