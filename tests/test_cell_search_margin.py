@@ -18,7 +18,7 @@ import pytest
 from engine.cells.cell_array import CellArray
 from engine.cells.find_cell_list import find_cell_list
 from engine.geometry import Frame, Position, Sphere, Vec3
-from scenes import world_from_heights
+from benchmarks.scenes import world_from_heights
 
 BLOCKS = ((0xA9, 0xB4), (0xAA, 0xB4), (0xA9, 0xB5), (0xAA, 0xB5))  # 2 x 2 landblocks, flat at 50 m
 WORLD = world_from_heights(lambda bx, by, x, y: 100, BLOCKS)

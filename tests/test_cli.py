@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from clients.demo_cmd import _estimated_steps
-from service_support import ROOT, ServiceProcess, child_env, endpoint, free_port
+from support.service_harness import ROOT, ServiceProcess, child_env, endpoint, free_port
 
 
 def acphys(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
@@ -180,7 +180,7 @@ def test_move_an_existing_mover_by_id(service: ServiceProcess) -> None:
     from clients import Client
     from clients.demo_world import global_to_cell
     from engine.geometry import Position, Vec3
-    from service_support import human
+    from support.service_harness import human
 
     with Client([service.endpoint]) as c:
         cell, x, y = global_to_cell(100.0, 100.0)

@@ -17,7 +17,7 @@ import pytest
 
 from clients.cli import build_parser, main
 from clients.cli_parser import walk_parsers
-from service_support import ROOT, ServiceProcess, endpoint, free_port
+from support.service_harness import ROOT, ServiceProcess, endpoint, free_port
 from test_cli import acphys
 
 #: a Python exception's class name (`OutOfRangeError`, `ValueError`, `ZError`), which no user should see

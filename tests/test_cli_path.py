@@ -17,7 +17,7 @@ import pytest
 from clients import Client
 from engine import Position, Vec3
 from service.codec import encode_mover_spec
-from service_support import ServiceProcess, human
+from support.service_harness import ServiceProcess, human
 from support.shared_data import SCENES, require_shared
 from test_cli import acphys
 

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from service_support import ServiceProcess, demo_world
+from support.service_harness import ServiceProcess, demo_world
 from test_cli import acphys
 
 WORLD = demo_world()

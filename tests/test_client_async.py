@@ -7,7 +7,7 @@ import asyncio
 from clients import AsyncClient, Move, MoverState
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
-from service_support import ServiceProcess, human
+from support.service_harness import ServiceProcess, human
 
 
 def test_async_client_round_trip() -> None:

@@ -17,7 +17,7 @@ import clients
 from clients import AsyncClient, Client, docgen
 from service.wire import ErrorKind
 from service.zconfig import DEFAULT_ENDPOINT
-from service_support import ServiceProcess, demo_world
+from support.service_harness import ServiceProcess, demo_world
 from support.markdown_python import python_blocks, run_blocks
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,7 +7,7 @@ import pytest
 
 from clients import Client, NoServiceError
 from engine import Position, Vec3
-from service_support import endpoint, free_port
+from support.service_harness import endpoint, free_port
 
 #: a point in landblock A9B4, asked of the landblock's key: some instance must answer it
 POINT = Position.at(0xA9B4000B, Vec3(40.0, 50.0, 60.0))

@@ -19,7 +19,7 @@ import engine
 from clients import Client, ServiceError
 from clients.paths import MAX_PATHS_PER_REQUEST
 from engine import Position, Vec3
-from service_support import ServiceProcess, human
+from support.service_harness import ServiceProcess, human
 from support.shared_data import SCENES, require_shared
 
 require_shared()

@@ -19,8 +19,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from clients import Client
-from cluster_support import cluster_file, make_certificates, tls_endpoint
-from service_support import DEMO_SCENE, ROOT, ServiceProcess, child_env, free_port
+from support.cluster_files import cluster_file, make_certificates, tls_endpoint
+from support.service_harness import DEMO_SCENE, ROOT, ServiceProcess, child_env, free_port
 
 TRIES = 20  # the README recipe; behind a router, ROUTER_TRIES
 ROUTER_TRIES = 10

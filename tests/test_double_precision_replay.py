@@ -3,7 +3,7 @@
 The reference is float32 (ACE's physics); with `single_precision=False` the
 engine runs the same routines without rounding to float32
 (EngineSettings.single_precision). The replay is held to
-replay_check.DOUBLE_PRECISION: cells, contact and walkable flags, the
+support.replay_tolerances.DOUBLE_PRECISION: cells, contact and walkable flags, the
 transient state and the counters exactly, as in the default's replay;
 origins within 1e-3 m, normals and planes within 1e-3 (the default setting
 is held ten times closer: it computes as the reference does).
@@ -39,7 +39,7 @@ import re
 import pytest
 
 import engine
-from replay_check import DOUBLE_PRECISION, case_mismatch
+from support.replay_tolerances import DOUBLE_PRECISION, case_mismatch
 from support.shared_data import require_shared
 from test_trace_replay import CASES, _world
 

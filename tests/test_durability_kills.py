@@ -20,8 +20,8 @@ from benchmarks.durability_kills import WINDOW_S, run_kills
 from clients import Client
 from clients.demo_world import global_to_cell
 from clients.errors import AcphysError
-from cluster_support import cluster_pair
-from service_support import ServiceProcess, demo_world, human, raw_session, start_on_ground
+from support.cluster_files import cluster_pair
+from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground
 
 
 def test_always_loses_nothing_answered_across_random_kills() -> None:

@@ -1,6 +1,6 @@
 """Indoor scenarios whose answers are obvious from the geometry.
 
-Every world is built by `indoor_builder` as an acphys-scene/1 dict (rooms as
+Every world is built by `support.indoor_scenes` as an acphys-scene/1 dict (rooms as
 EnvCells, buildings and props as GfxObjs) on flat ground at z = 50, and loaded
 with `engine.world_from_scene_dict`. Cells and buildings sit at (108, 108, 50),
 mostly unturned, so cell-local x, y, z are the landblock's minus (108, 108, 50)
@@ -25,7 +25,7 @@ import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
 from engine.constants import FLOOR_Z
 from engine.world.placement import place_mover
-from indoor_builder import (
+from support.indoor_scenes import (
     GROUND,
     Door,
     SceneBuilder,

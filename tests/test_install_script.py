@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from service_support import ROOT
+from support.service_harness import ROOT
 
 pytestmark = pytest.mark.skipif(shutil.which("sh") is None, reason="no POSIX shell")
 

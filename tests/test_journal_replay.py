@@ -28,7 +28,7 @@ from service.requests import MoveItem
 from service.state_file import StateFileError, restore, write_state
 from service.state_replay import load_saved
 from service.stats import ServiceStats
-from service_support import demo_world, human, start_on_ground
+from support.service_harness import demo_world, human, start_on_ground
 
 
 def _core() -> ServiceCore:

@@ -12,7 +12,7 @@ from engine import load_scene
 from engine.geometry import Position, Vec3
 from engine.world.batch import OFFSET, BatchRows, run_batch
 from engine.world.rollback import MoveUndo
-from service_support import human, start_on_ground
+from support.service_harness import human, start_on_ground
 
 DEMO = "clients/demo/demo.json"
 CELL = 0xA9B40001  # x 0..24, y 0..24 of A9B4

@@ -9,8 +9,8 @@ import pytest
 
 import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
-from indoor_builder import GROUND, SceneBuilder
-from scenes import PLAYER
+from support.indoor_scenes import GROUND, SceneBuilder
+from benchmarks.scenes import PLAYER
 from support.path_walk import walk, walk_as_spec
 from test_navigation_scenes import add_box, at, walled_world
 

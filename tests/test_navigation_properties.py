@@ -22,7 +22,7 @@ import pytest
 
 import engine
 from engine import Position, Vec3
-from scenes import PLAYER
+from benchmarks.scenes import PLAYER
 from support.path_walk import walk, walk_as_spec
 from support.shared_data import SCENES, needs_shared
 

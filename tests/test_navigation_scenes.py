@@ -13,8 +13,8 @@ import pytest
 
 import engine
 from engine import Position, Vec3
-from indoor_builder import GROUND, SceneBuilder, box_solid, gfx_obj
-from scenes import PLAYER
+from support.indoor_scenes import GROUND, SceneBuilder, box_solid, gfx_obj
+from benchmarks.scenes import PLAYER
 from support.path_walk import walk_as_spec
 from support.shared_data import SCENES, needs_shared
 

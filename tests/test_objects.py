@@ -22,7 +22,7 @@ from engine.objects.gfx_obj import GfxObj
 from engine.objects.setup import ModelLibrary
 from engine.objects.sphere_collision import collides_with_sphere, find_time_of_collision
 from engine.transition.state import OI
-from scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 from support.shared_data import needs_shared, scene_path, shared_root
 
 LB = 0xA9B40000
@@ -544,7 +544,7 @@ def test_missile_ignore_rules() -> None:
 def test_a_cylsphere_object_on_a_cell_corner_is_in_all_four_cells() -> None:
     # ACE registers a cylsphere object in every cell a sphere of its radius at
     # its low point touches; a pillar on the corner of four cells touches four
-    from scenes import HEIGHT_TABLE
+    from benchmarks.scenes import HEIGHT_TABLE
 
     scene = {
         "format": "acphys-scene/1",

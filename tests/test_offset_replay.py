@@ -25,7 +25,7 @@ from engine.geometry.single import to_single
 from engine.geometry.precision import fl_rotate
 from engine.world.mover import Mover
 from engine.world.transient import TS
-from replay_check import case_mismatch
+from support.replay_tolerances import case_mismatch
 from support.shared_data import load_trace, require_shared
 
 require_shared()  # the cases are read from the traces while collecting

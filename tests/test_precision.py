@@ -28,7 +28,7 @@ from engine.transition.sphere_path import SpherePath
 from engine.transition.transition import Transition
 from engine.world.mover import Mover
 from engine.world.transient import TS
-from scenes import world_from_heights
+from benchmarks.scenes import world_from_heights
 from test_objects import GROUND, cell_at, walk
 
 F = np.float32

@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import Plane, Position, Vec3
-from scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 
 LB = 0xA9B40000
 

@@ -16,8 +16,8 @@ from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import EngineError, LandblockNotLoadedError, NonFiniteError, OutOfRangeError, UnknownCellError
 from engine.queries import CONTACT_TOLERANCE, SIGHT_RADIUS, grounds_array, rays_array, sights_array
 
-from indoor_builder import GROUND, SceneBuilder, box_solid, gfx_obj, room_struct, shell_boxes
-from scenes import world_from_heights
+from support.indoor_scenes import GROUND, SceneBuilder, box_solid, gfx_obj, room_struct, shell_boxes
+from benchmarks.scenes import world_from_heights
 from support.mover_slots import mover_state_slot_names
 from test_indoor_scenarios import CX, CY, HOUSE_DOOR, HOUSE_HI, HOUSE_LO, house_world
 
@@ -145,7 +145,7 @@ def test_a_viewers_own_body_does_not_block_its_sight_when_it_is_named() -> None:
     """An eye 1.6 m up a player is inside its head sphere (centre 1.35 m, radius
     0.48): the sweep starts in the viewer. Named as the viewer, the sweep
     starts outside it (0.48 + 0.1 m toward the other eye), as IsDirectVisible does."""
-    from scenes import PLAYER
+    from benchmarks.scenes import PLAYER
 
     world = flat_world()
     viewer = world.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
@@ -280,7 +280,7 @@ def test_batched_rays_equal_single_rays_and_take_numpy_columns() -> None:
 
 
 def test_batched_sights_take_a_target_and_a_viewer_per_pair() -> None:
-    from scenes import PLAYER
+    from benchmarks.scenes import PLAYER
 
     world = flat_world()
     viewer = world.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z))
@@ -351,7 +351,7 @@ def test_ground_outdoors_is_what_stands_on_the_land_where_something_does() -> No
     roof = house.ground(Position.at(hb.outdoor_cell(CX, CY), Vec3(CX + 1.0, CY + 1.0, GROUND + 8.0)))
     assert roof is not None and roof.z == pytest.approx(GROUND + HOUSE_HI[2] + 0.25, abs=5e-4) and roof.walkable
 
-    from scenes import PLAYER
+    from benchmarks.scenes import PLAYER
 
     flat = flat_world()
     flat.add_mover(MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.0), 1.0)], gravity=False), at(A9B4, 96.0, 96.0, 13.0))
@@ -407,7 +407,7 @@ def test_a_sweep_that_would_cross_unloaded_land_is_refused() -> None:
 
 def test_no_query_changes_any_mover() -> None:
     world = flat_world()
-    from scenes import PLAYER
+    from benchmarks.scenes import PLAYER
 
     ids = [
         world.add_mover(PLAYER, at(A9B4, 50.0, 50.0, FLAT_Z)),

@@ -14,7 +14,7 @@ from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.errors import NonFiniteError, PlacementFailedError
 from engine.geometry import Frame, Quat
 from engine.queries.placement import PlacementResult
-from replay_check import move_mismatches
+from support.replay_tolerances import move_mismatches
 from support.mover_slots import mover_state_slot_names
 from support.shared_data import ORACLE, load_trace, require_shared, scene_path
 
@@ -86,7 +86,7 @@ def test_most_placement_cases_are_tested() -> None:
 @pytest.mark.parametrize(("scene", "case"), CASES)
 def test_place_puts_the_object_where_the_reference_placed_it(scene: str, case: dict[str, Any]) -> None:
     """The first move of every placement case, asked as a query: same outcome,
-    position and contact state as the reference's (replay_check's tolerances)."""
+    position and contact state as the reference's (the tolerances of tests/support/replay_tolerances.py)."""
     move = case["moves"][0]
     expect = move["expect"]
     world = _world(scene)

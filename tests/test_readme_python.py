@@ -15,7 +15,7 @@ import pytest
 
 from clients import Client
 from service.zconfig import DEFAULT_ENDPOINT
-from service_support import ServiceProcess
+from support.service_harness import ServiceProcess
 from support.markdown_python import python_blocks, run_blocks
 from support.shared_data import SHARED, needs_shared
 

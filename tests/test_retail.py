@@ -17,7 +17,7 @@ import engine
 from engine import MoverSpec, Position, SphereSpec, Vec3
 from engine.constants import HUGE_QUANTUM
 from engine.world.quantum import split_elapsed
-from scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 from test_scenarios import cell_at, standing
 
 G = 9.8

@@ -6,7 +6,7 @@ import copy
 
 import engine
 from engine.formats.trace import EXPECT_FIELDS
-from replay_check import first_mismatch
+from support.replay_tolerances import first_mismatch
 from support.shared_data import load_trace, needs_shared, scene_path
 
 pytestmark = needs_shared

@@ -9,7 +9,7 @@ import pytest
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
 from engine.constants import FLOOR_Z
-from scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 
 LB = 0xA9B40000
 R = 0.48

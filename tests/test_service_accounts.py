@@ -31,11 +31,11 @@ from clients.demo_world import global_to_cell
 from engine.geometry import Position
 from service.accounts import Accounts, AccountsError
 from service.zconfig import make_config
-from cluster_support import cluster_file, make_certificates, tls_endpoint
-from service_support import ROOT, ServiceProcess, child_env, demo_world, free_port, human, start_on_ground, wait_until
+from support.cluster_files import cluster_file, make_certificates, tls_endpoint
+from support.service_harness import ROOT, ServiceProcess, child_env, demo_world, free_port, human, start_on_ground, wait_until
 
 USERS = {"alice": "wonder-land-7", "bob": "builder-42"}
-RADIUS = 0.48  # human()'s spheres (tests/service_support.py)
+RADIUS = 0.48  # human()'s spheres (tests/support/service_harness.py)
 
 
 @pytest.fixture(scope="module")

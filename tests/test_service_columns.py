@@ -32,7 +32,7 @@ from engine.geometry import Position, Quat, Vec3
 from service.column_request import parse_column_request
 from service.columns import REPLY_COLUMNS, REQUEST_COLUMNS, TRANSIENT_FLAGS, TRANSITION_STATES, Flag
 from service.errors import ProtocolError
-from service_support import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
+from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"
 P = "acphys"

@@ -19,9 +19,9 @@ import pytest
 
 from clients import Client
 from clients.demo_world import global_to_cell
-from cluster_support import cluster_pair
+from support.cluster_files import cluster_pair
 from engine.geometry import Vec3
-from service_support import ServiceProcess, demo_world, human, start_on_ground, wait_until
+from support.service_harness import ServiceProcess, demo_world, human, start_on_ground, wait_until
 
 
 @pytest.fixture(scope="module")

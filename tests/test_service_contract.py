@@ -12,7 +12,7 @@ import zenoh
 from clients import Client
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
-from service_support import ServiceProcess, human, raw_query, raw_session
+from support.service_harness import ServiceProcess, human, raw_query, raw_session
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +146,7 @@ def test_an_oversized_push_is_answered_and_counted(session: zenoh.Session) -> No
     import threading
 
     from clients import Move, ServiceError
-    from service_support import wait_until
+    from support.service_harness import wait_until
 
     st = _mover(session)
     errors: list[dict] = []  # type: ignore[type-arg]

@@ -13,7 +13,7 @@ import pytest
 from clients import Client, ServiceError
 from engine import load_scene
 from engine.geometry import Position, Vec3
-from service_support import ServiceProcess, comparable, human
+from support.service_harness import ServiceProcess, comparable, human
 from support.shared_data import DATS, scene_path, shared_root
 
 ROLLING_DATS = DATS / "rolling"

@@ -17,7 +17,7 @@ from clients import Client, ServiceError
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.codec import encode_mover_spec
-from service_support import ServiceProcess, comparable, human, raw_query, raw_session, wait_until
+from support.service_harness import ServiceProcess, comparable, human, raw_query, raw_session, wait_until
 
 P = "acphys"
 

@@ -18,9 +18,9 @@ import zenoh
 from clients import Client
 from clients.demo_world import global_to_cell
 from clients.errors import AcphysError
-from cluster_support import cluster_file, make_certificates, tls_endpoint
+from support.cluster_files import cluster_file, make_certificates, tls_endpoint
 from service.journal import DEFAULT_BUDGET
-from service_support import ServiceProcess, demo_world, human, raw_session, start_on_ground
+from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground
 
 
 def holders(session: zenoh.Session, mover_id: int) -> int:

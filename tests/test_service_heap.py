@@ -13,7 +13,7 @@ from service import heap
 from service.dispatch import OPERATIONS
 from service.node import NodeOptions, ServiceNode
 from service.zconfig import make_config
-from service_support import DEMO_SCENE, endpoint, free_port
+from support.service_harness import DEMO_SCENE, endpoint, free_port
 
 
 class _Cycle:

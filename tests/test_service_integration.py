@@ -14,7 +14,7 @@ import pytest
 from clients import Client, Move, MoverState, ServiceError
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Quat, Vec3
-from service_support import ServiceProcess, comparable, demo_world, human, prime_states, start_on_ground, wait_until
+from support.service_harness import ServiceProcess, comparable, demo_world, human, prime_states, start_on_ground, wait_until
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from clients import Client
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.wire import MAX_BATCH
-from service_support import ServiceProcess, human, raw_session, wait_until
+from support.service_harness import ServiceProcess, human, raw_session, wait_until
 
 
 def _register(c: Client, gx: float = 40.0, gy: float = 40.0) -> int:
@@ -177,7 +177,7 @@ def test_full_queue_pushes_back_and_answers_everyone() -> None:
 
 
 def test_zenoh_config_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from service_support import endpoint, free_port
+    from support.service_harness import endpoint, free_port
 
     ep = endpoint(free_port())
     cfg = tmp_path / "zenoh.json5"

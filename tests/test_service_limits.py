@@ -23,7 +23,7 @@ from engine import World
 from engine.constants import HUGE_QUANTUM
 from engine.geometry import Plane, Position, Vec3
 from service.codec import encode_mover_spec
-from service_support import ServiceProcess, comparable, demo_world, human, raw_query, raw_session, start_on_ground
+from support.service_harness import ServiceProcess, comparable, demo_world, human, raw_query, raw_session, start_on_ground
 
 P = "acphys"
 NEIGHBOUR, VICTIM = 0x51001, 0x51002

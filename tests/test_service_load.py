@@ -6,7 +6,7 @@ subscriber; latency figures are the benchmarks' business, not asserted here.
 
 from __future__ import annotations
 
-from service_support import ServiceProcess, run_load_workers
+from support.service_harness import ServiceProcess, run_load_workers
 
 PROCESSES = 4
 REQUESTS = 1000  # per process: 4000 moves in all, some in batches of three

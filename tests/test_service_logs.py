@@ -20,7 +20,7 @@ from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.logs import JsonFormatter
 from service.request_log import ErrorLog
-from service_support import ROOT, ServiceProcess, child_env, demo_world, human, raw_query, raw_session, wait_until
+from support.service_harness import ROOT, ServiceProcess, child_env, demo_world, human, raw_query, raw_session, wait_until
 
 
 class _Lines(logging.Handler):

@@ -15,7 +15,7 @@ import sys
 import textwrap
 
 from service.zconfig import SHM_KEY, make_config
-from tests.service_support import ROOT, ServiceProcess, child_env
+from support.service_harness import ROOT, ServiceProcess, child_env
 
 # One client session: register a mover, send `queries` batch moves of 100 moves each (about 5 KB, over
 # zenoh's 3 KiB shared-memory threshold), print how many replies were ok, leave.

@@ -32,8 +32,8 @@ from typing import Any
 
 import pytest
 
-from cluster_support import cluster_file, make_certificates
-from service_support import DEMO_SCENE, ROOT, TESTS, child_env
+from support.cluster_files import cluster_file, make_certificates
+from support.service_harness import DEMO_SCENE, ROOT, TESTS, child_env
 
 SUBNET = "10.213.7"
 ROUTER_ADDR = f"{SUBNET}.1"
@@ -228,7 +228,7 @@ def client_main(router: str) -> dict[str, Any]:
     from engine.geometry import Position, Vec3
     from service.codec import encode_mover_spec, encode_position
     from service.zconfig import make_config
-    from service_support import human
+    from support.service_harness import human
 
     session = zenoh.open(make_config(connect=[router]))
     published: list[int] = []

@@ -25,7 +25,7 @@ from service.node import NodeOptions, ServiceNode
 from service.requests import parse_register
 from service.wire import ErrorKind
 from service.zconfig import make_config
-from service_support import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, wait_until
+from support.service_harness import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, wait_until
 
 LB = 0xA9B4
 MOVE_KEY = "acphys/lb/A9B4/move"

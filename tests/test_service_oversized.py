@@ -18,7 +18,7 @@ import zenoh
 
 from service.wire import MAX_PAYLOAD
 from service.zconfig import MAX_MESSAGE_KEY, SERVICE_MAX_MESSAGE, bound_messages, make_config
-from service_support import ServiceProcess, raw_query, raw_session, wait_until
+from support.service_harness import ServiceProcess, raw_query, raw_session, wait_until
 
 P = "acphys"
 MB = 1 << 20

@@ -15,7 +15,7 @@ import msgpack
 import pytest
 import zenoh
 
-from service_support import ServiceProcess, raw_query, raw_session
+from support.service_harness import ServiceProcess, raw_query, raw_session
 
 PLAYER = {"spheres": [{"center": [0, 0, 0.48], "radius": 0.48}, {"center": [0, 0, 1.35], "radius": 0.48}],
           "step_up_height": 0.6, "step_down_height": 0.4, "state": ["IsPlayer"]}

@@ -20,7 +20,7 @@ from clients.demo_world import global_to_cell
 from clients.errors import ServiceError
 from engine.geometry import Position, Vec3
 from service.wire import ErrorKind
-from service_support import ServiceProcess, comparable, demo_world, human, raw_query, raw_session
+from support.service_harness import ServiceProcess, comparable, demo_world, human, raw_query, raw_session
 
 WORLD = demo_world()
 A9B4 = 0xA9B4

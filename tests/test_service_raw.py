@@ -17,7 +17,7 @@ import msgpack
 import pytest
 import zenoh
 
-from service_support import ServiceProcess, raw_session, wait_until
+from support.service_harness import ServiceProcess, raw_session, wait_until
 
 P = "acphys"
 LB = 0xA9B4

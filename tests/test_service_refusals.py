@@ -26,7 +26,7 @@ from service.node import NodeOptions, ServiceNode
 from service.ownership import Ownership
 from service.world_source import open_world
 from service.zconfig import make_config
-from service_support import StandInQuery, free_port
+from support.service_harness import StandInQuery, free_port
 
 DEMO = "clients/demo/demo.json"
 MOVER = 0x70000001

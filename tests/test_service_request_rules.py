@@ -20,7 +20,7 @@ import msgpack
 import pytest
 import zenoh
 
-from service_support import ServiceProcess, raw_query, raw_session, wait_until
+from support.service_harness import ServiceProcess, raw_query, raw_session, wait_until
 
 P = "acphys"
 CELL = (0xA9B4 << 16) | (1 * 8 + 1 + 1)  # outdoor cell cx=1, cy=1 of A9B4: x 24..48, y 24..48

@@ -12,12 +12,12 @@ from collections.abc import Iterator
 
 import pytest
 
-from cluster_support import cluster_pair
+from support.cluster_files import cluster_pair
 from clients import Client, Move, MoverState, ServiceError
 from clients.demo_walk import global_xy
 from clients.demo_world import global_to_cell
 from engine.geometry import Vec3
-from service_support import (
+from support.service_harness import (
     ServiceProcess,
     comparable,
     demo_world,

@@ -20,10 +20,10 @@ import zenoh
 
 from clients import Client, ServiceError
 from clients.demo_world import global_to_cell
-from cluster_support import cluster_file, cluster_pair, make_certificates, tls_endpoint
+from support.cluster_files import cluster_file, cluster_pair, make_certificates, tls_endpoint
 from engine.geometry import Position, Vec3
 from service.codec import encode_mover_spec, encode_position
-from service_support import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
+from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
 
 
 def _forged(mover_id: int, lb_x: float, seq: int = 1000) -> bytes:
@@ -170,7 +170,7 @@ def test_a_tls_session_without_the_clusters_certificate_gets_nothing(tmp_path: P
 
 def test_access_control_of_a_config_file_is_kept_and_ours_added(tmp_path: Path) -> None:
     # an operator's own rule (here: nobody may query P/stats) stays beside the service's
-    from service_support import endpoint, free_port
+    from support.service_harness import endpoint, free_port
 
     ep = endpoint(free_port())
     cfg = tmp_path / "zenoh.json5"

@@ -14,7 +14,7 @@ import zenoh
 from clients import Client
 from clients.demo_world import global_to_cell
 from engine.geometry import Position, Vec3
-from service_support import ServiceProcess, human, raw_session, wait_until
+from support.service_harness import ServiceProcess, human, raw_session, wait_until
 
 
 def test_sigterm_during_a_flood_answers_every_query_exactly_once() -> None:

@@ -16,7 +16,7 @@ from engine.geometry import Position, Vec3
 from service.codec import encode_plane, encode_position
 from service.journal import DEFAULT_BUDGET, journal_files, read_journal
 from service.state_file import read_state
-from service_support import (
+from support.service_harness import (
     DEMO_SCENE,
     ROOT,
     ServiceProcess,

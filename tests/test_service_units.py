@@ -16,7 +16,7 @@ from service.ownership import Ownership
 from service.requests import ItemError, decode_envelope, parse_moves
 from service.stats import LatencyWindow
 from service.wire import Keys, lb_hex, obj_hex
-from service_support import human
+from support.service_harness import human
 
 
 def test_job_queue_bounds_requests_but_not_priority_work() -> None:

@@ -21,11 +21,11 @@ from pathlib import Path
 import pytest
 
 from clients import Client, MoverState
-from cluster_support import cluster_pair
+from support.cluster_files import cluster_pair
 from support.shared_data import needs_shared
 from engine.geometry import Vec3
 from service.journal import DEFAULT_BUDGET
-from service_support import (
+from support.service_harness import (
     ROOT,
     ServiceProcess,
     child_env,
@@ -210,7 +210,7 @@ def test_dat_dir_workers_split_by_x_stripes() -> None:
     workers the X stripes A8 and A9-AA, and a mover walking east out of A8B4 changes worker."""
     from engine import open_dat_world
 
-    from service_support import human, start_on_ground
+    from support.service_harness import human, start_on_ground
     from support.shared_data import DATS
 
     dats = DATS / "rolling"

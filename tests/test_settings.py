@@ -10,7 +10,7 @@ import pytest
 import engine
 from engine import Position, Vec3
 from engine.transition.transition import Transition
-from scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 from test_scenarios import LB, cell_at, standing
 
 

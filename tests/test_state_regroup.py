@@ -23,7 +23,7 @@ from service.messages import HANDOVER, HandoverRequest
 from service.ownership import Ownership
 from service.state_file import StateFileError, read_state, write_state
 from service.state_layout import layout_paths, regroup_state, saved_files
-from service_support import DEMO_SCENE, ROOT, ServiceProcess, child_env, demo_world, free_port, human
+from support.service_harness import DEMO_SCENE, ROOT, ServiceProcess, child_env, demo_world, free_port, human
 
 _encode = HANDOVER.encode_fn()
 

@@ -25,8 +25,8 @@ from engine.geometry import Frame, Position, Sphere, Vec3
 from engine.transition.object_info import ObjectInfo
 from engine.transition.state import OI, TransitionState
 from engine.transition.transition import Transition
-from replay_check import case_mismatch
-from scenes import world_from_heights
+from support.replay_tolerances import case_mismatch
+from benchmarks.scenes import world_from_heights
 from support.shared_data import load_trace, needs_shared, scene_path
 
 GROUND_Z = 50.0

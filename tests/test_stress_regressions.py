@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from scenes import PLAYER
+from benchmarks.scenes import PLAYER
 
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3

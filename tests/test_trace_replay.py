@@ -9,7 +9,7 @@ placement, missiles, edge slides, ethereal movers, cases with several live
 movers, and the second set (`*-2`): doorway corners, long indoor walks, big
 and tiny missiles, half-step step-downs, jumps into ceilings.
 
-Every case agrees today (replay_check's tolerances). A case found to
+Every case agrees today (the tolerances of tests/support/replay_tolerances.py). A case found to
 disagree goes into KNOWN_DIVERGENT as a strict expected failure, with what
 is known of why, so a fix shows up at once.
 """
@@ -19,7 +19,7 @@ from __future__ import annotations
 import pytest
 
 import engine
-from replay_check import case_mismatch, first_mismatch
+from support.replay_tolerances import case_mismatch, first_mismatch
 from support.shared_data import load_trace, require_shared, scene_path, trace_names
 
 require_shared()  # the cases are read from the traces while collecting

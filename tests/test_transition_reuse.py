@@ -13,7 +13,7 @@ import struct
 
 from engine.cells.cell_array import CellArray
 from engine.geometry import Sphere, Vec3
-from tests.scenes import PLAYER, world_from_heights
+from benchmarks.scenes import PLAYER, world_from_heights
 from tests.test_queries import at, cell
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import pytest
 
-from service_support import ROOT, ServiceProcess, child_env, free_port
+from support.service_harness import ROOT, ServiceProcess, child_env, free_port
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"

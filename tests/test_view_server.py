@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from service_support import ROOT, ServiceProcess, child_env, free_port
+from support.service_harness import ROOT, ServiceProcess, child_env, free_port
 
 pytest.importorskip("starlette")
 pytest.importorskip("uvicorn")

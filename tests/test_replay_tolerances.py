@@ -1,4 +1,4 @@
-"""replay_check, the comparison every trace test goes through, notices what it should.
+"""support.replay_tolerances, the comparison every trace test goes through, notices what it should.
 
 Each check starts from a move that agrees and changes one thing by a known
 amount: just inside a tolerance it still agrees, just outside it does not;
@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from replay_check import NORMAL_TOL, PLANE_D_TOL, POS_TOL, case_mismatch, first_mismatch, move_mismatches
+from support.replay_tolerances import NORMAL_TOL, PLANE_D_TOL, POS_TOL, case_mismatch, first_mismatch, move_mismatches
 
 EXPECT: dict[str, Any] = {
     "ok": True,

@@ -28,7 +28,7 @@ from engine.world.types import MoveResult
 from service.codec import encode_state
 from service.zconfig import make_config
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 TESTS = ROOT / "tests"
 DEMO_SCENE = ROOT / "clients" / "demo" / "demo.json"
 START_TIMEOUT = 30.0
@@ -225,7 +225,7 @@ def run_load_workers(endpoint_: str, processes: int, requests: int, batch_every:
                      timeout: float = 240.0) -> list[dict[str, Any]]:
     """Start `processes` load workers at once and collect their reports."""
     code = (
-        "import json, sys; sys.path.insert(0, {tests!r}); from service_support import load_worker; "
+        "import json, sys; sys.path.insert(0, {tests!r}); from support.service_harness import load_worker; "
         "print('RESULT ' + json.dumps(load_worker({ep!r}, {i}, {n}, {b})))"
     )
     procs = [

@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 
 from service.certificates import INSTANCE_CN, make_certificates
-from service_support import endpoint, free_port
+from support.service_harness import endpoint, free_port
 
 __all__ = ["INSTANCE_CN", "make_certificates", "tls_endpoint", "cluster_file", "cluster_pair"]
 
