@@ -78,11 +78,7 @@ class BatchResults:
     @classmethod
     def empty(cls, n: int) -> BatchResults:
         """Results of `n` moves that all hold the missing values, with no errors (what a batch fills in)."""
-        arrays: dict[str, Array] = {}
-        for col in REPLY_COLUMNS:
-            shape = (n,) if col.width == 1 else (n, col.width)
-            fill = float("nan") if col.missing == "NaN" else int(col.missing)
-            arrays[col.name] = np.full(shape, fill, dtype=col.np_dtype.newbyteorder("="))
+        arrays = {col.name: col.missing_rows(n) for col in REPLY_COLUMNS}
         made: BatchResults = cast(Any, cls)(**arrays, collide_ids=np.zeros(0, dtype=np.uint64))
         return made
 

@@ -51,12 +51,7 @@ class QueryColumnResults:
     @classmethod
     def empty(cls, op: str, n: int) -> QueryColumnResults:
         """Answers of `n` queries of `op` that all hold the missing values, with no errors."""
-        out: dict[str, Array] = {}
-        for col in QUERY_COLUMNS[op].reply:
-            shape = (n,) if col.width == 1 else (n, col.width)
-            fill = float("nan") if col.missing == "NaN" else int(col.missing)
-            out[col.name] = np.full(shape, fill, dtype=col.np_dtype.newbyteorder("="))
-        return cls(op, out)
+        return cls(op, {col.name: col.missing_rows(n) for col in QUERY_COLUMNS[op].reply})
 
     def __len__(self) -> int:
         """The number of queries (rows)."""

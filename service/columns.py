@@ -25,6 +25,8 @@ __all__ = [
     "KINDS",
     "REQUEST_COLUMNS",
     "REPLY_COLUMNS",
+    "MISSING_BY_DTYPE",
+    "reply_columns",
     "PUBLICATION_ID",
     "REQUEST_BY_NAME",
     "REPLY_BY_NAME",
@@ -84,6 +86,11 @@ class Column:
     def real(self) -> bool:
         return self.dtype == "f64"
 
+    def missing_rows(self, n: int) -> np.ndarray[Any, Any]:
+        """`n` rows of this column (in native byte order) that all hold the missing value."""
+        fill = float("nan") if self.missing == "NaN" else int(self.missing)
+        return np.full((n,) if self.width == 1 else (n, self.width), fill, dtype=self.np_dtype.newbyteorder("="))
+
     def allowed(self, kind: str) -> bool:
         return kind in self.required or kind in self.optional
 
@@ -99,23 +106,25 @@ REQUEST_COLUMNS: Final = (
     Column("velocity", "f64", 3, optional=("offset", "to")),
 )
 
-REPLY_COLUMNS: Final = (
-    Column("seq", "u64", 1, missing="0"),
-    Column("cell", "u32", 1, missing="0"),
-    Column("origin", "f64", 3, missing="NaN"),
-    Column("orientation", "f64", 4, missing="NaN"),
-    Column("flags", "u32", 1, missing="0"),
-    Column("transition_state", "u8", 1, missing="255"),
-    Column("frames_stationary_fall", "u8", 1, missing="255"),
-    Column("contact_plane", "f64", 4, missing="NaN"),
-    Column("contact_plane_cell", "u32", 1, missing="0"),
-    Column("collision_normal", "f64", 3, missing="NaN"),
-    Column("sliding_normal", "f64", 3, missing="NaN"),
-    Column("collide_count", "u32", 1, missing="0"),
+#: What a reply column holds where an item has no value, by its dtype: NaN for reals, 255 for a u8 code,
+#: else 0 (an id or a count).
+MISSING_BY_DTYPE: Final[dict[str, str]] = {"f64": "NaN", "u8": "255", "u32": "0", "u64": "0"}
+
+
+def reply_columns(*columns: tuple[str, str, int]) -> tuple[Column, ...]:
+    """Reply columns (name, dtype, per item), each missing what its dtype is missing."""
+    return tuple(Column(name, dtype, width, missing=MISSING_BY_DTYPE[dtype]) for name, dtype, width in columns)
+
+
+REPLY_COLUMNS: Final = reply_columns(
+    ("seq", "u64", 1), ("cell", "u32", 1), ("origin", "f64", 3), ("orientation", "f64", 4),  # where it is
+    ("flags", "u32", 1), ("transition_state", "u8", 1), ("frames_stationary_fall", "u8", 1),  # how it went
+    ("contact_plane", "f64", 4), ("contact_plane_cell", "u32", 1),  # what it stands on
+    ("collision_normal", "f64", 3), ("sliding_normal", "f64", 3), ("collide_count", "u32", 1),  # what it hit
 )
 
 #: The columnar publication's extra column (first): whose row it is.
-PUBLICATION_ID: Final = Column("id", "u64", 1, missing="0")
+PUBLICATION_ID: Final = Column("id", "u64", 1, missing=MISSING_BY_DTYPE["u64"])
 
 REQUEST_BY_NAME: Final = {c.name: c for c in REQUEST_COLUMNS}
 REPLY_BY_NAME: Final = {c.name: c for c in REPLY_COLUMNS}
