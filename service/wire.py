@@ -113,6 +113,19 @@ def user_prefix(prefix: str, user: str) -> str:
     return f"{prefix}/u/{check_user_name(user)}"
 
 
+class _UnderPrefix:
+    """A key directly under the deployment's prefix, named as the Keys attribute it is read as
+    (`keys.health`: `P/health`)."""
+
+    __slots__ = ("name",)
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, keys: Keys, owner: type | None = None) -> str:
+        return f"{keys.prefix}/{self.name}"
+
+
 @dataclass(frozen=True, slots=True)
 class Keys:
     """Every key expression of one deployment (all under `prefix`)."""
@@ -131,38 +144,24 @@ class Keys:
         return self.lb(lb, "push")
 
     # -- per object: published by the service --
-    def state(self, mover_id: int | str) -> str:
+    def obj(self, mover_id: int | str, what: str) -> str:
         part = mover_id if isinstance(mover_id, str) else obj_hex(mover_id)
-        return f"{self.prefix}/obj/{part}/state"
+        return f"{self.prefix}/obj/{part}/{what}"
 
-    @property
-    def states(self) -> str:
-        """Where the States of a request sent with `"publish": "batch"` go, as one message."""
-        return f"{self.prefix}/states"
+    def state(self, mover_id: int | str) -> str:
+        return self.obj(mover_id, "state")
 
-    @property
-    def state_columns(self) -> str:
-        """Where the results of a column request sent with `"publish": "columns"` go, as columns."""
-        return f"{self.prefix}/state_columns"
+    #: where the States of a request sent with `"publish": "batch"` go, as one message
+    states = _UnderPrefix()
+    #: where the results of a column request sent with `"publish": "columns"` go, as columns
+    state_columns = _UnderPrefix()
 
     def obj_error(self, mover_id: int | str) -> str:
-        part = mover_id if isinstance(mover_id, str) else obj_hex(mover_id)
-        return f"{self.prefix}/obj/{part}/error"
+        return self.obj(mover_id, "error")
 
     # -- per instance: every instance answers --
-    @property
-    def landblocks(self) -> str:
-        return f"{self.prefix}/landblocks"
-
-    @property
-    def health(self) -> str:
-        return f"{self.prefix}/health"
-
-    @property
-    def stats(self) -> str:
-        return f"{self.prefix}/stats"
-
-    @property
-    def errors(self) -> str:
-        """Errors of fire-and-forget messages that name no (valid) object."""
-        return f"{self.prefix}/errors"
+    landblocks = _UnderPrefix()
+    health = _UnderPrefix()
+    stats = _UnderPrefix()
+    #: errors of fire-and-forget messages that name no (valid) object
+    errors = _UnderPrefix()
