@@ -28,7 +28,7 @@ from service.columns import FLOAT32_MAX, REQUEST_COLUMNS
 from service.errors import ProtocolError
 from service.messages import MoveItem, Target, engine_check
 from service.requests import MoveBatch
-from service.schema import MAX_TAG_LEN
+from service.schema_kinds import MAX_TAG_LEN
 from service.wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 
 __all__ = ["decode_structs", "decode_single", "decode_batch", "decode_batch_typed", "decode_columns", "decode_register_id",

@@ -22,19 +22,17 @@ from engine.geometry import IDENTITY, Plane, Position, Quat, Vec3
 from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
 
 from .errors import ProtocolError
-from .schema import (
+from .schema import Field, Map, Rule
+from .schema_kinds import (
     NON_NEGATIVE,
     POSITIVE,
     Bool,
     Enum,
-    Field,
     Int,
     ListOf,
-    Map,
     Number,
     Quaternion,
     Range,
-    Rule,
     Str,
     Tag,
     UInt,

@@ -26,8 +26,7 @@ from .messages import (
     RegisterRequest,
     Target,
 )
-from .schema import MAX_TAG_LEN
-from .schema_kinds import Tag
+from .schema_kinds import MAX_TAG_LEN, Tag
 from .validate import as_list, as_map, field_path
 from .wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 from engine.world.types import MoverSpec

@@ -22,37 +22,15 @@ Only the wire constants, validate.py's readers and the standard library are used
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 from .errors import ProtocolError
-from .schema_kinds import (
-    MAX_TAG_LEN,
-    NON_NEGATIVE,
-    POSITIVE,
-    Bool,
-    Enum,
-    Int,
-    Kind,
-    ListOf,
-    Number,
-    Quaternion,
-    Range,
-    SourceGen,
-    Str,
-    Tag,
-    UInt,
-    Value,
-    Vector,
-)
+from .schema_kinds import Kind, SourceGen, Value
 from .validate import as_map, field_path
 from .wire import ErrorKind
 
-#: the value kinds are re-exported: a message is declared with `from .schema import ...` alone
-__all__ = [
-    "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Value", "Number", "Bool", "Str", "Enum", "Tag", "Vector",
-    "Quaternion", "ListOf", "Field", "Map", "Rule", "MAX_TAG_LEN",
-]
+__all__ = ["Field", "Map", "Rule"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,6 +73,8 @@ class Field:
         return self.src.replace("{name}", self.name).replace("{}", obj)
 
 
+# eq=False: a map is the one declaration it is (compared and hashed by identity)
+@dataclass(eq=False, repr=False)
 class Map(Kind):
     """A map of `fields`, read into `build(*values)` (values in field order; a list default copied; with
     `with_path`, the map's path first).
@@ -102,26 +82,29 @@ class Map(Kind):
     `one_of`: exactly one of these fields is given (checked where the first of them is read; the fast
     reader tries them in the order of `usual`, the commonest first). `rules`:
     checks of the built value. `checks`: further checks that raise ProtocolError themselves (engine
-    limits). `label`: how an error at the top (path "") names the message.
+    limits). `label`: how an error at the top (path "") names the message. `doc`: the type the doc's
+    tables give it (default `name`).
     """
 
-    def __init__(self, name: str, fields: tuple[Field, ...], build: Callable[..., Any] | None = None, *,
-                 one_of: tuple[str, ...] = (), rules: tuple[Rule, ...] = (),
-                 checks: tuple[Callable[[Any, str], None], ...] = (), label: str = "message",
-                 doc: str | None = None, with_path: bool = False, usual: tuple[str, ...] = ()) -> None:
-        self.name = name
-        self.fields = fields
-        self.by_name = {f.name: f for f in fields}
-        self.build = build
-        self.one_of = one_of
-        self.rules = rules
-        self.checks = checks
-        self.label = label
-        self.with_path = with_path
-        self.usual = usual
-        self.doc = doc or name
-        self._fast: Callable[[Any, str], Any] | None = None
-        self._encode: Callable[[Any], dict[str, Any]] | None = None
+    name: str
+    fields: tuple[Field, ...]
+    build: Callable[..., Any] | None = None
+    _: KW_ONLY
+    one_of: tuple[str, ...] = ()
+    rules: tuple[Rule, ...] = ()
+    checks: tuple[Callable[[Any, str], None], ...] = ()
+    label: str = "message"
+    doc: str = ""
+    with_path: bool = False
+    usual: tuple[str, ...] = ()
+    by_name: dict[str, Field] = field(init=False)
+    # the generated fast reader and encoder, made on first use
+    _fast: Callable[[Any, str], Any] | None = field(init=False, default=None)
+    _encode: Callable[[Any], dict[str, Any]] | None = field(init=False, default=None)
+
+    def __post_init__(self) -> None:
+        self.by_name = {f.name: f for f in self.fields}
+        self.doc = self.doc or self.name
 
     @property
     def required_names(self) -> set[str]:
