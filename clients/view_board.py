@@ -22,6 +22,8 @@ import msgpack
 
 from service.wire import Keys
 
+from .client import Subscription
+
 __all__ = ["MoverBoard", "PageEvent", "state_for_page"]
 
 log = logging.getLogger("acphys.view")
@@ -56,21 +58,16 @@ class MoverBoard:
         self._lock = threading.Lock()
         self._listeners: set[asyncio.Queue[PageEvent]] = set()
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._subs: list[Any] = []
+        self._subs = Subscription([])
         self.received = 0
 
     # -- the bus side (Zenoh's callback threads) ---------------------------------------
     def start(self) -> None:
-        self._subs = [self._session.declare_subscriber(self.keys.state("*"), self._on_state),
-                      self._session.declare_subscriber(self.keys.states, self._on_states)]
+        self._subs = Subscription([self._session.declare_subscriber(self.keys.state("*"), self._on_state),
+                                   self._session.declare_subscriber(self.keys.states, self._on_states)])
 
     def close(self) -> None:
-        for s in self._subs:
-            try:
-                s.undeclare()
-            except Exception:  # the session may be closed already
-                pass
-        self._subs = []
+        self._subs.close()
 
     def _on_state(self, sample: Any) -> None:
         try:
