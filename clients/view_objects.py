@@ -19,7 +19,7 @@ from typing import Any
 
 from engine.geometry import Vec3
 
-from .view_terrain import LANDBLOCK_M
+from .view_terrain import LANDBLOCK_M, PerLandblock
 
 __all__ = ["LandblockObjects", "ObjectSource", "Outline", "convex_hull"]
 
@@ -146,17 +146,15 @@ class ObjectSource:
 
     def __init__(self, world: Any, lock: threading.Lock | None = None) -> None:
         self.world = world
-        self._done: dict[int, LandblockObjects | None] = {}
-        self._lock = lock or threading.Lock()  # shared with whatever else reads the same world
+        self._done = PerLandblock(self._outlines, lock)
 
     def objects(self, landblock: int) -> LandblockObjects | None:
         """The landblock's outlines, or None when the view's world has no such landblock."""
-        with self._lock:
-            if landblock not in self._done:
-                try:
-                    lb = self.world.load_landblock(landblock)
-                except Exception:  # not in this world (a scene without it, a dat without it)
-                    self._done[landblock] = None
-                else:
-                    self._done[landblock] = landblock_objects(lb)
-            return self._done[landblock]
+        return self._done.get(landblock)
+
+    def _outlines(self, landblock: int) -> LandblockObjects | None:
+        try:
+            lb = self.world.load_landblock(landblock)
+        except Exception:  # not in this world (a scene without it, a dat without it)
+            return None
+        return landblock_objects(lb)

@@ -9,10 +9,13 @@ and samples its terrain here. A landblock the view's world lacks has no grid
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
-__all__ = ["LANDBLOCK_M", "TerrainGrid", "TerrainSource"]
+__all__ = ["LANDBLOCK_M", "PerLandblock", "TerrainGrid", "TerrainSource"]
+
+T = TypeVar("T")
 
 LANDBLOCK_M = 192.0  # a landblock's side: 8 cells of 24 m
 CELL_M = 24.0
@@ -34,21 +37,33 @@ class TerrainGrid:
                 "min": min(self.heights), "max": max(self.heights)}
 
 
+class PerLandblock(Generic[T]):
+    """What the view works out from its world for a landblock (`work_out`, None where the world lacks it),
+    once each; thread-safe, as the web server asks from its threads."""
+
+    def __init__(self, work_out: Callable[[int], T | None], lock: threading.Lock | None = None) -> None:
+        self._work_out = work_out
+        self._done: dict[int, T | None] = {}
+        self._lock = lock or threading.Lock()  # shared with whatever else reads the same world
+
+    def get(self, landblock: int) -> T | None:
+        with self._lock:
+            if landblock not in self._done:
+                self._done[landblock] = self._work_out(landblock)
+            return self._done[landblock]
+
+
 class TerrainSource:
-    """Samples a World's terrain per landblock, once each (thread-safe: the web server asks from its threads)."""
+    """Samples a World's terrain per landblock, once each."""
 
     def __init__(self, world: Any, step_m: float = 4.0, lock: threading.Lock | None = None) -> None:
         self.world = world
         self.step_m = step_m
-        self._grids: dict[int, TerrainGrid | None] = {}
-        self._lock = lock or threading.Lock()  # shared with whatever else reads the same world
+        self._grids = PerLandblock(self._sample, lock)
 
     def grid(self, landblock: int) -> TerrainGrid | None:
         """The landblock's height grid, or None when the view's world has no such landblock."""
-        with self._lock:
-            if landblock not in self._grids:
-                self._grids[landblock] = self._sample(landblock)
-            return self._grids[landblock]
+        return self._grids.get(landblock)
 
     def _sample(self, landblock: int) -> TerrainGrid | None:
         n = int(LANDBLOCK_M / self.step_m)
