@@ -20,7 +20,8 @@ HOT_PACKAGES = ("geometry", "terrain", "cells", "transition", "bsp", "objects")
 NOT_COMPILED = {"engine/objects/setup.py"}
 # The world's per-move part: the mover, its shadows, the move itself, the batch entry point and the
 # MoveResult every move builds (types: a compiled dataclass is built and read natively).
-WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch", "types")
+WORLD_HOT = ("mover", "transient", "landblock", "shadows", "resolve", "rollback", "quantum", "moves", "batch", "rows",
+             "types")
 # Navigation's per-edge path: the walk that proves every edge and path, the graph that samples and links
 # nodes, the search (a graph build walks some 70,000 edges a landblock; their glue is as hot as the moves)
 NAVIGATION_HOT = ("walk", "graph", "search", "sampling")

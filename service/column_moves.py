@@ -22,21 +22,17 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from engine.world.batch import (
-    INTS_PER_ROW,
     MOTION,
     MOVER_STATE_BYTES,
     OFFSET,
-    REALS_PER_ROW,
     TO,
-    TRANSITION_STATES,
     BatchRows,
-    Status,
     append_missing,
     append_row,
     run_batch,
 )
 from engine.world.mover import Mover
-from engine.world.transient import NAMED_BITS as TRANSIENT_BITS
+from engine.world.rows import INTS_PER_ROW, REALS_PER_ROW, TRANSIENT_MASK, Status, int_columns, real_slices
 from engine.world.types import MoveResult
 
 from .codec import pack_state
@@ -46,8 +42,6 @@ from .columns import (
     PUBLICATION_ID,
     REPLY_COLUMNS,
     REQUEST_COLUMNS,
-    TRANSIENT_FLAGS,
-    TRANSITION_CODE,
     Flag,
     pack_columns,
 )
@@ -64,30 +58,10 @@ __all__ = ["ColumnResults", "run_columns", "push_columns", "reply_message", "pub
 
 log = logging.getLogger("acphys.service")
 
-def _lookup(pairs: tuple[tuple[int, int], ...]) -> np.ndarray[Any, Any]:
-    """A table from every combination of the engine's bits in `pairs` (engine bit, wire flag) to the
-    reply's flags they set."""
-    size = 1 << max(bit for bit, _flag in pairs).bit_length()
-    codes = np.arange(size)
-    table = np.zeros(size, dtype=np.uint32)
-    for bit, flag in pairs:
-        table[(codes & bit) != 0] |= flag
-    return table
-
-
-#: the reply's flags of each engine row status (engine.world.batch.Status)
-_STATUS_FLAGS = _lookup(((Status.RESOLVED, Flag.RESOLVED), (Status.OK, Flag.OK), (Status.CONTACT, Flag.CONTACT),
-                         (Status.ON_WALKABLE, Flag.ON_WALKABLE), (Status.WATER_CONTACT, Flag.WATER_CONTACT),
-                         (Status.HAS_CONTACT_PLANE, Flag.HAS_CONTACT_PLANE),
-                         (Status.HAS_CONTACT_PLANE_CELL, Flag.HAS_CONTACT_PLANE_CELL),
-                         (Status.HAS_COLLISION_NORMAL, Flag.HAS_COLLISION_NORMAL),
-                         (Status.HAS_SLIDING_NORMAL, Flag.HAS_SLIDING_NORMAL),
-                         (Status.HAS_FRAMES_STATIONARY_FALL, Flag.HAS_FRAMES_STATIONARY_FALL)))
-#: the reply's flags of each combination of the engine's transient-state bits (engine.world.transient.TS)
-_TRANSIENT_FLAGS = _lookup(tuple((bit, 1 << (Flag.TRANSIENT_SHIFT + TRANSIENT_FLAGS.index(name)))
-                                 for name, bit in TRANSIENT_BITS))
-#: the engine's transition-state index -> the reply's code
-_STATE_CODES = np.array([TRANSITION_CODE[name] for name in TRANSITION_STATES], dtype=np.uint64)
+#: where each reply column's values sit in the engine's rows (engine.world.rows): the reals' runs by name,
+#: the ints by index
+_REALS = real_slices()
+_INTS = int_columns()
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _GONE = bytes(MOVER_STATE_BYTES)
 _LE_U64 = np.dtype("<u8")
@@ -344,24 +318,27 @@ def _one_row_message(req: ColumnRequest, i: int) -> bytes:
 
 
 def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
-    """The reply's columns from the engine's rows (rows of failed items hold the missing values)."""
+    """The reply's columns from the engine's rows (rows of failed items hold the missing values). The row's
+    status bits are the wire's flags and its transient bits sit above them (service/columns.Flag); its
+    transition-state index is the wire's code."""
     rows = out.rows
     n = rows.count
     reals = np.frombuffer(rows.reals_le(), dtype="<f8").reshape(n, REALS_PER_ROW)
     ints = np.frombuffer(rows.ints_le(), dtype="<i8").reshape(n, INTS_PER_ROW)
-    status, transient = ints[:, 1], ints[:, 2]
-    flags = _STATUS_FLAGS[status] | _TRANSIENT_FLAGS[transient]
+    status = ints[:, _INTS["status"]]
     resolved = (status & Status.RESOLVED) != 0
-    return {
-        "seq": np.array(out.seqs, dtype=np.uint64), "cell": ints[:, 0],
-        "flags": flags,
-        "transition_state": np.where(resolved, _STATE_CODES[ints[:, 3]], FAILED_STATE),
-        "frames_stationary_fall": np.where((status & Status.HAS_FRAMES_STATIONARY_FALL) != 0, ints[:, 4], 255),
-        "contact_plane_cell": ints[:, 5],
-        "collide_count": ints[:, 6] if out.collide_counts is None else np.array(out.collide_counts, dtype=np.int64),
-        "origin": reals[:, 0:3], "orientation": reals[:, 3:7], "contact_plane": reals[:, 7:11],
-        "collision_normal": reals[:, 11:14], "sliding_normal": reals[:, 14:17],
-    }
+    columns: dict[str, np.ndarray[Any, Any]] = {name: reals[:, first:end] for name, (first, end) in _REALS.items()}
+    columns.update({
+        "seq": np.array(out.seqs, dtype=np.uint64), "cell": ints[:, _INTS["cell"]],
+        "flags": status | ((ints[:, _INTS["transient"]] & TRANSIENT_MASK) << Flag.TRANSIENT_SHIFT),
+        "transition_state": np.where(resolved, ints[:, _INTS["transition_state"]], FAILED_STATE),
+        "frames_stationary_fall": np.where((status & Status.HAS_FRAMES_STATIONARY_FALL) != 0,
+                                           ints[:, _INTS["frames_stationary_fall"]], 255),
+        "contact_plane_cell": ints[:, _INTS["contact_plane_cell"]],
+        "collide_count": (ints[:, _INTS["collide_count"]] if out.collide_counts is None
+                          else np.array(out.collide_counts, dtype=np.int64)),
+    })
+    return columns
 
 
 def _collide_bytes(ids: list[int]) -> bytes:

@@ -20,6 +20,9 @@ from typing import Any, Final
 
 import numpy as np
 
+from engine.world.rows import TRANSITION_STATES, Status
+from engine.world.transient import NAMED_BITS
+
 __all__ = [
     "Column",
     "KINDS",
@@ -131,28 +134,29 @@ REPLY_BY_NAME: Final = {c.name: c for c in REPLY_COLUMNS}
 
 
 class Flag:
-    """Bits of the reply's `flags` column."""
+    """Bits of the reply's `flags` column: the engine's row status bits themselves (engine.world.rows.Status),
+    and the transient-state bits above them, so that a reply's flags are a row's status and its transient
+    bits shifted (service/column_moves.py), with no table between the engine and the wire."""
 
-    RESOLVED: Final = 1 << 0  # the item has a result (clear: it failed, see `errors`)
-    OK: Final = 1 << 1
-    CONTACT: Final = 1 << 2
-    ON_WALKABLE: Final = 1 << 3
-    WATER_CONTACT: Final = 1 << 4
-    HAS_CONTACT_PLANE: Final = 1 << 5
-    HAS_CONTACT_PLANE_CELL: Final = 1 << 6
-    HAS_COLLISION_NORMAL: Final = 1 << 7
-    HAS_SLIDING_NORMAL: Final = 1 << 8
-    HAS_FRAMES_STATIONARY_FALL: Final = 1 << 9
-    #: bits 16..22: the State's `transient_state` names, one bit each (TRANSIENT_FLAGS)
+    RESOLVED: Final = Status.RESOLVED  # the item has a result (clear: it failed, see `errors`)
+    OK: Final = Status.OK
+    CONTACT: Final = Status.CONTACT
+    ON_WALKABLE: Final = Status.ON_WALKABLE
+    WATER_CONTACT: Final = Status.WATER_CONTACT
+    HAS_CONTACT_PLANE: Final = Status.HAS_CONTACT_PLANE
+    HAS_CONTACT_PLANE_CELL: Final = Status.HAS_CONTACT_PLANE_CELL
+    HAS_COLLISION_NORMAL: Final = Status.HAS_COLLISION_NORMAL
+    HAS_SLIDING_NORMAL: Final = Status.HAS_SLIDING_NORMAL
+    HAS_FRAMES_STATIONARY_FALL: Final = Status.HAS_FRAMES_STATIONARY_FALL
+    #: bits 16..22: the State's `transient_state` names, one bit each (TRANSIENT_FLAGS): the engine's
+    #: transient-state bits (engine.world.transient.NAMED_BITS, 0x1 .. 0x40) shifted up
     TRANSIENT_SHIFT: Final = 16
 
 
 #: `transient_state` names in bit order from Flag.TRANSIENT_SHIFT (the State lists them in this order too).
-TRANSIENT_FLAGS: Final = ("Contact", "OnWalkable", "Sliding", "WaterContact", "StationaryFall", "StationaryStop",
-                          "StationaryStuck")
+TRANSIENT_FLAGS: Final = tuple(name for name, _bit in NAMED_BITS)
 
-#: `transition_state` codes: the index in this tuple.
-TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
+#: `transition_state` codes: the index in this tuple (the engine's rows hold the same index).
 TRANSITION_CODE: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 #: `transition_state` of a failed item.
 FAILED_STATE: Final = 255

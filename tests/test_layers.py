@@ -256,11 +256,13 @@ def test_engine_never_imports_the_bus_or_its_users() -> None:
 
 
 #: the engine modules `import clients` may load: the value types a client sends
-#: and receives (geometry, the World's types, the queries' and paths' answers,
-#: the limits it checks before sending) and the leaf modules under them; none
-#: of the per-move machinery
-CLIENT_ALLOWED = ("engine.geometry", "engine.world.types", "engine.queries.results", "engine.navigation.results",
-                  "engine.navigation.settings", "engine.limits", "engine.transition.state", "engine.settings")
+#: and receives (geometry, the World's types, the batch rows' layout and the
+#: transient-state bits a column reply's flags carry, the queries' and paths'
+#: answers, the limits it checks before sending) and the leaf modules under
+#: them; none of the per-move machinery
+CLIENT_ALLOWED = ("engine.geometry", "engine.world.types", "engine.world.rows", "engine.world.transient",
+                  "engine.queries.results", "engine.navigation.results", "engine.navigation.settings", "engine.limits",
+                  "engine.transition.state", "engine.settings")
 CLIENT_FORBIDDEN = ("engine.transition.transition", "engine.bsp", "engine.cells", "engine.objects", "engine.terrain", "engine.formats", "engine.world.world", "engine.world.mover")
 
 

@@ -582,3 +582,17 @@ def test_each_publishes_per_mover_and_push_envelope_errors_go_to_errors_key(
     finally:
         for s in subs:
             s.close()
+
+
+def test_reply_flags_are_the_engine_rows_status_and_transient_bits() -> None:
+    # the column path writes a reply's flags as a row's status | (transient bits << 16), with no table
+    # between them: that holds only while the wire's bits (protocol.md's table, checked above) are the
+    # engine's, and the client's transient-state bits are 0x1, 0x2, ... 0x40 in the State's name order
+    from engine.world.rows import TRANSIENT_MASK, Status
+    from engine.world.transient import NAMED_BITS
+
+    wire = {name: getattr(Flag, name) for name in vars(Flag) if name.isupper() and name != "TRANSIENT_SHIFT"}
+    assert wire == {name: getattr(Status, name) for name in vars(Status) if name.isupper()}
+    assert [name for name, _bit in NAMED_BITS] == list(TRANSIENT_FLAGS)
+    assert [bit for _name, bit in NAMED_BITS] == [1 << k for k in range(len(TRANSIENT_FLAGS))]
+    assert TRANSIENT_MASK == (1 << len(TRANSIENT_FLAGS)) - 1

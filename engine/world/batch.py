@@ -23,6 +23,9 @@ from the result's unboxed double, with no Python float or list made for it.
   index in TRANSITION_STATES, frames_stationary_fall, contact_plane_cell,
   and how many collided-object ids the row adds to `collide_ids`.
 
+The layout is engine.world.rows's (ROW_REALS, ROW_INTS, Status), a leaf that
+readers of the rows import without this module's machinery.
+
 A row whose item did not run (no mover given, the mover refused the move)
 holds NaN and zeros with Status.RESOLVED clear.
 """
@@ -42,6 +45,7 @@ from ..geometry import Position, Quat, Vec3
 from .mover import Mover
 from .moves import move_checked, step_checked
 from .rollback import MoveUndo
+from .rows import INTS_PER_ROW, REALS_PER_ROW, TRANSITION_STATES, Status
 from .transient import NAMED_BITS
 from .types import MoveResult
 
@@ -67,11 +71,6 @@ OFFSET: Final = 0  # target = the mover's position moved by a world-frame offset
 TO: Final = 1  # target = a given cell (0: the mover's own), origin and orientation (all zero: its own)
 MOTION: Final = 2  # a physics step of dt seconds with the mover's own motion (World.step)
 
-REALS_PER_ROW: Final = 17
-INTS_PER_ROW: Final = 7
-
-#: MoveResult.transition_state values; a row holds the index.
-TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 
 # The runs written for missing values, packed once
@@ -90,21 +89,6 @@ MOVER_STATE_FIELDS: Final = (
 )
 MOVER_STATE_BYTES: Final = 8 * 28
 _NO_STATE: Final = bytes(MOVER_STATE_BYTES)
-
-
-class Status:
-    """Bits of a row's status integer."""
-
-    RESOLVED: Final = 1 << 0  # the item ran and the row holds its result
-    OK: Final = 1 << 1
-    CONTACT: Final = 1 << 2
-    ON_WALKABLE: Final = 1 << 3
-    WATER_CONTACT: Final = 1 << 4
-    HAS_CONTACT_PLANE: Final = 1 << 5
-    HAS_CONTACT_PLANE_CELL: Final = 1 << 6
-    HAS_COLLISION_NORMAL: Final = 1 << 7
-    HAS_SLIDING_NORMAL: Final = 1 << 8
-    HAS_FRAMES_STATIONARY_FALL: Final = 1 << 9
 
 
 class BatchRows:
