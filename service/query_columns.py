@@ -156,12 +156,7 @@ RunOne = Callable[[int, tuple[Any, ...]], Any]  # (item index, map-form item) ->
 
 
 def _reply_arrays(spec: QueryColumns, n: int) -> dict[str, Array]:
-    out: dict[str, Array] = {}
-    for col in spec.reply:
-        shape = (n,) if col.width == 1 else (n, col.width)
-        fill = float("nan") if col.missing == "NaN" else int(col.missing)
-        out[col.name] = np.full(shape, fill, dtype=col.np_dtype.newbyteorder("="))
-    return out
+    return {col.name: col.missing_rows(n) for col in spec.reply}
 
 
 def _blocker(out: dict[str, Array], spec: QueryColumns, i: int, b: Any, blocker_id: Callable[[int], int]) -> int:

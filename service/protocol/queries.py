@@ -23,7 +23,7 @@ from engine.navigation.results import PathResult
 from engine.navigation.settings import REASONS
 from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
 
-from ..columns import Column
+from ..columns import Column, reply_columns
 from ..errors import ProtocolError
 from ..validate import as_uint, field_path
 from ..wire import MAX_BATCH, ErrorKind
@@ -125,14 +125,10 @@ def _segment(op: str) -> tuple[Column, ...]:
             _req(op, "to_cell", "u32", 1, True), _req(op, "to_origin", "f64", 3, True))
 
 
-#: what a reply column holds where there is no value: NaN for reals, 255 for a u8 code, else 0
-_MISSING = {"f64": "NaN", "u8": "255", "u32": "0", "u64": "0"}
-
-
 def _out(*columns: tuple[str, str, int]) -> tuple[Column, ...]:
-    """Reply columns (name, dtype, per item), after the `flags` column every reply starts with."""
-    return (Column("flags", "u32", 1, missing="0"),) + tuple(
-        Column(name, dtype, width, missing=_MISSING[dtype]) for name, dtype, width in columns)
+    """Reply columns (name, dtype, per item), after the `flags` column every reply starts with; each holds
+    its dtype's missing value where there is none (service/columns.MISSING_BY_DTYPE)."""
+    return reply_columns(("flags", "u32", 1), *columns)
 
 
 _BLOCKER = (("blocker", "u8", 1), ("blocker_id", "u64", 1))
