@@ -461,7 +461,10 @@ def _targets(data: dict[str, Any]) -> list[str]:
         r = big[0]
         line = (f"- A restart with a 10 M-move log takes at most 10 s: {r['start_s']:.1f} s until the restarted "
                 f"instance answers ({r['replay_s']:.1f} s of it the replay) for 10 M moves logged in records of "
-                f"{r['per_record']} (column batches). Met for such a log.")
+                f"{r['per_record']} (column batches). "
+                + ("Met for such a log." if r["start_s"] <= 10.0 else
+                   f"Not met in this run (without state the start took {r['start_without_state_s']:.1f} s: the "
+                   "machine's load weighs on both)."))
         if one:
             o = one[0]
             line += (f" Single moves make one record each: {o['moves'] / 1e6:.0f} M of them replayed in "
