@@ -448,7 +448,10 @@ def _targets(data: dict[str, Any]) -> list[str]:
         out.append(f"- `every-second` costs at most 5 % of throughput: end to end, column batches ran at "
                    f"{100 * es.get('columns_share', float('nan')):.0f} %{spread} and map batches at "
                    f"{100 * es.get('maps_share', float('nan')):.0f} % of the instance without `--state` (medians of "
-                   "per-round ratios; the machine's load below). "
+                   "per-round ratios; the machine's load below): "
+                   + ("met by the median" if es.get("columns_share", 0) >= 0.95 else "not met by the median")
+                   + (", but rounds that far apart cannot tell 5 % from noise. " if rounds and
+                      max(rounds) - min(rounds) > 0.10 else ". ")
                    + target_words(data.get("instructions", {}), ip))
     al = costs.get("always", {})
     if al and costs.get("none"):
@@ -533,7 +536,7 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     elif ip:
         engine_thread = ip["record_us_per_move"] + ip["commit_us_per_move"]
         lines += ["", f"The log's own cost on the column path, in one process ({ip['moves']:,} offset moves in batches "
-                  f"of {costs.get('batch', BATCH)} over 1000 movers, `{ip['policy']}`, the compiled engine copy): "
+                  f"of {costs.get('batch', BATCH)} over 1000 movers, `{ip['policy']}`, engine: {data.get('engine', '?')}): "
                   f"{engine_thread:.3f} µs per move on the engine thread in the log's code (building the record from "
                   f"the engine's rows and queuing it: {100.0 * engine_thread / ip['total_us_per_move']:.1f} % of the "
                   f"{ip['total_us_per_move']:.2f} µs a move takes there, plus the engine writing each mover's state "
