@@ -206,7 +206,7 @@ def target_words(counted: dict[str, Any], inprocess: dict[str, Any]) -> str:
             f"without it: {100 * row['log_share_whole']:.1f} % ({row['log_engine_thread']:,.0f} on the engine thread, "
             f"{100 * row['log_share_engine_thread']:.1f} %, and {row['other_threads']:,.0f} on the log's own thread, "
             "which releases the GIL for its checksums and writes). "
-            + ("Within 5 % by that count" if row["log_share_whole"] <= 0.05 else "Over 5 % by that count too")
+            + ("Within 5 % by that count" if row["log_share_whole"] <= 0.05 else "Over 5 % by that count")
             + ", which leaves out the kernel's side (the writes' copies into the page cache, the fdatasync) and cache "
             "misses: the service's CPU per move in the table below has them, blurred by the machine's load.")
 
