@@ -43,6 +43,14 @@ _MAX_REDIRECTS = 4
 Array = np.ndarray[Any, Any]
 
 
+def _flag_column(bit: int, doc: str) -> Any:
+    """A read-only property: which rows have `bit` of their `flags` set (a bool array)."""
+    def read(self: BatchResults) -> Array:
+        return (self.flags & bit) != 0
+    read.__doc__ = doc
+    return property(read)
+
+
 @dataclass(slots=True)
 class BatchResults:
     """The results of `Client.move_batch`, one row per move in the order given (docs/protocol.md, "Column
@@ -86,33 +94,11 @@ class BatchResults:
         """The number of moves (rows)."""
         return len(self.seq)
 
-    def _bit(self, bit: int) -> Array:
-        return (self.flags & bit) != 0
-
-    @property
-    def resolved(self) -> Array:
-        """Which moves have a result (bool array; False: see `errors`)."""
-        return self._bit(Flag.RESOLVED)
-
-    @property
-    def ok(self) -> Array:
-        """Which moves found a position (bool array; False also for a failed move)."""
-        return self._bit(Flag.OK)
-
-    @property
-    def contact(self) -> Array:
-        """Which movers touch a surface after their move (bool array)."""
-        return self._bit(Flag.CONTACT)
-
-    @property
-    def on_walkable(self) -> Array:
-        """Which movers stand on walkable ground after their move (bool array)."""
-        return self._bit(Flag.ON_WALKABLE)
-
-    @property
-    def water_contact(self) -> Array:
-        """Which movers are in water after their move (bool array)."""
-        return self._bit(Flag.WATER_CONTACT)
+    resolved = _flag_column(Flag.RESOLVED, "Which moves have a result (bool array; False: see `errors`).")
+    ok = _flag_column(Flag.OK, "Which moves found a position (bool array; False also for a failed move).")
+    contact = _flag_column(Flag.CONTACT, "Which movers touch a surface after their move (bool array).")
+    on_walkable = _flag_column(Flag.ON_WALKABLE, "Which movers stand on walkable ground after their move (bool array).")
+    water_contact = _flag_column(Flag.WATER_CONTACT, "Which movers are in water after their move (bool array).")
 
     @property
     def landblock(self) -> Array:
