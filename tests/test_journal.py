@@ -3,6 +3,7 @@ at the end is dropped and said; damage with records after it is refused, never s
 
 from __future__ import annotations
 
+import random
 import struct
 import time
 import zlib
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+import service.journal as journal_module
 from service.journal import HEADER_BYTES, Journal, JournalCorrupt, frame, journal_files, journal_path, read_journal
 
 PAYLOADS = [b"first record", bytes(range(256)) * 3, b"x", b"the last one"]
@@ -48,6 +50,45 @@ def test_the_frame_layout_is_the_documented_one() -> None:
     f = frame(payload)
     head = struct.pack("<II", 3, zlib.crc32(payload))
     assert f == head + struct.pack("<I", zlib.crc32(head)) + payload
+
+
+_CRC_INPUTS = [b"", b"\x00", b"\xff", bytes(range(240)), random.Random(7).randbytes(1 << 20)]
+
+
+@pytest.mark.parametrize("data", _CRC_INPUTS, ids=["empty", "zero byte", "ff byte", "240 bytes", "1 MB random"])
+def test_the_checksum_is_zlibs_crc32(data: bytes) -> None:
+    # whichever implementation the log uses, its values are the CRC-32 zlib computes, alone and chained
+    assert journal_module.crc32(data) == zlib.crc32(data)
+    for start in (0, 1, 0xCBF43926, 0xFFFFFFFF):
+        assert journal_module.crc32(data, start) == zlib.crc32(data, start)
+    half = len(data) // 2
+    assert journal_module.crc32(data[half:], journal_module.crc32(data[:half])) == zlib.crc32(data)
+
+
+def test_the_checksum_is_the_standard_crc32() -> None:
+    # the CRC-32 check value of the nine digits, as catalogued for CRC-32/ISO-HDLC (the zlib/gzip one)
+    assert journal_module.crc32(b"123456789") == 0xCBF43926
+
+
+def test_the_checksum_is_isals_where_isal_is_installed() -> None:
+    isal_zlib = pytest.importorskip("isal.isal_zlib")
+    assert journal_module.crc32 is isal_zlib.crc32
+
+
+def test_a_log_written_with_zlibs_crc32_reads_with_the_journals(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    # a log written where isal was missing (zlib's crc32) reads where it is installed, and the other way round
+    checksum = journal_module.crc32
+    (tmp_path / "zlib").mkdir()
+    (tmp_path / "own").mkdir()
+    monkeypatch.setattr(journal_module, "crc32", zlib.crc32)
+    zlib_path = _written(tmp_path / "zlib")
+    monkeypatch.setattr(journal_module, "crc32", checksum)
+    own_path = _written(tmp_path / "own")
+    assert zlib_path.read_bytes() == own_path.read_bytes()
+    assert read_journal(zlib_path).records == PAYLOADS
+    monkeypatch.setattr(journal_module, "crc32", zlib.crc32)
+    assert read_journal(own_path).records == PAYLOADS
 
 
 def test_a_record_cut_off_anywhere_is_dropped_with_the_ones_before_kept(tmp_path: Path) -> None:
