@@ -16,19 +16,16 @@ as counts do not depend on what else runs.
 
 from __future__ import annotations
 
-import json
 import os
-import re
 import shutil
-import subprocess
-import sys
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
 from . import common
 from .bench_engine import TRACE_SCENES
+from .callgrind import python_of as _python_of
+from .callgrind import run_counted, totals_of
 from .common import log
 
 __all__ = ["run", "section", "totals_of", "ENTRY_SYMBOLS"]
@@ -37,7 +34,6 @@ __all__ = ["run", "section", "totals_of", "ENTRY_SYMBOLS"]
 ENTRY_SYMBOLS = ("CPyPy_moves___move_checked", "CPyPy_moves___step_checked")
 QUICK_TRACES = ("flat", "house")
 QUICK_MOVES = 2000
-CHILD_TIMEOUT_S = 1800.0
 
 # Run by the build's own python: the engine of `engine_root` is imported first, then this checkout's
 # harness (it imports the engine already loaded, whichever checkout that came from).
@@ -54,40 +50,6 @@ calls = len(replay_trace(name, max_moves or None, Deadline(3600.0)))
 print("RESULT " + json.dumps({"calls": calls, "compiled": not moves.__file__.endswith(".py"),
                               "engine": engine.__file__}))
 """
-
-_TOTALS = re.compile(r"^(?:totals|summary):\s+(\d+)\s*$", re.MULTILINE)
-
-
-def totals_of(callgrind_out: str) -> int:
-    """The instruction total of a callgrind output file's text (its `totals:` or `summary:` line)."""
-    m = _TOTALS.search(callgrind_out)
-    if m is None:
-        raise ValueError("no totals line in the callgrind output")
-    return int(m.group(1))
-
-
-def _python_of(root: Path) -> str:
-    venv = root / ".venv" / "bin" / "python"
-    return str(venv) if venv.exists() else sys.executable
-
-
-def run_counted(python: str, root: Path, script: str, args: list[str], options: list[str],
-                env: dict[str, str] | None = None) -> tuple[dict[str, Any], int]:
-    """`python -c script root args...` under callgrind with `options`, in `root`: the child's `RESULT {json}`
-    and the instructions counted. The hash seed is fixed, so a run counts the same every time."""
-    with tempfile.TemporaryDirectory(prefix="acphys-callgrind-") as tmp:
-        out = Path(tmp) / "callgrind.out"
-        cmd = ["valgrind", "--tool=callgrind", *options, f"--callgrind-out-file={out}", python, "-c", script,
-               str(root), *args]
-        child_env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PYTHONHASHSEED="0", **(env or {}))
-        child_env.pop("PYTHONPATH", None)
-        p = subprocess.run(cmd, cwd=root, env=child_env, capture_output=True, text=True, timeout=CHILD_TIMEOUT_S)
-        lines = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")]
-        if p.returncode != 0 or not lines or not out.exists():
-            raise RuntimeError(f"callgrind run of {args} with {root} failed ({p.returncode}): {p.stderr[-800:]}")
-        result: dict[str, Any] = json.loads(lines[-1][7:])
-        return result, totals_of(out.read_text())
-
 
 def _count(root: Path, name: str, max_moves: int) -> dict[str, Any]:
     """One trace replayed under callgrind with `root`'s engine: engine calls and instructions inside them."""

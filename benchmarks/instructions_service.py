@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
+from .callgrind import run_counted
 
 __all__ = ["count_column_path", "per_move", "ROUNDS", "MOVES_PER_ROUND"]
 
@@ -78,8 +79,6 @@ def per_move(low: int, high: int, rounds: tuple[int, int] = ROUNDS, moves_per_ro
 
 
 def _run(python: str, root: Path, rounds: int, engine_only: bool) -> int:
-    from .bench_instructions import run_counted
-
     toggle = ["--collect-atstart=no", f"--toggle-collect={RUN_BATCH_SYMBOL}"] if engine_only else []
     result, counted = run_counted(python, root, _CHILD, [str(common.ROOT), str(rounds)], toggle,
                                   {"OPENBLAS_NUM_THREADS": "1"})
