@@ -99,13 +99,22 @@ if journal is not None:
         written.wait()
     journal.close()
     size = journal.path.stat().st_size
+import service.journal as journal_module
 print("RESULT " + json.dumps({"moves": served, "log_bytes": size, "main": threading.get_native_id(),
-                              "compiled": not batch.__file__.endswith(".py")}))
+                              "compiled": not batch.__file__.endswith(".py"),
+                              "crc32": getattr(getattr(journal_module, "crc32", None), "__module__", "zlib")}))
 """
 
 _TOTALS = re.compile(r"^(?:totals|summary):\s+(\d+)\s*$", re.MULTILINE)
-#: the functions whose instructions (with their callees') are given apart: the record's two per-byte costs
-WATCHED = {"crc32_z": "crc32 (zlib)", "CPyDef_batch___write_mover_state": "write_mover_state (run_batch)"}
+#: the functions whose instructions (with their callees') are given apart: the record's two per-byte costs. The
+#: log's crc32 is ISA-L's where python-isal is installed (service/journal.py), else zlib's: both are watched, one
+#: of them counts. isal's wheel is stripped, so its crc is watched through the module function Python calls,
+#: isal_zlib_crc32 (with its argument handling, a few hundred instructions a call: a call per record part, not
+#: per move); zlib's through crc32_z, the bare loop
+WATCHED = {"crc32_z": "crc32 (zlib)", "isal_zlib_crc32": "crc32 (ISA-L)",
+           "CPyDef_batch___write_mover_state": "write_mover_state (run_batch)"}
+#: the watched functions that are the log's crc32
+CRC_WATCHED = ("crc32_z", "isal_zlib_crc32")
 _ANNOTATED = re.compile(r"^\s*([\d,]+) \([^)]*\)\s+\S*?:(\w+) \[", re.MULTILINE)
 
 
@@ -184,7 +193,8 @@ def count_policies(python: str, paths: list[Path]) -> dict[str, Any]:
         rows[cfg] = {"engine_thread": engine, "other_threads": others, "whole": engine + others,
                      "watched": {name: _per_move(low["watched"][name], high["watched"][name]) for name in WATCHED},
                      "log_bytes_per_move": (high["log_bytes"] - low["log_bytes"])
-                     / ((ROUNDS[1] - ROUNDS[0]) * MOVES_PER_ROUND)}
+                     / ((ROUNDS[1] - ROUNDS[0]) * MOVES_PER_ROUND),
+                     "crc32": high.get("crc32", "zlib")}
     base = rows["none"]
     for cfg in CONFIGS[1:]:
         row = rows[cfg]
@@ -193,7 +203,7 @@ def count_policies(python: str, paths: list[Path]) -> dict[str, Any]:
         row["log_share_engine_thread"] = row["log_engine_thread"] / base["engine_thread"]
         row["log_share_whole"] = row["log_whole"] / base["whole"]
     return {"rows": rows, "rounds": list(ROUNDS), "moves_per_round": MOVES_PER_ROUND,
-            "commit": common.short_commit(paths[-1])}
+            "commit": common.short_commit(paths[-1]), "crc32": rows["every-second"]["crc32"]}
 
 
 def target_words(counted: dict[str, Any], inprocess: dict[str, Any]) -> str:
@@ -201,7 +211,9 @@ def target_words(counted: dict[str, Any], inprocess: dict[str, Any]) -> str:
     row = counted.get("rows", {}).get("every-second")
     if not row:
         return "(No instruction count in this run: " + str(counted.get("unavailable", "not made")) + ".)"
-    return (f"Counted instead of timed (callgrind, the same in every run), the log under every-second adds "
+    crc = "ISA-L's" if str(counted.get("crc32", "zlib")).startswith("isal") else "zlib's"
+    return (f"Counted instead of timed (callgrind, the same in every run; commit {counted.get('commit')}, the log's "
+            f"crc32 {crc}), the log under every-second adds "
             f"{row['log_whole']:,.0f} instructions to the {counted['rows']['none']['whole']:,.0f} of a column move "
             f"without it: {100 * row['log_share_whole']:.1f} % ({row['log_engine_thread']:,.0f} on the engine thread, "
             f"{100 * row['log_share_engine_thread']:.1f} %, and {row['other_threads']:,.0f} on the log's own thread, "
@@ -241,14 +253,19 @@ def section_lines(counted: dict[str, Any]) -> list[str]:
                    f"{share} | {watched} |")
     es = rows.get("every-second")
     if es:
-        crc = es.get("watched", {}).get("crc32_z", 0.0)
+        crc = sum(es.get("watched", {}).get(k, 0.0) for k in CRC_WATCHED)
         state = es.get("watched", {}).get("CPyDef_batch___write_mover_state", 0.0)
         rest = es["log_whole"] - crc - state
+        per_byte = crc / max(es["log_bytes_per_move"], 1)
+        whose = (f"ISA-L's crc32 (python-isal) over those bytes (about {per_byte:.1f} a byte, its call's argument "
+                 "handling included: it folds with carry-less multiplication, as far as valgrind's model of the "
+                 "processor lets it)" if es.get("crc32", "zlib").startswith("isal") else
+                 f"zlib's crc32 over those bytes (about {per_byte:.1f} a byte: zlib 1.2.13, as Debian ships it, "
+                 "computes it without carry-less multiplication; python-isal was not installed)")
         out += ["", (f"What bounds the log's cost: every move writes its mover's whole state (224 bytes, with its id "
                      f"and seq 240) and checksums it. Of the {es['log_whole']:,.0f} instructions the log adds under "
-                     f"every-second, {crc:,.0f} are zlib's crc32 over those bytes (about "
-                     f"{crc / max(es['log_bytes_per_move'], 1):.1f} a byte: zlib 1.2.13, as Debian ships it, computes it "
-                     f"without carry-less multiplication) and {state:,.0f} the engine writing the state beside its row; the other "
+                     f"every-second, {crc:,.0f} are {whose} "
+                     f"and {state:,.0f} the engine writing the state beside its row; the other "
                      f"{rest:,.0f} are the copies and the Python around them (taking the rows' bytes, packing the "
                      "seqs, queuing the record, framing it). callgrind counts a `rep movsb` copy once per byte, "
                      "so the copies weigh more here than in time.")]
