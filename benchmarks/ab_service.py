@@ -231,7 +231,7 @@ def _interleave(children: dict[str, _BlockChild], rounds: int, block: int) -> di
 
 
 def run(other: Path, rounds: int, block: int, engine_root: Path | None) -> dict[str, Any]:
-    from .bench_service import Child, free_port, scene_file
+    from .service_harness import Child, free_port, scene_file
 
     if engine_root is not None and not (engine_root / "engine").is_dir():
         raise SystemExit(f"{engine_root} holds no engine/")

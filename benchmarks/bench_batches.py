@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .bench_service import Child, demo_scene, child_env, collect_reports, free_port
+from .service_harness import Child, child_env, collect_reports, demo_scene, free_port
 from .common import log
 
 __all__ = ["batch_workload", "batch_spots", "BATCH_MOVERS", "BATCH_STEP"]

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .bench_service import Child, child_env, free_port, scene_file
+from .service_harness import Child, child_env, free_port, scene_file
 from .common import log
 
 MOVERS_PER_SESSION = 20

@@ -140,7 +140,7 @@ def bus_paths(scene: Path, walker: Any, sets: Mapping[str, Sequence[Pair]],
 
     from clients import Client
 
-    from .bench_service import Child, free_port
+    from .service_harness import Child, free_port
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     load_before = _loadavg()

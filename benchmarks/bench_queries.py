@@ -10,7 +10,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from .bench_service import Child, demo_scene, free_port
+from .service_harness import Child, demo_scene, free_port
 from .common import log
 
 OPS = ("sight", "ray", "ground")

@@ -37,7 +37,6 @@ import contextlib
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -48,86 +47,12 @@ from typing import Any
 
 from . import common
 from .common import log, summary
+from .service_harness import (Child, bench_walker, child_env, collect_reports, free_port,
+                              scene_file, start_position)
 from .standins import NoEngine, StandInQuery, StandInSession
 
 ECHO_KEY = "acphys-bench/echo"
 ENGINE_ECHO_KEY = "acphys-bench/engine-echo"
-START_TIMEOUT = 30.0
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def child_env(engine_root: Path | None = None) -> dict[str, str]:
-    """The environment of a child: the repo on the path (after `engine_root`, whose engine then wins)."""
-    env = dict(os.environ)
-    first = [str(engine_root)] if engine_root is not None else []
-    env["PYTHONPATH"] = os.pathsep.join([*first, str(common.ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
-
-
-def _proc_cpu_seconds(pid: int) -> float:
-    with open(f"/proc/{pid}/stat", encoding="ascii") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
-def process_tree_cpu_seconds(pid: int) -> float:
-    """user + system CPU time of `pid` and of its children that are still running (read from /proc)."""
-    total = _proc_cpu_seconds(pid)
-    try:
-        with open(f"/proc/{pid}/task/{pid}/children", encoding="ascii") as f:
-            children = [int(c) for c in f.read().split()]
-    except OSError:  # a kernel without the children file: the parent alone
-        children = []
-    for child in children:
-        try:
-            total += _proc_cpu_seconds(child)
-        except OSError:  # it exited meanwhile
-            pass
-    return total
-
-
-class Child:
-    """A subprocess that prints `marker` when ready; stopped by SIGINT, then killed."""
-
-    def __init__(self, args: list[str], marker: str, engine_root: Path | None = None) -> None:
-        # `python -m` puts the working directory first on the path: the engine copy's root when given
-        self.proc = subprocess.Popen(args, cwd=engine_root or common.ROOT, env=child_env(engine_root),
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        self.output: list[str] = []
-        ready = threading.Event()
-
-        def pump() -> None:
-            assert self.proc.stdout is not None
-            for line in self.proc.stdout:
-                self.output.append(line)
-                if marker in line:
-                    ready.set()
-
-        threading.Thread(target=pump, daemon=True).start()
-        deadline = time.monotonic() + START_TIMEOUT
-        while not ready.wait(0.05):
-            if self.proc.poll() is not None or time.monotonic() > deadline:
-                self.stop()
-                raise RuntimeError(f"{args[:4]} did not start:\n" + "".join(self.output[-30:]))
-
-    def cpu_seconds(self) -> float:
-        """user + system CPU time so far of the process and its live children (`--workers`' engines)."""
-        return process_tree_cpu_seconds(self.proc.pid)
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
 
 
 # -- the bare echo ------------------------------------------------------------------------------
@@ -170,7 +95,7 @@ def engine_echo_main(port: int) -> None:
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     world = open_world(scene=str(scene_file()))
-    engine_id = world.add_mover(_walker(), start_position(0), None, None)
+    engine_id = world.add_mover(bench_walker(), start_position(0), None, None)
     last = [world.mover_state(engine_id).position]
     session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
 
@@ -189,33 +114,6 @@ def engine_echo_main(port: int) -> None:
     session.close()
 
 
-# -- the scene the service serves ----------------------------------------------------------------
-def scene_file() -> Path:
-    from .scenes import around, flat_heights, terrain_scene
-
-    common.OUT.mkdir(parents=True, exist_ok=True)
-    path = common.OUT / "bench-service-flat.json"
-    path.write_text(json.dumps(terrain_scene("bench-service-flat", flat_heights, around())))
-    return path
-
-
-def start_position(index: int, lb: int | None = None) -> Any:
-    """Mover `index`'s start, in landblock `lb` (XXYY; default the scene's centre)."""
-    from engine.geometry import Position, Vec3
-
-    from .scenes import LB, cell_at
-
-    block = LB if lb is None else lb << 16
-    x, y = 20.0 + 15.0 * (index % 10), 20.0 + 15.0 * (index // 10)
-    return Position.at(cell_at(block, x, y), Vec3(x, y, 50.0))
-
-
-def _walker() -> Any:
-    from .scenes import PLAYER
-
-    return PLAYER
-
-
 # -- throughput workers (own processes) -------------------------------------------------------------
 CLIENT_MODES = {
     "objects": "Client.move_many: every entry decoded into a MoverState",
@@ -231,7 +129,7 @@ def worker_main(endpoint: str, index: int, batch: int, start_at: float, seconds:
     from clients import Client, Move
 
     with Client([endpoint], timeout=30.0) as c:
-        mid = c.register(_walker(), start_position(index + 10, lb)).id
+        mid = c.register(bench_walker(), start_position(index + 10, lb)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         time.sleep(max(0.0, start_at - time.time()))
         cpu0 = time.process_time()
@@ -294,23 +192,6 @@ def watcher_main(endpoint: str) -> None:
     print(f"WATCHED {count[0]}", flush=True)
 
 
-def collect_reports(procs: list[subprocess.Popen[str]], timeout: float, what: str) -> list[dict[str, Any]]:
-    """Each worker process's `RESULT {json}` line, in order; every one killed if any overruns `timeout`."""
-    reports = []
-    for p in procs:
-        try:
-            out, err = p.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            for q in procs:
-                q.kill()
-            raise
-        lines = [ln for ln in out.splitlines() if ln.startswith("RESULT ")]
-        if p.returncode != 0 or not lines:
-            raise RuntimeError(f"{what} failed ({p.returncode}):\n{err[-2000:]}")
-        reports.append(json.loads(lines[-1][7:]))
-    return reports
-
-
 def throughput(endpoint: str, service: Child, processes: int, batch: int, seconds: float,
                mode: str = "objects", watched: bool = False, publish: str = "each",
                landblocks: tuple[int, ...] = ()) -> dict[str, Any]:
@@ -366,10 +247,6 @@ THROUGHPUT_RUNS = [
     (2, 100, "maps", True, "each"),
     (2, 100, "maps", True, "batch"),
 ]
-
-
-def demo_scene() -> Path:
-    return common.ROOT / "clients" / "demo" / "demo.json"
 
 
 # -- one service, 1 or more engine processes (`serve --workers N`) -----------------------------------------
@@ -463,7 +340,7 @@ def handling_main(moves: int) -> None:
         core = node.core
         assert core is not None
         start = start_position(0)
-        mid = core.register(parse_register({"v": 1, "mover": encode_mover_spec(_walker()),
+        mid = core.register(parse_register({"v": 1, "mover": encode_mover_spec(bench_walker()),
                                             "position": encode_position(start)}))["state"]["id"]
         key = node.keys.move(start.landblock)
         handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
@@ -556,8 +433,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
         if accounts_endpoint is not None:
             user = stack.enter_context(Client([accounts_endpoint], user=ACCOUNTS_USER, password=ACCOUNTS_PASSWORD,
                                               timeout=30.0))
-            user_mid = user.register(_walker(), start_position(0)).id
-        mid = c.register(_walker(), start_position(0)).id
+            user_mid = user.register(bench_walker(), start_position(0)).id
+        mid = c.register(bench_walker(), start_position(0)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
         # what one move request looks like on the wire: the echo carries as many bytes
         probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
@@ -680,11 +557,11 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
             if child is not None:
                 child.stop()
         users_dir.cleanup()
-    from .bench_batches import batch_workload  # it imports this module's helpers
+    from .bench_batches import batch_workload
 
     batches = batch_workload(quick, engine_root)
     workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
-    from .bench_spanning import spanning_batch  # it imports this module's helpers
+    from .bench_spanning import spanning_batch
 
     spanning = spanning_batch(scene, 60 if quick else 300) if engine_root is None else None
     return {"latency": lat, "throughput": rows, "batch_workload": batches, "workers": workers, "spanning": spanning,

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .bench_service import Child, free_port, scene_file, start_position, _walker
+from .service_harness import Child, bench_walker, free_port, scene_file, start_position
 from .common import log
 
 __all__ = ["spanning_batch", "SPANNING_MOVERS"]
@@ -44,7 +44,7 @@ def spanning_batch(scene: Path, rounds: int) -> dict[str, Any]:
     try:
         with Client([endpoint], timeout=30.0) as c:
             c.wait_ready()
-            halves = [[c.register(_walker(), start_position(k, lb)).id for k in range(SPANNING_MOVERS)] for lb in lbs]
+            halves = [[c.register(bench_walker(), start_position(k, lb)).id for k in range(SPANNING_MOVERS)] for lb in lbs]
             # each half out and back: the movers end each batch where they began
             batches = [(np.array(h + h, dtype=np.uint64),
                         np.array([[SPANNING_STEP, 0.0, 0.0]] * len(h) + [[-SPANNING_STEP, 0.0, 0.0]] * len(h)))
