@@ -19,28 +19,17 @@ import traceback
 
 from service.zconfig import zenoh_reason
 
+from .command_failed import FAILURE, USAGE, CommandFailed
 from .errors import NoServiceError, RequestTimeout, ServiceError
 
 __all__ = ["CommandFailed", "failure_message", "report_failure", "USAGE", "FAILURE", "TRACEBACK_ENV"]
 
-#: exit status of a command line that is wrong (argparse's own)
-USAGE = 2
-#: exit status of a command that could not do what it was asked
-FAILURE = 1
 #: set to 1 to see the traceback of an unforeseen error
 TRACEBACK_ENV = "ACPHYS_TRACEBACK"
 
 #: a Python exception's class name at the head of a message part ("OutOfRangeError: "), as older services
 #: still put in their error messages
 _CLASS_NAME = re.compile(r"\b[A-Z][A-Za-z0-9]*(Error|Exception): ")
-
-
-class CommandFailed(Exception):
-    """A command that cannot do what was asked: the message for the user and the exit status."""
-
-    def __init__(self, message: str, status: int = FAILURE) -> None:
-        super().__init__(message)
-        self.status = status
 
 
 def without_class_names(text: str) -> str:

@@ -6,20 +6,22 @@ comes as a command-line word, which every user of the machine can read in the pr
 first line of `--password-file`, else the `ACPHYS_PASSWORD` environment variable.
 
 Endpoints are checked as they are parsed (clients/endpoints.py); a session Zenoh will not open is a
-CommandFailed with Zenoh's reason and what was tried (clients/cli_failures.py).
+CommandFailed with Zenoh's reason and what was tried (clients/command_failed.py).
+The password's sources are clients/cli_password.py's.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 from typing import Any
 
 from service.wire import DEFAULT_PREFIX
 from service.zconfig import zenoh_reason
 
-from .cli_failures import USAGE, CommandFailed
+from .cli_password import password_of
+from .command_failed import USAGE, CommandFailed
 from .endpoints import connect_endpoint
+from .no_answer import tried
 
 __all__ = ["add_connection_arguments", "password_of", "connect_client"]
 
@@ -49,28 +51,11 @@ def seconds(text: str) -> float:
     return value
 
 
-def password_of(args: argparse.Namespace) -> str | None:
-    """--user's password (None without --user); CommandFailed with the reason when there is none to be had."""
-    if getattr(args, "user", None) is None:
-        return None
-    if getattr(args, "password_file", None):
-        try:
-            with open(args.password_file, encoding="utf-8") as f:
-                return f.readline().rstrip("\r\n")
-        except OSError as e:
-            raise CommandFailed(f"--password-file {args.password_file}: {e.strerror or e}") from None
-    password = os.environ.get("ACPHYS_PASSWORD")
-    if password is None:
-        raise CommandFailed("--user needs a password: --password-file FILE or ACPHYS_PASSWORD", USAGE)
-    return password
-
-
 def connect_client(args: argparse.Namespace) -> Any:
     """A Client as the connection options say (logged in with --user); CommandFailed when there is none."""
     import zenoh
 
     from .client import Client
-    from .no_answer import tried
 
     user = getattr(args, "user", None)
     password = password_of(args)

@@ -26,6 +26,7 @@ from typing import Any
 from service.wire import DEFAULT_PREFIX, user_prefix
 from service.zconfig import DEFAULT_ENDPOINT, make_config, zenoh_reason
 
+from .cli_password import password_of
 from .endpoints import host_port
 
 __all__ = ["explain_no_answer", "tried", "tcp_reachable"]
@@ -122,8 +123,6 @@ def _reached(args: argparse.Namespace, session: Any, key_prefix: str) -> str:
 def explain_no_answer(args: argparse.Namespace, what: str = "no service instance answered") -> str:
     """`what`, the endpoints and prefix tried, and the likely reason, as one message for the user."""
     import zenoh
-
-    from .connection import password_of
 
     user = getattr(args, "user", None)
     prefix = getattr(args, "prefix", DEFAULT_PREFIX)
