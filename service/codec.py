@@ -12,7 +12,7 @@ from typing import Any
 import msgpack
 
 from engine.geometry import Plane, Position, Quat, Vec3
-from engine.world.types import MoverSpec, MoveResult
+from engine import MoverSpec, MoveResult
 
 from .messages import MAX_SPHERES, MOVER_SPEC, PLANE, POSITION, STATE, TARGET
 

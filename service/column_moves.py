@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from engine import Mover, MoveResult
 from engine.world.batch import (
     MOTION,
     MOVER_STATE_BYTES,
@@ -31,9 +32,7 @@ from engine.world.batch import (
     append_row,
     run_batch,
 )
-from engine.world.mover import Mover
 from engine.world.rows import INTS_PER_ROW, REALS_PER_ROW, TRANSIENT_MASK, Status, int_columns, real_slices
-from engine.world.types import MoveResult
 
 from .codec import pack_state
 from .column_request import ColumnRequest

@@ -17,8 +17,7 @@ from typing import Any, Protocol
 import msgpack
 
 from engine.geometry import Plane, Position, Vec3
-from engine.world.rollback import MoveUndo
-from engine.world.types import MoverSpec, MoveResult
+from engine import MoverSpec, MoveResult, MoveUndo
 
 from .codec import encode_mover_spec, encode_state, encode_vec, pack_state
 from .engine_errors import to_protocol_error

@@ -31,7 +31,7 @@ from librt.strings import BytesWriter
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.batch import MOVER_STATE_BYTES, write_mover_state
-from engine.world.mover import Mover
+from engine import Mover
 from engine.world.transient import TS
 
 from .journal import Journal

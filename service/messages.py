@@ -19,7 +19,7 @@ from engine import limits
 from engine.constants import HUGE_QUANTUM
 from engine.errors import EngineError
 from engine.geometry import IDENTITY, Plane, Position, Quat, Vec3
-from engine.world.types import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
+from engine import CylSphereSpec, MoverSpec, MoveResult, ObjectState, SphereSpec
 
 from .errors import ProtocolError
 from .schema import Field, Map, Rule

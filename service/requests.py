@@ -29,7 +29,7 @@ from .messages import (
 from .schema_kinds import MAX_TAG_LEN, Tag
 from .validate import as_list, as_map, field_path
 from .wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
-from engine.world.types import MoverSpec
+from engine import MoverSpec
 
 __all__ = [
     "decode_envelope",

@@ -37,7 +37,7 @@ import msgpack
 
 from engine.geometry import Vec3
 from engine.world.batch import MOVER_STATE_BYTES
-from engine.world.types import MoverSpec
+from engine import MoverSpec
 
 from .codec import decode_mover_spec
 from .core import ServiceCore

@@ -29,7 +29,7 @@ from typing import Any
 import msgpack
 
 from engine.world.batch import MOVER_STATE_BYTES
-from engine.world.types import MoverSpec
+from engine import MoverSpec
 
 from .codec import decode_mover_spec, encode_mover_spec, encode_vec
 from .errors import ProtocolError

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.geometry import Position, Quat, Vec3
-from engine.queries.results import Blocker
+from engine import Blocker
 
 from ..codec import decode_plane, decode_position, encode_plane, encode_position, encode_vec
 

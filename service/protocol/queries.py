@@ -19,9 +19,7 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from engine.limits import MAX_PATH_DISTANCE, MAX_RAY_RADIUS, MAX_WANDER_RADIUS, MIN_SPHERE_RADIUS
-from engine.navigation.results import PathResult
-from engine.navigation.settings import REASONS
-from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
+from engine import REASONS, Ground, PathResult, PlacementResult, RayHit, SightResult
 
 from ..columns import Column, reply_columns
 from ..errors import ProtocolError
