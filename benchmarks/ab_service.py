@@ -40,7 +40,7 @@ ECHO_KEY = "acphys-bench/echo"  # bench_service.ECHO_KEY (not imported: the chil
 
 # -- children: run by file path, with a tree's service/clients/engine on the path ------------------------
 def _player() -> Any:
-    from engine.world.types import MoverSpec, SphereSpec
+    from engine import MoverSpec, SphereSpec
 
     return MoverSpec(spheres=[SphereSpec((0.0, 0.0, 0.48), 0.48), SphereSpec((0.0, 0.0, 1.35), 0.48)],
                      state=["Contact", "OnWalkable", "IsPlayer", "EdgeSlide"])
@@ -66,7 +66,7 @@ def handling_child(scene: str) -> None:
 
     from clients import Client, Move
     from engine.geometry import Position, Vec3
-    from engine.world.types import MoveResult
+    from engine import MoveResult
     from service.codec import encode_mover_spec, encode_position, pack_state
     from service.frames import state_message
     from service.node import NodeOptions, ServiceNode

@@ -301,7 +301,7 @@ def _client_part(moves: int) -> dict[str, Any]:
     session replaced by a stand-in that answers with a State as the service packs it."""
     from clients import Client
     from engine.geometry import Position, Vec3
-    from engine.world.types import MoveResult
+    from engine import MoveResult
     from service.codec import pack_state
     from service.frames import state_message
 

@@ -43,7 +43,7 @@ from clients.demo_world import global_to_cell
 from clients.errors import AcphysError
 from engine import load_scene
 from engine.geometry import Position, Vec3
-from engine.world.types import MoverSpec, SphereSpec
+from engine import MoverSpec, SphereSpec
 
 from .standins import SilentBus
 from service.column_moves import run_columns

@@ -23,9 +23,7 @@ from typing import Any
 
 import engine
 from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
-from engine.geometry import Frame, Quat
-from engine.geometry.precision import fl_vec
-from engine.geometry.single import to_single
+from engine.geometry import Frame, Quat, to_single
 
 from . import common
 
@@ -244,7 +242,7 @@ def trace_world(scene_file: str, settings: engine.EngineSettings) -> engine.Worl
 
 
 def _vec(v: Any) -> Vec3:
-    return fl_vec(Vec3(float(v[0]), float(v[1]), float(v[2])), True)
+    return Vec3(to_single(float(v[0])), to_single(float(v[1])), to_single(float(v[2])))
 
 
 def _quat(q: Any) -> Quat:

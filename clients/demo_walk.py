@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from engine.geometry import Position, Vec3
-from engine.world.types import MoverSpec, SphereSpec
+from engine import MoverSpec, SphereSpec
 
 from .client import Client
 from .demo_map import FLOOR_Z, PathPoint

@@ -22,8 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import clients
-from engine.navigation import results as path_results
-from engine.queries import results as query_results
+import engine
 from service.wire import ErrorKind
 
 __all__ = ["GUIDE", "PROTOCOL", "SECTION_TEXT", "documented_members", "error_kinds_table", "main", "render", "signature_text"]
@@ -76,10 +75,9 @@ SECTIONS: tuple[tuple[str, tuple[type, ...]], ...] = (
     ("Values the calls take and return", (clients.MoverState, clients.Move, clients.InstanceInfo,
                                           clients.SightQuery)),
     ("Batches in the column form", (clients.BatchResults, clients.QueryColumnResults)),
-    ("What the spatial queries answer (engine.queries)", (query_results.SightResult, query_results.RayHit,
-                                                           query_results.Ground, query_results.PlacementResult,
-                                                           query_results.Blocker)),
-    ("Paths", (path_results.PathResult,)),
+    ("What the spatial queries answer (engine.queries)", (engine.SightResult, engine.RayHit, engine.Ground,
+                                                           engine.PlacementResult, engine.Blocker)),
+    ("Paths", (engine.PathResult,)),
     ("Errors", (clients.AcphysError, clients.ServiceError, clients.BusyError, clients.RequestTimeout,
                 clients.NoServiceError)),
 )

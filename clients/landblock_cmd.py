@@ -106,7 +106,7 @@ def _print_summary(s: dict[str, Any], directory: str, scene: dict[str, Any], out
 
 def run_inspect(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """`acphys inspect`: print the landblock's summary; with --export, write it as a scene."""
-    from engine.formats.dat import DatCollection, DatError
+    from engine import DatCollection, DatError
 
     out = out if out is not None else sys.stdout
     lb_id: int = args.landblock
@@ -155,7 +155,7 @@ def _progress(items: list[int], enabled: bool) -> Iterator[int]:
 
 def _load_all(world: Any, ids: Iterable[int], progress: bool) -> tuple[int, int, list[str]]:
     """Load `ids` into `world`: (loaded, not in the dats, errors)."""
-    from engine.formats.dat import DatError
+    from engine import DatError
 
     source = world.dat_source
     loaded = missing = 0
@@ -174,8 +174,8 @@ def _load_all(world: Any, ids: Iterable[int], progress: bool) -> tuple[int, int,
 
 def run_load_region(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """`acphys load-region`: load every landblock of the rectangle the dats hold, then report."""
-    from engine.formats.dat import DatError
-    from engine.formats.dat_world import open_dat_world
+    from engine import DatError
+    from engine import open_dat_world
 
     out = out if out is not None else sys.stdout
     ids = region_ids(args.corner1, args.corner2)

@@ -16,8 +16,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from engine.navigation.results import PathResult
-from engine.world.types import MoverSpec
+from engine import MoverSpec, PathResult
 from service.command import positive_int
 
 from .cli_failures import USAGE, CommandFailed

@@ -21,9 +21,7 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 from engine.geometry import Position
-from engine.navigation.results import PathResult
-from engine.navigation.settings import DEFAULT_NAV
-from engine.world.types import MoverSpec
+from engine import DEFAULT_NAV, MoverSpec, PathResult
 from service.errors import ProtocolError
 from service.protocol import BATCH_FIELDS, MAX_PATH_BATCH, read_answer, write_answer, write_query
 from service.wire import ErrorKind

@@ -20,8 +20,7 @@ from functools import partial
 from typing import Any
 
 from engine.geometry import Position
-from engine.queries.results import Ground, PlacementResult, RayHit, SightResult
-from engine.world.types import MoverSpec
+from engine import Ground, MoverSpec, PlacementResult, RayHit, SightResult
 from service.codec import encode_mover_spec
 from service.protocol import BATCH_FIELDS, read_answer, write_query
 

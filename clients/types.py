@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from engine.geometry import Plane, Position, Vec3
-from engine.world.types import MoveResult
+from engine import MoveResult
 from service.codec import decode_state
 from service.messages import MOVE
 from service.wire import ErrorKind

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from engine.geometry import Position, Vec3
-from engine.navigation.results import PathResult
+from engine import PathResult
 
 __all__ = ["PathBook", "PathEntry", "outdoor_position", "parse_path_words"]
 
