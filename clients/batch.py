@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -32,9 +32,7 @@ from service.columns import (
 from service.wire import ErrorKind
 
 from .errors import AcphysError, ServiceError
-
-if TYPE_CHECKING:
-    from .client import Client, PendingRequest
+from .request_channel import PendingRequest, RequestChannel
 
 __all__ = ["BatchResults", "move_batch"]
 
@@ -181,7 +179,7 @@ def _keep_collisions(idx: Array, cols: dict[str, Array], collide: list[tuple[int
         collide.append((int(idx[j]), ids[ends[j] - int(counts[j]):ends[j]]))
 
 
-def _learn_landblocks(client: Client, lb: int, ids: Array, idx: Array, cols: dict[str, Array]) -> None:
+def _learn_landblocks(client: RequestChannel, lb: int, ids: Array, idx: Array, cols: dict[str, Array]) -> None:
     """Remember the landblock each resolved item of a reply to `lb`'s request ended in. The usual reply
     (every item resolved, none left `lb`) changes nothing the client knew, and is checked as such with
     three array operations instead of a dictionary update per item."""
@@ -189,7 +187,7 @@ def _learn_landblocks(client: Client, lb: int, ids: Array, idx: Array, cols: dic
     resolved = (cols["flags"] & Flag.RESOLVED) != 0
     if resolved.all() and (landblocks == lb).all():
         return
-    client._where.update(zip(ids[idx[resolved]].tolist(), landblocks[resolved].tolist()))
+    client.known_landblocks.update(zip(ids[idx[resolved]].tolist(), landblocks[resolved].tolist()))
 
 
 def _whole(cols: dict[str, Array]) -> BatchResults:
@@ -200,11 +198,11 @@ def _whole(cols: dict[str, Array]) -> BatchResults:
     return made
 
 
-def _groups(client: Client, pending: Sequence[int], id_list: list[int], out_errors: dict[int, AcphysError]
+def _groups(client: RequestChannel, pending: Sequence[int], id_list: list[int], out_errors: dict[int, AcphysError]
             ) -> dict[int, list[int]]:
     """The items of `pending` by the landblock each mover was last seen in (asking where unknown); an
     item whose mover cannot be found gets its error in `out_errors`."""
-    where = client._where
+    where = client.known_landblocks
     # the first attempt (range(n)) sends every item: their landblocks looked up in one C loop
     seen = list(map(where.get, id_list)) if isinstance(pending, range) else [where.get(id_list[i]) for i in pending]
     first = seen[0] if seen else None
@@ -253,7 +251,7 @@ def _reindexed(err: ServiceError, sent: int, given: int) -> ServiceError:
     return type(err)(err.kind, err.message.replace(err.path, path), path, {**err.details, "path": path})
 
 
-def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None,
+def move_batch(client: RequestChannel, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None,
                dt: Any = None, *, cells: Any = None, orientations: Any = None, velocities: Any = None,
                publish: str | None = None, timeout: float | None = None) -> BatchResults:
     """See `Client.move_batch`."""
@@ -276,10 +274,10 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
             if publish is not None:
                 body["publish"] = publish
             # every landblock's request on its way before any reply is read: their instances work at once
-            sent.append((lb, members, whole, idx, client._send(client.keys.move(lb), body, timeout)))
+            sent.append((lb, members, whole, idx, client.send_request(client.keys.move(lb), body, timeout)))
         for lb, members, whole, idx, request in sent:
             try:
-                cols, reply_errors = _read_reply(client._receive(request), len(members))
+                cols, reply_errors = _read_reply(client.receive_reply(request), len(members))
             except AcphysError as e:
                 for i in members:
                     errors[i] = e
@@ -301,7 +299,7 @@ def move_batch(client: Client, ids: Any, offsets: Any = None, targets: Any = Non
                 target = err_map.get("landblock") if isinstance(err_map, dict) else None
                 if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
                         and attempt < _MAX_REDIRECTS:
-                    client._where[id_list[i]] = target
+                    client.known_landblocks[id_list[i]] = target
                     retry.append(i)
                     continue
                 errors[i] = _reindexed(ServiceError.from_wire(err_map), j, i)

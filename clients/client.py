@@ -20,21 +20,20 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
-import msgpack
 import zenoh
 
 from engine.geometry import Plane, Position, Vec3
 from engine.world.types import MoverSpec
 from service.codec import encode_mover_spec
 from service.messages import REGISTER, RegisterRequest
-from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind, Keys, user_prefix
+from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, ErrorKind, Keys, user_prefix
 from service.zconfig import DEFAULT_ENDPOINT, make_config
 
 from .batch import BatchResults, move_batch
 from .paths import PathQueries
+from .request_channel import PendingRequest, pack_request, read_reply, send_query, unpack_message
 from .spatial import SpatialQueries
 from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
 from .types import InstanceInfo, Move, MoverState, item_result
@@ -58,24 +57,6 @@ SETTLE_S = 0.5
 
 
 _encode_register = REGISTER.encode_fn()
-
-
-def _pack(content: dict[str, Any]) -> bytes:
-    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
-
-
-def _unpack(data: bytes) -> Any:
-    return msgpack.unpackb(data, raw=False, strict_map_key=False)
-
-
-@dataclass(slots=True)
-class PendingRequest:
-    """A request on its way (`Client._send`): the key it went to, Zenoh's receiver of its replies, and
-    the seconds it may take."""
-
-    key: str | zenoh.KeyExpr
-    replies: Any
-    timeout: float
 
 
 class Subscription:
@@ -187,7 +168,9 @@ class Client(SpatialQueries, PathQueries):
                        if not (session is not None and not self._own_session) else "on the session given")
         self._tried += f", prefix '{prefix}'" + (f", user '{user}'" if user is not None else "")
         self._opened = time.monotonic()  # a young session may not have met every instance yet (SETTLE_S)
-        self._where: dict[int, int] = {}
+        #: mover id -> the landblock (0xXXYY) the client last saw it in: what `landblock_of` reads, every State
+        #: received updates, and a batch records where its movers ended (clients/request_channel.py)
+        self.known_landblocks: dict[int, int] = {}
         # fire-and-forget keeps one route per mover: the old owner forwards after a hand-over,
         # in order, where switching keys mid-stream could overtake moves still in flight
         self._push_route: dict[int, int] = {}
@@ -210,7 +193,7 @@ class Client(SpatialQueries, PathQueries):
 
     # -- plumbing -------------------------------------------------------------------
     def _learn(self, st: MoverState) -> MoverState:
-        self._where[st.id] = st.landblock
+        self.known_landblocks[st.id] = st.landblock
         return st
 
     def locate(self, mover_id: int, landblock: int) -> None:
@@ -218,12 +201,12 @@ class Client(SpatialQueries, PathQueries):
         not seen (e.g. registered by another client): its requests then go to that landblock's key at
         once, without `find` asking every instance. Asks nothing of the service; a wrong landblock is
         corrected by the service's `moved` / `wrong_landblock` answer, which the client follows."""
-        self._where[mover_id] = landblock
+        self.known_landblocks[mover_id] = landblock
 
     def landblock_of(self, mover_id: int) -> int:
         """The landblock (0xXXYY) mover `mover_id` is in, as last seen in any State the client received;
         asks every instance (`find`) when it has not been seen. Raises what `find` raises."""
-        lb = self._where.get(mover_id)
+        lb = self.known_landblocks.get(mover_id)
         if lb is None:
             lb = self.find(mover_id).landblock
         return lb
@@ -238,15 +221,15 @@ class Client(SpatialQueries, PathQueries):
         self._settle()
         for r in self._replies_of_all(self.keys.lb("*", "get"), {"id": mover_id}, timeout):
             if r.ok is not None:
-                msg = _unpack(r.ok.payload.to_bytes())
+                msg = unpack_message(r.ok.payload.to_bytes())
                 return self._learn(MoverState.from_wire(msg["state"]))
             try:
-                errors.append(ServiceError.from_wire(_unpack(r.err.payload.to_bytes())["error"]))
+                errors.append(ServiceError.from_wire(unpack_message(r.err.payload.to_bytes())["error"]))
             except Exception:
                 continue
         for e in errors:
             if e.kind == ErrorKind.MOVED and isinstance(e.details.get("landblock"), int):
-                self._where[mover_id] = e.details["landblock"]
+                self.known_landblocks[mover_id] = e.details["landblock"]
                 return self.get(mover_id, timeout)[0]
         if errors:
             raise errors[0]
@@ -263,49 +246,31 @@ class Client(SpatialQueries, PathQueries):
 
     def _replies_of_all(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None) -> list[Any]:
         """Every instance's reply to one query (`key` may match many)."""
-        return list(self.session.get(key, payload=_pack(content), timeout=self.timeout if timeout is None else timeout,
+        return list(self.session.get(key, payload=pack_request(content), timeout=self.timeout if timeout is None else timeout,
                                      target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE))
 
-    def _send(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> PendingRequest:
-        """Put one request to the instance serving `key` on the bus and return at once (Zenoh gathers its
-        reply meanwhile): a batch sends every landblock's request before it reads any reply, so that the
-        instances (or `--workers`' engines) serving them work at the same time."""
-        wait = self.timeout if timeout is None else timeout
-        return PendingRequest(key, self.session.get(key, payload=_pack(content), timeout=wait), wait)
+    def send_request(self, key: str | zenoh.KeyExpr, content: dict[str, Any],
+                     timeout: float | None = None) -> PendingRequest:
+        """Plumbing: put one request to the instance serving `key` on the bus and return at once (Zenoh
+        gathers its reply meanwhile): a batch sends every landblock's request before it reads any reply,
+        so that the instances (or `--workers`' engines) serving them work at the same time."""
+        return send_query(self.session, key, content, self.timeout if timeout is None else timeout)
 
-    def _receive(self, pending: PendingRequest) -> dict[str, Any]:
-        """The reply map of a request `_send` sent (waiting for it), or an exception."""
-        key, timeout = pending.key, pending.timeout
-        replies = list(pending.replies)
-        if not replies:
-            hint = "" if self.user is not None else "; a service run with accounts also needs user= and password="
-            raise NoServiceError(f"no service answers on {key} ({self._tried}{hint})")
-        r = replies[0]
-        if r.ok is not None:
-            msg = _unpack(r.ok.payload.to_bytes())
-            if not isinstance(msg, dict):
-                raise ServiceError(ErrorKind.MALFORMED, f"unreadable reply on {key}")
-            return msg
-        raw = r.err.payload.to_bytes()
-        try:
-            err = _unpack(raw)["error"]
-        except Exception:
-            text = raw.decode("utf-8", "replace")
-            if "timeout" in text.lower():
-                raise RequestTimeout(f"no answer on {key} within {timeout} s") from None
-            raise ServiceError(ErrorKind.MALFORMED, f"unreadable error reply on {key}: {text}") from None
-        raise ServiceError.from_wire(err)
+    def receive_reply(self, pending: PendingRequest) -> dict[str, Any]:
+        """Plumbing: the reply map of a request `send_request` sent (waiting for it), or the AcphysError
+        it says."""
+        return read_reply(pending, self._tried, self.user is not None)
 
     def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
         """One request to the instance serving `key`: its reply map, or an exception."""
         try:
-            return self._receive(self._send(key, content, timeout))
+            return self.receive_reply(self.send_request(key, content, timeout))
         except NoServiceError:
             # nobody had it (so sending again repeats nothing); a young session may not have met the instance
             # serving `key` yet (SETTLE_S): once it has, ask again
             if not self._settle():
                 raise
-            return self._receive(self._send(key, content, timeout))
+            return self.receive_reply(self.send_request(key, content, timeout))
 
     def _settle(self) -> bool:
         """Wait until the session is SETTLE_S old (it has met every instance); whether it had to wait."""
@@ -327,7 +292,7 @@ class Client(SpatialQueries, PathQueries):
                     raise
                 lb = target
                 if mover_id is not None:
-                    self._where[mover_id] = lb
+                    self.known_landblocks[mover_id] = lb
         return self._request(self.keys.lb(lb, op), content, timeout)
 
     def _all(self, key: str, timeout: float | None, settle: bool = True) -> list[InstanceInfo]:
@@ -338,7 +303,7 @@ class Client(SpatialQueries, PathQueries):
         for r in self._replies_of_all(key, {}, timeout):
             if r.ok is None:
                 continue
-            msg = _unpack(r.ok.payload.to_bytes())
+            msg = unpack_message(r.ok.payload.to_bytes())
             if isinstance(msg, dict):
                 out.append(InstanceInfo(str(msg.get("instance", "?")), msg))
         return out
@@ -389,7 +354,7 @@ class Client(SpatialQueries, PathQueries):
         """Remove mover `mover_id` from the world; the client forgets where it was. Raises ServiceError
         (`unknown_mover` when no instance holds it), NoServiceError, RequestTimeout."""
         self._lb_request(self.landblock_of(mover_id), "remove", {"id": mover_id}, mover_id, timeout)
-        self._where.pop(mover_id, None)
+        self.known_landblocks.pop(mover_id, None)
         self._push_route.pop(mover_id, None)
 
     def get(self, mover_id: int, timeout: float | None = None) -> tuple[MoverState, dict[str, Any]]:
@@ -502,10 +467,10 @@ class Client(SpatialQueries, PathQueries):
                 body: dict[str, Any] = {"moves": [moves[i].to_wire() for i in idx]}
                 if publish is not None:
                     body["publish"] = publish
-                sent.append((idx, self._send(self._lb_key(lb, "move"), body, timeout)))
+                sent.append((idx, self.send_request(self._lb_key(lb, "move"), body, timeout)))
             for idx, pending_request in sent:
                 try:
-                    reply = self._receive(pending_request)
+                    reply = self.receive_reply(pending_request)
                 except AcphysError as e:
                     for i in idx:
                         results[i] = e
@@ -516,7 +481,7 @@ class Client(SpatialQueries, PathQueries):
                     for i in idx:
                         results[i] = err
                     continue
-                where = self._where
+                where = self.known_landblocks
                 for i, entry in zip(idx, entries):
                     if type(entry) is not dict:
                         results[i] = ServiceError(ErrorKind.MALFORMED, f"unreadable entry in reply: {entry!r:.80}")
@@ -584,7 +549,7 @@ class Client(SpatialQueries, PathQueries):
             body: dict[str, Any] = {"move": items[0]} if len(items) == 1 else {"moves": items}
             if publish is not None:
                 body["publish"] = publish
-            payload = _pack(body)
+            payload = pack_request(body)
             if len(payload) > MAX_PAYLOAD:
                 # the service would refuse it; and a put this large may be dropped on the way by Zenoh's
                 # congestion control (DROP, the default for puts) without anyone hearing of it
@@ -608,7 +573,7 @@ class Client(SpatialQueries, PathQueries):
 
         def on_sample(sample: zenoh.Sample) -> None:
             try:
-                st = MoverState.from_wire(_unpack(sample.payload.to_bytes())["state"])
+                st = MoverState.from_wire(unpack_message(sample.payload.to_bytes())["state"])
             except Exception:
                 log.warning("unreadable state on %s", sample.key_expr)
                 return
@@ -624,7 +589,7 @@ class Client(SpatialQueries, PathQueries):
 
         def on_sample(sample: zenoh.Sample) -> None:
             try:
-                states = [MoverState.from_wire(m) for m in _unpack(sample.payload.to_bytes())["states"]]
+                states = [MoverState.from_wire(m) for m in unpack_message(sample.payload.to_bytes())["states"]]
             except Exception:
                 log.warning("unreadable states on %s", sample.key_expr)
                 return
@@ -643,7 +608,7 @@ class Client(SpatialQueries, PathQueries):
 
         def on_sample(sample: zenoh.Sample) -> None:
             try:
-                msg = _unpack(sample.payload.to_bytes())
+                msg = unpack_message(sample.payload.to_bytes())
                 callback(msg.get("id"), ServiceError.from_wire(msg["error"]))
             except Exception:
                 log.warning("unreadable error message on %s", sample.key_expr)

@@ -22,10 +22,11 @@ RESOLVED = Flag.RESOLVED | Flag.OK
 
 
 class StandInClient:
-    """What move_batch uses of a Client: `_where`, `keys`, `landblock_of`, `_send` and `_receive`."""
+    """What move_batch uses of a Client (clients/request_channel.py's RequestChannel): `known_landblocks`, `keys`,
+    `landblock_of`, `send_request` and `receive_reply`."""
 
     def __init__(self, where: dict[int, int], holder: dict[int, int], collide: dict[int, list[int]]) -> None:
-        self._where = dict(where)
+        self.known_landblocks = dict(where)
         self.keys = Keys("t")
         self.holder = holder  # mover id -> the landblock that really holds it
         self.collide = collide  # mover id -> ids it collides with on every move
@@ -33,14 +34,14 @@ class StandInClient:
         self.log: list[str] = []  # "send XX" and "receive XX", in the order they happened
 
     def landblock_of(self, mover_id: int) -> int:
-        return self._where[mover_id]
+        return self.known_landblocks[mover_id]
 
-    def _receive(self, pending: tuple[int, dict[str, Any]]) -> dict[str, Any]:
+    def receive_reply(self, pending: tuple[int, dict[str, Any]]) -> dict[str, Any]:
         lb, reply = pending
         self.log.append(f"receive {lb:X}")
         return reply
 
-    def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
+    def send_request(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
         """The reply, worked out when the request is sent (as the service starts on it then)."""
         lb = int(key.split("/")[2], 16)
         self.log.append(f"send {lb:X}")
@@ -105,14 +106,14 @@ def test_a_moved_item_is_sent_again_where_the_error_says() -> None:
     assert r.origin[:, 0].tolist() == [1.0, 2.0]
     assert (r.flags & Flag.RESOLVED).tolist() == [Flag.RESOLVED, Flag.RESOLVED]
     assert r.collide_ids.tolist() == [5, 6]
-    assert c._where == {1: 0x10, 2: 0x20}
+    assert c.known_landblocks == {1: 0x10, 2: 0x20}
 
 
 def test_a_mover_that_keeps_moving_away_ends_as_its_error() -> None:
     class Restless(StandInClient):
-        def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
+        def send_request(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
             self.holder[2] += 1  # handed on before each request arrives
-            return super()._send(key, body, timeout)
+            return super().send_request(key, body, timeout)
 
     c = Restless({1: 0x10, 2: 0x10}, {1: 0x10, 2: 0x10}, {})
     r = move_batch(c, [1, 2], offsets=[[1.0, 0, 0], [2.0, 0, 0]])
@@ -125,8 +126,8 @@ def test_a_move_that_ends_in_another_landblock_is_remembered_there() -> None:
     class Crossing(StandInClient):
         """Mover 2's move ends in landblock 0x11, which the instance serving 0x10 also holds."""
 
-        def _send(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
-            lb, reply = super()._send(key, body, timeout)
+        def send_request(self, key: str, body: dict[str, Any], timeout: float | None) -> tuple[int, dict[str, Any]]:
+            lb, reply = super().send_request(key, body, timeout)
             cols = reply["columns"]
             cells = unpack_column(REPLY_BY_NAME["cell"], cols["cell"], reply["n"]).copy()
             ids = unpack_column(REQUEST_BY_NAME["id"], body["columns"]["id"], reply["n"]).tolist()
@@ -137,7 +138,7 @@ def test_a_move_that_ends_in_another_landblock_is_remembered_there() -> None:
     c = Crossing({1: 0x10, 2: 0x10, 3: 0x10}, {1: 0x10, 2: 0x10, 3: 0x10}, {})
     r = move_batch(c, [1, 2, 3], offsets=[[1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]])
     assert r.landblock.tolist() == [0x10, 0x11, 0x10]
-    assert c._where == {1: 0x10, 2: 0x11, 3: 0x10}
+    assert c.known_landblocks == {1: 0x10, 2: 0x11, 3: 0x10}
     # the next batch goes to where each mover is now
     c.holder[2] = 0x11
     move_batch(c, [1, 2], offsets=[[1.0, 0, 0], [2.0, 0, 0]])

@@ -1,0 +1,95 @@
+"""The client's request plumbing, below clients/client.py and clients/batch.py, which both use it.
+
+A request goes out in two halves so that a batch can put every landblock's request on the bus before it
+waits for any reply (the instances, or `--workers`' engines, serving them then work at the same time):
+`RequestChannel.send_request` returns a `PendingRequest` at once, `RequestChannel.receive_reply` waits
+for its reply map or raises what the reply says. `RequestChannel` is what a batch needs of a client
+(`Client` is one): the keys, the landblock each mover was last seen in, and those two halves.
+`send_query` and `read_reply` are the halves themselves, on a Zenoh session; `pack_request` and
+`unpack_message` the msgpack form of every message (docs/protocol.md, "Messages").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import msgpack
+import zenoh
+
+from service.wire import PROTOCOL_VERSION, ErrorKind, Keys
+
+from .errors import NoServiceError, RequestTimeout, ServiceError
+
+__all__ = ["PendingRequest", "RequestChannel", "pack_request", "unpack_message", "send_query", "read_reply"]
+
+
+def pack_request(content: dict[str, Any]) -> bytes:
+    """A request's payload: `content` with the protocol version, in msgpack."""
+    return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+
+
+def unpack_message(data: bytes) -> Any:
+    """A reply's or a publication's payload, read from msgpack (integer map keys kept)."""
+    return msgpack.unpackb(data, raw=False, strict_map_key=False)
+
+
+@dataclass(slots=True)
+class PendingRequest:
+    """A request on its way (`RequestChannel.send_request`): the key it went to, Zenoh's receiver of its
+    replies, and the seconds it may take."""
+
+    key: str | zenoh.KeyExpr
+    replies: Any
+    timeout: float
+
+
+def send_query(session: zenoh.Session, key: str | zenoh.KeyExpr, content: dict[str, Any],
+               timeout: float) -> PendingRequest:
+    """Put one request to the instance serving `key` on the bus and return at once (Zenoh gathers its
+    reply meanwhile)."""
+    return PendingRequest(key, session.get(key, payload=pack_request(content), timeout=timeout), timeout)
+
+
+def read_reply(pending: PendingRequest, tried: str, logged_in: bool) -> dict[str, Any]:
+    """The reply map of `pending` (waiting for it), or the exception it says: NoServiceError when nobody
+    answered (naming `tried`, where the client looked, and the login a service with accounts needs unless
+    `logged_in`), RequestTimeout, or the service's ServiceError."""
+    key, timeout = pending.key, pending.timeout
+    replies = list(pending.replies)
+    if not replies:
+        hint = "" if logged_in else "; a service run with accounts also needs user= and password="
+        raise NoServiceError(f"no service answers on {key} ({tried}{hint})")
+    r = replies[0]
+    if r.ok is not None:
+        msg = unpack_message(r.ok.payload.to_bytes())
+        if not isinstance(msg, dict):
+            raise ServiceError(ErrorKind.MALFORMED, f"unreadable reply on {key}")
+        return msg
+    raw = r.err.payload.to_bytes()
+    try:
+        err = unpack_message(raw)["error"]
+    except Exception:
+        text = raw.decode("utf-8", "replace")
+        if "timeout" in text.lower():
+            raise RequestTimeout(f"no answer on {key} within {timeout} s") from None
+        raise ServiceError(ErrorKind.MALFORMED, f"unreadable error reply on {key}: {text}") from None
+    raise ServiceError.from_wire(err)
+
+
+class RequestChannel(Protocol):
+    """What a batch needs of a client (`Client` is one): its keys, the landblock each mover was last seen
+    in, and a request's two halves."""
+
+    @property
+    def keys(self) -> Keys: ...
+
+    #: mover id -> the landblock (0xXXYY) it was last seen in; a batch updates it with where its movers ended
+    known_landblocks: dict[int, int]
+
+    def landblock_of(self, mover_id: int) -> int: ...
+
+    def send_request(self, key: str | zenoh.KeyExpr, content: dict[str, Any],
+                     timeout: float | None = None) -> PendingRequest: ...
+
+    def receive_reply(self, pending: PendingRequest) -> dict[str, Any]: ...
