@@ -15,6 +15,7 @@ from engine.geometry import Plane, Position, Quat, Vec3
 from engine import MoverSpec, MoveResult
 
 from .messages import MAX_SPHERES, MOVER_SPEC, PLANE, POSITION, STATE, TARGET
+from .packing import make_packer
 
 __all__ = [
     "decode_position",
@@ -93,7 +94,7 @@ def encode_plane(p: Plane | None) -> dict[str, Any] | None:
 #: `pack_state(mover_id, seq, r, collide_ids, tag=None)`: the State's msgpack bytes, written from STATE's
 #: fields (floats as float64; ids, seq, cell and landblock in fixed-width integers, as msgpack allows;
 #: the tag, when given, last). This runs once per move.
-pack_state = STATE.packer("mover_id, seq, r, collide_ids, tag=None")
+pack_state = make_packer(STATE, "mover_id, seq, r, collide_ids, tag=None")
 
 
 def encode_state(mover_id: int, seq: int, r: MoveResult, collide_ids: list[int],

@@ -5,8 +5,8 @@ input, before anything runs), what work it becomes (a closure run with the engin
 the reply), how many items it holds, and when that work may run in the callback itself instead of on
 the engine thread: `"small"` when it holds at most `NodeOptions.inline_max_moves` items, `"always"` for
 the one-mover operations, `"never"` for those that may take long (a landblock read from disk, a path
-building its graph). ServiceNode (service/node.py) is the only caller; the bus, the queue and the
-replies stay there.
+building its graph). ServiceNode (service/node.py) is the only caller, through what NodePort names;
+the bus, the queue and the replies stay there.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Any, Final, Literal
+from typing import TYPE_CHECKING, Any, Final, Literal, Protocol
 
 import msgpack
 
@@ -26,14 +26,37 @@ from .requests import ItemError, parse_handover, parse_id, parse_moves, parse_re
 
 if TYPE_CHECKING:
     from .core import ServiceCore
-    from .node import ServiceNode
+    from .errors import ProtocolError
+    from .stats import ServiceStats
 
-__all__ = ["Operation", "OPERATIONS", "Work"]
+__all__ = ["Operation", "OPERATIONS", "Work", "NodePort"]
 
 #: the work of a request: run with the engine lock held, it returns the reply (a map, or its packed bytes)
 Work = Callable[[], "dict[str, Any] | bytes"]
+
+
+class _PathOptions(Protocol):
+    path_work: int
+
+
+class NodePort(Protocol):
+    """What the operations need of the node that runs them (service/node.py's ServiceNode)."""
+
+    @property
+    def core(self) -> ServiceCore | None: ...
+    @property
+    def stats(self) -> ServiceStats: ...
+    @property
+    def options(self) -> _PathOptions: ...
+
+    def column_work(self, msg: dict[str, Any], received: float, lb: int | None) -> Callable[[], bytes]: ...
+    def item_error(self, op: str, lb: int | None, err: ProtocolError, index: int, mover_id: int | None) -> None: ...
+    def query_item_errors(self, op: str, lb: int | None, content: dict[str, Any]) -> dict[str, Any]: ...
+    def world_changed(self, answer: dict[str, Any]) -> dict[str, Any]: ...
+
+
 #: (node, the key's landblock or None for a wildcard, the request map, when it arrived) -> its work
-Prepare = Callable[["ServiceNode", "int | None", "dict[str, Any]", float], Work]
+Prepare = Callable[[NodePort, "int | None", "dict[str, Any]", float], Work]
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +73,7 @@ class Operation:
     changes_world: bool = False
 
 
-def _core(node: ServiceNode) -> ServiceCore:
+def _core(node: NodePort) -> ServiceCore:
     core = node.core
     assert core is not None, "the node is not started"
     return core
@@ -69,7 +92,7 @@ def _move_count(msg: dict[str, Any]) -> int:
     return len(moves) if isinstance(moves, list) else 1
 
 
-def _moves(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _moves(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     if is_column_request(msg):
         return node.column_work(msg, received, lb)
     core = _core(node)
@@ -94,39 +117,39 @@ def _moves(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: flo
 
 
 # -- movers and landblocks ----------------------------------------------------------------------------------
-def _register(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _register(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     return partial(_core(node).register, parse_register(msg))
 
 
-def _update(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _update(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     return partial(_core(node).update, *parse_update(msg))
 
 
-def _remove(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _remove(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     return partial(_core(node).remove, parse_id(msg))
 
 
-def _get(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _get(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     return partial(_core(node).get, parse_id(msg))
 
 
-def _load(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _load(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     core, landblock = _core(node), _literal(lb)
     return lambda: node.world_changed(core.load(landblock))
 
 
-def _unload(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _unload(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     core, landblock = _core(node), _literal(lb)
     return lambda: node.world_changed(core.unload(landblock))
 
 
-def _handover(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+def _handover(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
     return partial(_core(node).handover_in, parse_handover(msg))
 
 
 # -- queries ------------------------------------------------------------------------------------------------
 def _query(op: str) -> Prepare:
-    def prepare(node: ServiceNode, lb: int | None, msg: dict[str, Any], received: float) -> Work:
+    def prepare(node: NodePort, lb: int | None, msg: dict[str, Any], received: float) -> Work:
         core = _core(node)
         work = query_work(op, lb, msg, core.world, lambda i, path: core.engine_id(i, path), core.wire_id,
                           path_work=node.options.path_work)

@@ -9,17 +9,16 @@ bytes decode to exactly the map the declaration's `encode_fn` gives.
 from __future__ import annotations
 
 from collections.abc import Callable
-from struct import Struct
 from typing import Any
 
 import msgpack
 
 from .schema import Field, Map
-from .schema_kinds import Kind, Quaternion, SourceGen, Vector
+from .schema_kinds import Kind, Packed, Quaternion, SourceGen, Vector
 
-__all__ = ["Packed", "make_packer"]
+__all__ = ["make_packer"]
 
-_NIL, _TRUE, _FALSE = b"\xc0", b"\xc3", b"\xc2"
+_NIL = b"\xc0"
 
 
 def make_packer(m: Map, args: str) -> Callable[..., bytes]:
@@ -82,84 +81,6 @@ def _pack_value(g: SourceGen, kind: Kind, src: str, out: Packed, hoist: bool) ->
         kind.pack(g, _hoisted(g, src, out, hoist), out)
     else:
         kind.pack(g, src, out)
-
-
-class Packed:
-    """Bytes being put together: runs of constants and fixed-size values become one Struct each."""
-
-    def __init__(self, g: SourceGen) -> None:
-        self.g = g
-        self.parts: list[str] = []
-        self.pre: list[str] = []  # statements the parts need first (locals)
-        self._fmt = ""
-        self._args: list[str] = []
-        self._consts: set[str] = set()
-        self._flags: dict[int, str] = {}  # argument index: the boolean it packs
-
-    def const(self, b: bytes) -> None:
-        if b:
-            if self._args and self._args[-1] in self._consts:  # one constant, not two beside each other
-                b = self.take_prefix() + b
-            self._fmt += f"{len(b)}s"
-            name = self.g.const(b, "B")
-            self._consts.add(name)
-            self._args.append(name)
-
-    def flag(self, cond: str) -> None:
-        """A boolean: one byte, true or false."""
-        self._fmt += "B"
-        self._args.append(f"(0xC3 if {cond} else 0xC2)")
-        self._flags[len(self._args) - 1] = cond
-
-    def fixed(self, prefix: bytes, code: str, value: str) -> None:
-        self.const(prefix)
-        self._fmt += code
-        self._args.append(value)
-
-    def take_prefix(self) -> bytes:
-        """The constant bytes at the end of the pending run, taken out of it (the next piece includes them)."""
-        taken = b""
-        while self._args and self._args[-1] in self._consts:
-            name = self._args.pop()
-            b = self.g.ns[name]
-            self._fmt = self._fmt[: -len(f"{len(b)}s")]
-            taken = b + taken
-        return taken
-
-    def expr(self, e: str) -> None:
-        self._flush()
-        self.parts.append(e)
-
-    def _flush(self) -> None:
-        if not self._args:
-            return
-        if all(a in self._consts for a in self._args):  # constants only
-            self.parts.append(self.g.const(b"".join(self.g.ns[a] for a in self._args), "B"))
-        elif len(self._flags) <= 3 and all(a in self._consts or i in self._flags for i, a in enumerate(self._args)):
-            # constants and a few booleans: every combination packed once, looked up
-            table = {}
-            for bits in range(1 << len(self._flags)):
-                values = dict(zip(self._flags, ((bits >> k) & 1 == 1 for k in range(len(self._flags)))))
-                table[tuple(values.values())] = b"".join(
-                    (_TRUE if values[i] else _FALSE) if i in values else self.g.ns[a] for i, a in enumerate(self._args))
-            conds = list(self._flags.values())
-            if len(conds) == 1:
-                t = self.g.const(table[(True,)], "B")
-                f = self.g.const(table[(False,)], "B")
-                self.parts.append(f"({t} if {conds[0]} else {f})")
-            else:
-                self.parts.append(f"{self.g.const(table, 'flags')}[{', '.join(f'bool({c})' for c in conds)}]")
-        else:
-            s = self.g.const(Struct(">" + self._fmt).pack, "pack")
-            self.parts.append(f"{s}({', '.join(self._args)})")
-        self._fmt, self._args = "", []
-        self._consts, self._flags = set(), {}
-
-    def join(self) -> str:
-        self._flush()
-        if len(self.parts) <= 2:
-            return " + ".join(self.parts) if self.parts else "b''"
-        return f"b''.join(({', '.join(self.parts)},))"
 
 
 def _packb(value: Any) -> bytes:

@@ -10,7 +10,7 @@ a nested map). From that one declaration (service/messages.py holds every map-fo
   usual shape only (floats as floats, known keys only) and returns None for anything else, so the full
   reader decides and names the field. It runs the same checks and builds the same value;
 - `Map.encode(obj)`: the msgpack-ready map of a value (generated too: one dict display per map);
-- `Map.packer(...)`: for the per-move State, a function that writes the msgpack bytes directly
+- `packing.make_packer(map, ...)`: for the per-move State, a function that writes the msgpack bytes directly
   (service/packing.py), generated from the same fields;
 - `Field.doc_type` and `Map.required_names`: what docs/protocol.md's tables are checked against
   (tests/test_service_schema.py).
@@ -292,9 +292,3 @@ class Map(Kind):
 
     def encode(self, g: SourceGen, src: str) -> str:
         return f"{g.const(self.encode_fn(), 'enc')}({src})"
-
-    def packer(self, args: str) -> Callable[..., bytes]:
-        """A function of `args` writing this map's msgpack bytes directly (service/packing.py)."""
-        from .packing import make_packer  # the packer generator needs this module's kinds
-
-        return make_packer(self, args)
