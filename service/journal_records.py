@@ -65,6 +65,13 @@ def mover_state_bytes(mover: Mover) -> bytes:
     return w.getvalue()
 
 
+def _transient_flag(bit: int) -> Any:
+    """A read-only property: whether the state's transient bits have `bit` (engine.world.transient.TS)."""
+    def read(self: MoverState) -> bool:
+        return bool(self.transient & bit)
+    return property(read)
+
+
 class MoverState:
     """A mover's state decoded from MOVER_STATE_BYTES bytes."""
 
@@ -86,21 +93,10 @@ class MoverState:
         self.held_time: float = v[24]
         self.held_motion = Vec3(v[25], v[26], v[27])
 
-    @property
-    def contact(self) -> bool:
-        return bool(self.transient & TS.CONTACT)
-
-    @property
-    def on_walkable(self) -> bool:
-        return bool(self.transient & TS.ON_WALKABLE)
-
-    @property
-    def sliding(self) -> bool:
-        return bool(self.transient & TS.SLIDING)
-
-    @property
-    def water_contact(self) -> bool:
-        return bool(self.transient & TS.WATER_CONTACT)
+    contact = _transient_flag(TS.CONTACT)
+    on_walkable = _transient_flag(TS.ON_WALKABLE)
+    sliding = _transient_flag(TS.SLIDING)
+    water_contact = _transient_flag(TS.WATER_CONTACT)
 
 
 def decode_state(raw: bytes) -> MoverState:
