@@ -25,7 +25,7 @@ from typing import Any
 import zenoh
 
 from engine.geometry import Plane, Position, Vec3
-from engine.world.types import MoverSpec
+from engine import MoverSpec
 from service.codec import encode_mover_spec
 from service.messages import REGISTER, RegisterRequest
 from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, ErrorKind, Keys, user_prefix
