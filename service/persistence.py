@@ -129,6 +129,11 @@ class Persistence:
 
         def run(core: ServiceCore) -> None:
             loaded = self._loaded
+            if loaded is not None and loaded.movers and node.options.accept_handovers:
+                # a session just opened may not reach the others yet (its links come up, their keys' routes
+                # arrive, a peer it does not connect to itself retries after a pause): a question asked then
+                # reaches nobody, and a mover another instance took would be put back here too
+                _await_cluster(node.session, node.keys, IN_DOUBT_WAIT)
             if loaded is not None and loaded.movers and loaded.in_doubt and node.options.accept_handovers:
                 taken = _taken_elsewhere(node.session, node.keys, loaded.in_doubt)
                 loaded.movers = [m for m in loaded.movers if m.handover.id not in taken]
@@ -269,9 +274,24 @@ def _taken_elsewhere(session: zenoh.Session, keys: Keys, in_doubt: dict[int, int
     return taken
 
 
+def _await_cluster(session: zenoh.Session, keys: Keys, timeout: float) -> bool:
+    """Wait until some other instance of the cluster answers Health (this one has declared no key yet, so any
+    answer is another's), for up to `timeout` seconds; whether one did. A cluster whose other instances are all
+    down costs a start this long."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if any(r.ok is not None for r in session.get(keys.health, timeout=1.0)):
+            return True
+        time.sleep(0.2)
+    log.warning("no other instance of the cluster answered within %.0f s: the saved movers are restored without "
+                "asking whether one holds them now", timeout)
+    return False
+
+
 def held_elsewhere(session: zenoh.Session, keys: Keys, mover_ids: list[int], timeout: float = 2.0) -> set[int]:
     """Which of `mover_ids` an instance answering on `session` holds now (asked before this instance
-    declares its keys, so every answer is another's). Only instances connected by then are asked."""
+    declares its keys, so every answer is another's). Only instances connected by then are asked: the start
+    first waits for the cluster to answer at all (_await_cluster)."""
     held: set[int] = set()
     lock = threading.Lock()
     pending = threading.Semaphore(0)
