@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
 import statistics
 import subprocess
 import sys
@@ -180,13 +179,9 @@ class _Service:
         threading.Thread(target=lambda: [None for _ in self.proc.stdout or ()], daemon=True).start()
 
     def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
+        from .service_harness import interrupt
+
+        interrupt(self.proc)
 
 
 class _BlockChild:

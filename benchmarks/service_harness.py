@@ -25,7 +25,7 @@ from typing import Any
 
 from . import common
 
-__all__ = ["Child", "START_TIMEOUT", "bench_walker", "child_env", "collect_reports", "demo_scene", "free_port",
+__all__ = ["Child", "START_TIMEOUT", "bench_walker", "child_env", "collect_reports", "demo_scene", "free_port", "interrupt",
            "process_tree_cpu_seconds", "scene_file", "start_position"]
 
 #: seconds a child has to print its ready marker
@@ -99,13 +99,18 @@ class Child:
         return process_tree_cpu_seconds(self.proc.pid)
 
     def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
+        interrupt(self.proc)
+
+
+def interrupt(proc: subprocess.Popen[str]) -> None:
+    """Stop a service as Ctrl-C does (SIGINT: it drains and exits); killed if it has not within 15 s."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
 
 
 def collect_reports(procs: list[subprocess.Popen[str]], timeout: float, what: str) -> list[dict[str, Any]]:
