@@ -119,6 +119,16 @@ class PathQueries:
             return start.landblock
         return self.landblock_of(walker)
 
+    def _ask_one(self, op: str, lb: int, item: dict[str, Any], mover_id: int | None, timeout: float | None,
+                 keep_asking: bool) -> PathResult:
+        """One path-answered query (`path`, `random_point`) on landblock `lb`'s key, asked again while it is
+        answered "building" (at most MAX_BUILDING_ASKS times) when `keep_asking`."""
+        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
+            result = read_path_answer(self._lb_request(lb, op, {"v": 1, op: item}, mover_id, timeout=timeout)[op])
+            if result.reason != "building":
+                break
+        return result
+
     def path(self, walker: MoverSpec | int, start: Position | None, goal: Position, *,
              max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
              timeout: float | None = None, keep_asking: bool = True) -> PathResult:
@@ -161,13 +171,7 @@ class PathQueries:
         _check_walker(walker, start, "path")
         item = _path_item(walker, start, goal, max_distance, budget, avoid_movers)
         mover_id = None if isinstance(walker, MoverSpec) else walker
-        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
-            reply = self._lb_request(self._start_landblock(walker, start), _OP, {"v": 1, _OP: item}, mover_id,
-                                     timeout=timeout)
-            result = read_path_answer(reply[_OP])
-            if result.reason != "building":
-                break
-        return result
+        return self._ask_one(_OP, self._start_landblock(walker, start), item, mover_id, timeout, keep_asking)
 
     def paths(self, walker: MoverSpec | int, pairs: Sequence[tuple[Position | None, Position]], *,
               max_distance: float | None = None, budget: int | None = None, avoid_movers: bool = False,
@@ -226,14 +230,8 @@ class PathQueries:
         spec = walker if isinstance(walker, MoverSpec) else None
         item = write_query("random_point", mover=spec, id=None if spec is not None else walker, near=near, radius=radius,
                            seed=seed, budget=budget, avoid_movers=True if avoid_movers else None)
-        mover_id = None if spec is not None else walker
-        for _ in range(MAX_BUILDING_ASKS if keep_asking else 1):
-            reply = self._lb_request(self._start_landblock(walker, near), "random_point",
-                                     {"v": 1, "random_point": item}, mover_id, timeout=timeout)
-            result = read_path_answer(reply["random_point"])
-            if result.reason != "building":
-                break
-        return result
+        mover_id = None if isinstance(walker, MoverSpec) else walker
+        return self._ask_one("random_point", self._start_landblock(walker, near), item, mover_id, timeout, keep_asking)
 
     def follow(self, mover_id: int, waypoints: Sequence[Position], *, timeout: float | None = None) -> Followed:
         """Walk registered mover `mover_id`, standing at `waypoints[0]`, along a path's waypoints, as the
