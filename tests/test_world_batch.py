@@ -76,7 +76,7 @@ def _expected_row(r: Any) -> tuple[list[float], list[int]]:
             "StationaryStop": 32, "StationaryStuck": 64}
     transient = sum(bits[name] for name in r.transient_state)
     ints = [r.position.cell_id, status, transient, TRANSITION_STATES.index(r.transition_state),
-            r.frames_stationary_fall or 0, r.contact_plane_cell or 0, len(r.collide_objects)]
+            r.frames_stationary_fall or 0, r.contact_plane_cell or 0, len(r.collide_objects), r.seq]
     return [o.x, o.y, o.z, q.w, q.x, q.y, q.z, *plane, *cn, *sn], ints
 
 

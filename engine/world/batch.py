@@ -21,13 +21,15 @@ from the result's unboxed double, with no Python float or list made for it.
 - `ints`, INTS_PER_ROW int64s a row: cell id, Status bits, the
   transient-state bits (engine.world.transient.TS), the transition state's
   index in TRANSITION_STATES, frames_stationary_fall, contact_plane_cell,
-  and how many collided-object ids the row adds to `collide_ids`.
+  how many collided-object ids the row adds to `collide_ids`, and the
+  result's seq (the mover's move count after the move, Mover.seq), so that
+  a reader has every row's seq as one column.
 
 The layout is engine.world.rows's (ROW_REALS, ROW_INTS, Status), a leaf that
 readers of the rows import without this module's machinery.
 
 A row whose item did not run (no mover given, the mover refused the move)
-holds NaN and zeros with Status.RESOLVED clear.
+holds NaN and zeros (seq 0 among them) with Status.RESOLVED clear.
 """
 
 from __future__ import annotations
@@ -184,6 +186,7 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
     write_i64_le(ints, stationary_fall)
     write_i64_le(ints, plane_cell)
     write_i64_le(ints, len(collide))
+    write_i64_le(ints, r.seq)
     rows.count += 1
     if collide:
         rows.collide_ids.extend(collide)
@@ -291,7 +294,8 @@ def run_batch(
     the item) gets an empty row and an entry in `rows.errors`. `stop_if(landblock id)` is asked of
     each result's landblock: when it says True the batch stops with that item's result in
     `rows.results` but no row written, and returns the item's index (the caller decides, then goes on
-    from the next index; `rows.undo` takes that item's move back). Returns len(movers) when every item
+    from the next index; the mover's seq already counts the move, and `rows.undo` takes the move back,
+    seq and last result included). Returns len(movers) when every item
     has run."""
     n = len(movers)
     results = rows.results

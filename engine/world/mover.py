@@ -34,7 +34,7 @@ from ..transition.state import OI
 from ..transition.sphere_path import ScaledSpheres
 from ..transition.transition import Transition, take_transition
 from .transient import TS
-from .types import CylSphereSpec
+from .types import CylSphereSpec, MoveResult
 
 if TYPE_CHECKING:
     from ..cells.broad_phase import ShapeBounds
@@ -87,6 +87,8 @@ class Mover:
         "held_time",
         "held_motion",
         "scaled_spheres",
+        "seq",
+        "last",
         "__weakref__",
     )
 
@@ -150,6 +152,11 @@ class Mover:
         #: `spheres` as its transitions move them (made by the first move, again when spheres, scale or
         #: precision change: the list is replaced, never edited in place)
         self.scaled_spheres: ScaledSpheres | None = None
+        #: how many moves and steps have resolved for this mover (engine.world.moves counts them; a caller
+        #: restoring a mover sets it), and the last one's result (None before the first): the per-mover
+        #: bookkeeping a server keeps to order and resend a mover's results, kept where the move happens
+        self.seq = 0
+        self.last: MoveResult | None = None
 
     # -- velocity (PhysicsObj.set_velocity / calc_acceleration) -------------
     def set_velocity(self, velocity: Vec3) -> None:

@@ -1,8 +1,13 @@
 """One checked move or physics step of a mover: what World.move and World.step run.
 
 The checks at the door (engine.limits), the snapshot that undoes a move
-that raises (rollback), and the move itself (resolve.move_mover) or the
-client's update_object time ladder (quantum.split_elapsed). Compiled with
+that raises (rollback), the move itself (resolve.move_mover) or the
+client's update_object time ladder (quantum.split_elapsed), and the
+mover's move count: every move or step that resolves here (a MoveResult,
+NoTransition included) adds one to Mover.seq, keeps its result as
+Mover.last and carries the new count in MoveResult.seq; one that raises
+counts nothing. Both World.move/step and the batch pass here, so the count
+is the same whichever way a mover is moved. Compiled with
 the rest of the per-move path, so World.move, World.step and the batch
 entry point (engine.world.batch) pay no interpreted glue per move.
 """
@@ -25,7 +30,7 @@ __all__ = ["move_checked", "step_checked"]
 def move_checked(landscape: Landscape, mover: Mover, target: Position, velocity: Vec3 | None) -> MoveResult:
     """Move `mover` toward `target` (PhysicsObj.SetPosition through a transition) after checking the
     target (and `velocity`, the mover's velocity for this move only; None keeps its own). A move that
-    raises leaves the mover as it was."""
+    raises leaves the mover as it was (its seq and last too); one that resolves is counted."""
     limits.check_position(target, "target")
     landscape.check_position(target)
     if velocity is not None:
@@ -40,20 +45,31 @@ def move_checked(landscape: Landscape, mover: Mover, target: Position, velocity:
         raise
     if velocity is not None:
         mover.velocity = snapshot.velocity  # the given velocity was this move's only
+    # counted once it can no longer raise (written out: a call per move costs more than these lines)
+    seq = mover.seq + 1
+    mover.seq = seq
+    result.seq = seq
+    mover.last = result
     return result
 
 
 def step_checked(landscape: Landscape, mover: Mover, motion: Vec3, dt: float) -> MoveResult:
     """`dt` seconds of `mover`'s time with its own motion `motion` (PhysicsObj.update_object), after
-    checking both. A step that raises leaves the mover as it was."""
+    checking both. A step that raises leaves the mover as it was. However many physics steps `dt`
+    runs (none, one or several quanta), the step counts as one move."""
     limits.check_motion(motion, "motion")
     limits.check_dt(dt, "dt")
     snapshot = MoverSnapshot(mover)
     try:
-        return _spend(landscape, mover, motion, dt)
+        result = _spend(landscape, mover, motion, dt)
     except BaseException:
         snapshot.restore()
         raise
+    seq = mover.seq + 1  # (as in move_checked)
+    mover.seq = seq
+    result.seq = seq
+    mover.last = result
+    return result
 
 
 def _spend(landscape: Landscape, mover: Mover, motion: Vec3, dt: float) -> MoveResult:

@@ -70,7 +70,8 @@ def _object_id(obj: Any) -> int:
 
 def move_result(mover: Mover, ok: bool, state: str, t: Transition | None) -> MoveResult:
     """What a move did. Collision normal and the stationary-fall counter are the
-    transition's own; a move that ran no transition has neither."""
+    transition's own; a move that ran no transition has neither. `seq` is the mover's count as it
+    stands: the checked move (engine.world.moves) that counts this one sets the new count."""
     ts = mover.transient
     collision_normal: Vec3 | None = None
     frames_stationary_fall: int | None = None
@@ -99,4 +100,6 @@ def move_result(mover: Mover, ok: bool, state: str, t: Transition | None) -> Mov
         frames_stationary_fall,
         transient_names(ts),
         collide_objects,
+        None,
+        mover.seq,  # a move's count is set where it is counted (engine.world.moves)
     )

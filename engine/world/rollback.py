@@ -33,7 +33,11 @@ __all__ = ["MoverSnapshot", "MoveUndo"]
 class MoverSnapshot:
     """The mutable state of one mover at one moment: the slots a transition, SetPositionInternal or a
     physics step writes. Every value is immutable or replaced, never edited in place, so keeping the
-    references is a full copy. Taken on every move: plain attribute reads, compiled (setup.py)."""
+    references is a full copy. Taken on every move: plain attribute reads, compiled (setup.py).
+
+    Not the move count (Mover.seq, Mover.last): engine.world.moves counts a move only once it can no
+    longer raise, so a move that raises never changed them; MoveUndo, which takes back moves that ended,
+    keeps them."""
 
     __slots__ = ("mover", "position", "cell", "transient", "contact_plane", "contact_plane_cell_id",
                  "sliding_normal", "velocity", "acceleration", "missile", "colliding_with_environment",
@@ -73,13 +77,16 @@ class MoverSnapshot:
 class MoveUndo:
     """A mover as it stands, shadows included: `restore()` after a move that ended puts it back exactly
     (the mover's slots, and its obstacle in the same cells' shadow lists at the same places, so that
-    other movers test it in the same order as before). Taken only before moves that may be refused after
+    other movers test it in the same order as before; its move count and last result too). Taken only before moves that may be refused after
     they ended (a hand-over: engine.world.batch.run_batch's `stop_if`, the service's moves)."""
 
-    __slots__ = ("snapshot", "shadow_cells", "shadow_slots", "shadow_after")
+    __slots__ = ("snapshot", "seq", "last", "shadow_cells", "shadow_slots", "shadow_after")
 
     def __init__(self, mover: Mover) -> None:
         self.snapshot = MoverSnapshot(mover)
+        #: the move count and last result: a refused move is no move, so neither counts it
+        self.seq = mover.seq
+        self.last = mover.last
         self.shadow_cells: list[ObjCell] = list(mover.shadow_cells)
         #: in each of those cells' lists (oldest first): the mover's place, and the object just before it
         #: (None: it was first), which it goes back behind if the list changed meanwhile
@@ -106,3 +113,5 @@ class MoveUndo:
                 objects.insert(slot, obstacle)
         mover.shadow_cells = list(self.shadow_cells)
         self.snapshot.restore()
+        mover.seq = self.seq
+        mover.last = self.last

@@ -18,11 +18,12 @@ ROW_REALS: Final = (("origin", 3), ("orientation", 4), ("contact_plane", 4), ("c
                     ("sliding_normal", 3))
 #: a row's ints, in order: the cell id, the Status bits, the transient-state bits (engine.world.transient.TS,
 #: the named ones: TRANSIENT_MASK), the transition state's index in TRANSITION_STATES,
-#: frames_stationary_fall, contact_plane_cell, and how many collided-object ids the row adds
+#: frames_stationary_fall, contact_plane_cell, how many collided-object ids the row adds, and the result's
+#: seq (MoveResult.seq: the mover's move count after this move, at least 1; 0 in a row whose item did not run)
 ROW_INTS: Final = ("cell", "status", "transient", "transition_state", "frames_stationary_fall",
-                   "contact_plane_cell", "collide_count")
+                   "contact_plane_cell", "collide_count", "seq")
 REALS_PER_ROW: Final = 17
-INTS_PER_ROW: Final = 7
+INTS_PER_ROW: Final = 8
 
 #: MoveResult.transition_state values; a row holds the index.
 TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")

@@ -111,6 +111,10 @@ class MoveResult:
     collide_objects: list[int]
     #: for placements: "OK", "NoValidPosition" or "NoCell(lost)"; None for moves
     placement_result: str | None
+    #: the mover's move count (Mover.seq) after this move; a result that is no move (a placement,
+    #: World.mover_state) carries the count as it stands. Lets a caller order a mover's results and
+    #: resume its count after a restart without keeping one of its own.
+    seq: int
 
     # Written out rather than generated: a dataclass's generated __init__ is interpreted even in the
     # compiled engine, and one is built per move (about a third of a microsecond each).
@@ -118,7 +122,7 @@ class MoveResult:
                  contact_plane: Plane | None, contact_plane_cell: int | None, collision_normal: Vec3 | None,
                  sliding_normal: Vec3 | None, water_contact: bool, frames_stationary_fall: int | None,
                  transient_state: list[str], collide_objects: list[int] | None = None,
-                 placement_result: str | None = None) -> None:
+                 placement_result: str | None = None, seq: int = 0) -> None:
         self.ok = ok
         self.position = position
         self.transition_state = transition_state
@@ -133,3 +137,4 @@ class MoveResult:
         self.transient_state = transient_state
         self.collide_objects = [] if collide_objects is None else collide_objects
         self.placement_result = placement_result
+        self.seq = seq

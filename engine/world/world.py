@@ -200,10 +200,11 @@ class World:
         del self.movers[mover_id]
 
     def update_mover(self, mover_id: int, spec: MoverSpec) -> None:
-        """Change a mover's shape and flags, keeping its position and contact state."""
+        """Change a mover's shape and flags, keeping its position, contact state and move count (seq, last)."""
         old = self.mover(mover_id)
         new = mover_from_spec(mover_id, spec)  # checks the spec: a refused one changes nothing
-        for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion"):
+        for name in ("position", "cell", "transient", "contact_plane", "contact_plane_cell_id", "sliding_normal", "velocity", "acceleration", "held_time", "held_motion",
+                     "seq", "last"):
             setattr(new, name, getattr(old, name))
         shadows.remove_shadows(old)
         self.movers[mover_id] = new
@@ -223,6 +224,8 @@ class World:
         return velocity
 
     def mover_state(self, mover_id: int) -> MoveResult:
+        """The mover as it stands, as a NoTransition result carrying its move count (`seq`) as it is:
+        asking is no move, so it counts nothing (Mover.seq and Mover.last stay)."""
         return move_result(self.mover(mover_id), True, "NoTransition", None)
 
     # -- moves ----------------------------------------------------------------------
