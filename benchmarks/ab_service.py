@@ -66,12 +66,12 @@ def handling_child(scene: str) -> None:
     from clients import Client, Move
     from engine.geometry import Position, Vec3
     from engine import MoveResult
-    from service.codec import encode_mover_spec, encode_position, pack_state
-    from service.frames import state_message
-    from service.node import NodeOptions, ServiceNode
-    from service.requests import parse_register
+    from service.protocol.codec import encode_mover_spec, encode_position, pack_state
+    from service.protocol.frames import state_message
+    from service.bus.node import NodeOptions, ServiceNode
+    from service.protocol.requests import parse_register
     from service.world_source import open_world
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
     from standins import NoEngine, StandInQuery, StandInSession  # benchmarks/ is this script's directory
 
     node = ServiceNode(open_world(scene=scene), make_config(listen=[]), NodeOptions())
@@ -117,7 +117,7 @@ def client_child(service_endpoint: str, echo_endpoint: str, index: int) -> None:
     import zenoh
 
     from clients import Client, Move
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     with Client([service_endpoint], timeout=30.0) as c:
         mid = c.register(_player(), _start(index)).id

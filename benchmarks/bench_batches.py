@@ -58,7 +58,7 @@ BARE_KEY = "acphys-bench/batches/bare"
 
 def batch_spots(world: Any) -> list[tuple[Any, Any, int]]:
     """(position on the ground, its contact plane, cell) of every mover: a 10 x 10 grid 8 m apart."""
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Plane, Position, Vec3
 
     out = []
@@ -128,8 +128,8 @@ def _column_request_bytes(ids: list[int]) -> bytes:
     """A column request moving each of `ids` +0.25 m then -0.25 m, as Client.move_batch packs it."""
     import numpy as np
 
-    from service.columns import REQUEST_COLUMNS, pack_columns
-    from service.frames import pack
+    from service.protocol.columns import REQUEST_COLUMNS, pack_columns
+    from service.protocol.frames import pack
 
     offsets = np.zeros((2 * len(ids), 3))
     offsets[:len(ids), 0], offsets[len(ids):, 0] = BATCH_STEP, -BATCH_STEP
@@ -141,8 +141,8 @@ def _column_reply_size(n: int) -> int:
     """The bytes of a column reply of n items with no errors and no collisions."""
     import numpy as np
 
-    from service.columns import REPLY_COLUMNS, pack_columns
-    from service.frames import pack
+    from service.protocol.columns import REPLY_COLUMNS, pack_columns
+    from service.protocol.frames import pack
 
     cols = pack_columns(REPLY_COLUMNS, {c.name: np.zeros((n,) if c.width == 1 else (n, c.width)) for c in REPLY_COLUMNS})
     cols["collide_ids"] = b""
@@ -160,7 +160,7 @@ def batch_bare_main(endpoint: str) -> None:
 
     from engine import load_scene
     from engine.world.batch import OFFSET, BatchRows, run_batch
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     from .scenes import PLAYER
 
@@ -188,7 +188,7 @@ def _bare_worker(endpoint: str, index: int, start_at: float, seconds: float) -> 
     """Raw gets of this process's column request to the bare queryable, the replies read as bytes only."""
     import zenoh
 
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     share = BATCH_MOVERS // BATCH_PROCESSES
     payload = _column_request_bytes(list(range(index * share + 1, (index + 1) * share + 1)))

@@ -9,7 +9,7 @@
   number of column moves and of single moves.
 - Restart time with a log of 1 M and 10 M moves (written by the log's own writer, in records of 100 moves
   of 1000 movers, as column batches leave them; and 1 M in records of one move, as single moves leave
-  them): the replay alone (service.state_replay.load_saved, in this process) and an `acphys serve` start
+  them): the replay alone (service.persistence.state_replay.load_saved, in this process) and an `acphys serve` start
   until it answers (replay, restore, compaction, Python and Zenoh start), against a start without state.
 - Kills: benchmarks/durability_kills.py's random SIGKILLs under each policy, with its checks.
 """
@@ -39,7 +39,7 @@ BATCH = 100
 
 
 def _register_movers(c: Any, n: int) -> list[int]:
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
 
     from .durability_kills import player_spec
@@ -247,15 +247,15 @@ def _inprocess(policy: str, requests: int) -> dict[str, Any]:
 
     import engine
     import service.column_moves as cm
-    import service.journal as jm
-    from service.column_request import parse_column_request
-    from service.journal_records import MoverLog
+    import service.persistence.journal as jm
+    from service.protocol.column_request import parse_column_request
+    from service.persistence.journal_records import MoverLog
 
     from .durability_kills import Mirror
 
     mirror = Mirror()
     core = mirror.core
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
 
     for k in range(MOVERS):
@@ -309,10 +309,10 @@ def _inprocess(policy: str, requests: int) -> dict[str, Any]:
 def make_log(state: Path, moves: int, per_record: int, movers: int = MOVERS) -> int:
     """A log of `movers` registers then `moves` moves in records of `per_record`, written by the log's own
     writer (policy never: written, not synced); its size in bytes."""
-    from clients.demo_world import global_to_cell
-    from service.codec import encode_mover_spec
-    from service.journal import Journal
-    from service.journal_records import MOVES, RECORD_HEAD, REGISTER, mover_state_bytes
+    from clients.demo.world import global_to_cell
+    from service.protocol.codec import encode_mover_spec
+    from service.persistence.journal import Journal
+    from service.persistence.journal_records import MOVES, RECORD_HEAD, REGISTER, mover_state_bytes
 
     from .durability_kills import player_spec
 
@@ -351,7 +351,7 @@ def make_log(state: Path, moves: int, per_record: int, movers: int = MOVERS) -> 
 
 def measure_restarts(sizes: list[tuple[int, int]], engine_root: Path | None) -> list[dict[str, Any]]:
     """Per (moves, moves per record): the log's size, the replay alone and a service start until ready."""
-    from service.state_replay import load_saved
+    from service.persistence.state_replay import load_saved
 
     rows = []
     base = _start_seconds(None, engine_root)

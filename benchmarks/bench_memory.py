@@ -10,7 +10,7 @@ moves (about 5 KB each, over Zenoh's 3 KiB shared-memory threshold), removes
 its movers and leaves. The service's RSS is read from /proc once a second.
 
 Two runs: the service as shipped (its Zenoh shared-memory transport off,
-service/zconfig.py) and, shorter, the same service given a config file that
+service/bus/zconfig.py) and, shorter, the same service given a config file that
 switches the shared-memory transport on, which is how it ran before: it
 kept every departed client's 16 MiB pool mapped.
 

@@ -27,7 +27,7 @@ def _player() -> Any:
 
 def _demo() -> Any:
     import engine
-    from clients.demo_world import demo_scene_path
+    from clients.demo.world import demo_scene_path
 
     return engine.load_scene(demo_scene_path())
 
@@ -301,7 +301,7 @@ def run(quick: bool, bus: bool = True) -> dict[str, Any]:
     over_bus: dict[str, Any] | None = None
     if bus:
         log("navigation: the demo world's path queries over the bus")
-        from clients.demo_world import demo_scene_path
+        from clients.demo.world import demo_scene_path
 
         try:
             over_bus = bus_paths(demo_scene_path(), _player(), demo_sets, queries)

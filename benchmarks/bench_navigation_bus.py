@@ -53,8 +53,8 @@ def _column_body(walker: Any, pairs: Sequence[Pair]) -> dict[str, Any]:
     """One column request of these pairs (all starting in one landblock)."""
     import numpy as np
 
-    from service.codec import encode_mover_spec
-    from service.columns import pack_columns
+    from service.protocol.codec import encode_mover_spec
+    from service.protocol.columns import pack_columns
     from service.protocol import QUERY_COLUMNS
 
     arrays = {
@@ -69,7 +69,7 @@ def _column_body(walker: Any, pairs: Sequence[Pair]) -> dict[str, Any]:
 
 def _column_found(reply: dict[str, Any], n: int) -> int:
     """How many of a column reply's `n` items were found (flags bit `found`)."""
-    from service.columns import unpack_column
+    from service.protocol.columns import unpack_column
     from service.protocol import QUERY_COLUMNS
 
     spec = QUERY_COLUMNS[_COLUMN_OP]

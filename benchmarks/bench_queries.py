@@ -18,7 +18,7 @@ OPS = ("sight", "ray", "ground")
 
 def _queries(world: Any, n: int) -> list[tuple[Any, Any]]:
     """n segments between points 1.6 m over the demo land, 5 to 40 m apart (some cross hills)."""
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
 
     rng = random.Random(14)

@@ -60,7 +60,7 @@ def echo_main(port: int) -> None:
     """Run a queryable that answers every query with its own payload, until SIGINT/SIGTERM."""
     import zenoh
 
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -89,7 +89,7 @@ def engine_echo_main(port: int) -> None:
 
     from engine.geometry import Vec3
     from service.world_source import open_world
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -162,9 +162,9 @@ def watcher_main(endpoint: str) -> None:
     (a P/states message's from its array header); print the count."""
     import zenoh
 
-    from service.frames import states_message
-    from service.wire import Keys
-    from service.zconfig import make_config
+    from service.protocol.frames import states_message
+    from service.protocol.wire import Keys
+    from service.bus.zconfig import make_config
 
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
@@ -260,7 +260,7 @@ def workers_scaling(scene: Path, counts: tuple[int, ...] = (1, 2), clients: int 
     landblocks that the largest N gives to different workers) against `serve --workers N` for each N; each
     side's CPU use (cores)."""
     from service.ownership import Ownership
-    from service.workers import scene_landblocks
+    from service.scaleout.workers import scene_landblocks
 
     # one landblock of each share of the largest split: every worker gets movers, and each run the same ones
     spread = tuple(min(p.landblocks or ()) for p in Ownership().split(max(counts), scene_landblocks(str(scene))))
@@ -302,8 +302,8 @@ def _client_part(moves: int) -> dict[str, Any]:
     from clients import Client
     from engine.geometry import Position, Vec3
     from engine import MoveResult
-    from service.codec import pack_state
-    from service.frames import state_message
+    from service.protocol.codec import pack_state
+    from service.protocol.frames import state_message
 
     start = start_position(0)
     result = MoveResult(True, Position.at(start.cell_id, Vec3(20.0, 20.0, 50.0)), "OK", True, True, None,
@@ -327,11 +327,11 @@ def handling_main(moves: int) -> None:
     import msgpack
 
     from clients import Move
-    from service.codec import encode_mover_spec, encode_position
-    from service.node import NodeOptions, ServiceNode
-    from service.requests import parse_register
+    from service.protocol.codec import encode_mover_spec, encode_position
+    from service.bus.node import NodeOptions, ServiceNode
+    from service.protocol.requests import parse_register
     from service.world_source import open_world
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     node = ServiceNode(open_world(scene=str(scene_file())), make_config(listen=[f"tcp/127.0.0.1:{free_port()}"]),
                        NodeOptions())
@@ -401,7 +401,7 @@ def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
 
 
 # -- latency --------------------------------------------------------------------------------------
-#: the user of the service run with accounts beside the plain one (`serve --users`, service/accounts.py)
+#: the user of the service run with accounts beside the plain one (`serve --users`, service/security/accounts.py)
 ACCOUNTS_USER, ACCOUNTS_PASSWORD = "bench", "bench-password"
 
 
@@ -417,7 +417,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
     import zenoh
 
     from clients import Client, Move
-    from service.zconfig import make_config
+    from service.bus.zconfig import make_config
 
     # health: a bare get the service answers from its callback with no engine (its floor per request);
     # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part);

@@ -33,7 +33,7 @@ def spanning_batch(scene: Path, rounds: int) -> dict[str, Any]:
 
     from clients import Client
     from service.ownership import Ownership
-    from service.workers import scene_landblocks
+    from service.scaleout.workers import scene_landblocks
 
     lbs = [min(p.landblocks or ()) for p in Ownership().split(2, scene_landblocks(str(scene)))]
     endpoint = f"tcp/127.0.0.1:{free_port()}"

@@ -1,4 +1,4 @@
-"""Wire decoding: the service's home-grown schema (service/schema.py and the readers it generates) against
+"""Wire decoding: the service's home-grown schema (service/protocol/schema.py and the readers it generates) against
 msgspec Structs (benchmarks/wire_msgspec.py), on the same payloads, from the bytes to the values the service
 runs, in this process.
 
@@ -141,26 +141,26 @@ BAD_CASES: tuple[Case, ...] = (
 # -- the service's side ---------------------------------------------------------------------------------
 def current_single(payload: bytes) -> Any:
     """What the service's node does with `{"move": ...}`: the envelope, then parse_single_move."""
-    from service.requests import decode_envelope, parse_single_move
+    from service.protocol.requests import decode_envelope, parse_single_move
 
     return parse_single_move(decode_envelope(payload))[0]
 
 
 def current_batch(payload: bytes) -> Any:
-    from service.requests import decode_envelope, parse_moves
+    from service.protocol.requests import decode_envelope, parse_moves
 
     return parse_moves(decode_envelope(payload))
 
 
 def current_columns(payload: bytes) -> Any:
-    from service.column_request import parse_column_request
-    from service.requests import decode_envelope
+    from service.protocol.column_request import parse_column_request
+    from service.protocol.requests import decode_envelope
 
     return parse_column_request(decode_envelope(payload))
 
 
 def _first_error(batch_or_columns: Any) -> tuple[str, str | None] | None:
-    from service.requests import ItemError
+    from service.protocol.requests import ItemError
 
     bad = getattr(batch_or_columns, "bad", None)
     if bad is not None:
@@ -173,8 +173,8 @@ def _first_error(batch_or_columns: Any) -> tuple[str, str | None] | None:
 
 def current_outcome(case: Case) -> tuple[str, str | None] | None:
     """The service's (kind, path) for a payload: its first error, or None when accepted."""
-    from service.errors import ProtocolError
-    from service.requests import decode_envelope, parse_register
+    from service.protocol.errors import ProtocolError
+    from service.protocol.requests import decode_envelope, parse_register
 
     try:
         if case.form == "register":
@@ -189,7 +189,7 @@ def candidate_outcome(case: Case) -> tuple[tuple[str, str | None] | None, str]:
     """msgspec's side: the mapped (kind, path), and msgspec's own message (or the post-pass's)."""
     import msgspec
 
-    from service.errors import ProtocolError
+    from service.protocol.errors import ProtocolError
 
     from . import wire_msgspec as w
 
@@ -245,7 +245,7 @@ def _candidate_fns() -> dict[str, dict[str, Callable[[bytes], Any]]]:
 
 def _same_result(form: str, payload: bytes) -> bool:
     """Whether msgspec's side builds what the service builds from `payload` (checked before timing)."""
-    from service.requests import ItemError
+    from service.protocol.requests import ItemError
 
     from . import wire_msgspec as w
 
@@ -335,7 +335,7 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     out += [METHOD.format(reps=data["reps"], msgspec=data.get("msgspec_version", "?"),
                           msgpack=data.get("msgpack_version", "?")), "",
             "µs per payload, median of the repetitions; \"service\" is `decode_envelope` and then "
-            "`parse_single_move` / `parse_moves` / `parse_column_request`, as service/node.py runs them; "
+            "`parse_single_move` / `parse_moves` / `parse_column_request`, as service/bus/node.py runs them; "
             "\"msgspec\" decodes each move of a batch on its own (`list[msgspec.Raw]`, then a `Decoder(Move)` per "
             "item) so that a bad move fails alone, as the protocol asks; \"whole batch typed\" decodes "
             "`list[Move]` at once and falls back to the former when a move is refused; \"Structs alone\" is "
@@ -423,5 +423,5 @@ def decision(data: dict[str, Any]) -> list[str]:
         "one-of rule), which the protocol leaves open; (6) a `dt` sent with an offset is checked by msgspec "
         "where the service ignores it. The column form gains little, so it moves only to keep one vocabulary. "
         "The wire stays msgpack and independent clients still need only msgpack; the State packer "
-        "(service/packing.py) and the encoders were not measured here and stay until they are. Not the "
+        "(service/protocol/packing.py) and the encoders were not measured here and stay until they are. Not the "
         "migration: nothing in the service changed."]

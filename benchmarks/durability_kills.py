@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from clients import Client, Move
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from clients.errors import AcphysError
 from engine import load_scene
 from engine.geometry import Position, Vec3
@@ -47,14 +47,14 @@ from engine import MoverSpec, SphereSpec
 
 from .standins import SilentBus
 from service.column_moves import run_columns
-from service.column_request import parse_column_request
+from service.protocol.column_request import parse_column_request
 from service.core import ServiceCore
-from service.journal import DEFAULT_BUDGET
-from service.journal_records import mover_state_bytes
-from service.messages import RegisterRequest
+from service.persistence.journal import DEFAULT_BUDGET
+from service.persistence.journal_records import mover_state_bytes
+from service.protocol.messages import RegisterRequest
 from service.ownership import Ownership
-from service.requests import MoveItem, parse_moves
-from service.state_file import SavedMover, read_state, restore
+from service.protocol.requests import MoveItem, parse_moves
+from service.persistence.state_file import SavedMover, read_state, restore
 from service.stats import ServiceStats
 
 __all__ = ["WINDOW_S", "KillRun", "Service", "run_kills"]

@@ -4,7 +4,7 @@ The throughput shares of section 8 carry several per cent of this shared machine
 not. A child process builds the service core on the demo world with a stand-in bus, as
 benchmarks/instructions_service.py does, registers the batch workload's 100 movers and handles column requests of
 100 offset moves round after round (decode, checks, `run_columns` with its `commit`, `reply_message`):
-without `--state`, and with a state log (service/journal.py) under every-second, always and never.
+without `--state`, and with a state log (service/persistence/journal.py) under every-second, always and never.
 Two runs that differ only in the number of rounds give the instructions per move as their difference,
 start-up cancelled out.
 
@@ -52,12 +52,12 @@ import engine.world.batch as batch
 from engine import load_scene
 from service import heap
 from service.column_moves import reply_message, run_columns
-from service.column_request import parse_column_request
+from service.protocol.column_request import parse_column_request
 from service.core import ServiceCore
 from service.ownership import Ownership
-from service.requests import RegisterRequest, decode_envelope
+from service.protocol.requests import RegisterRequest, decode_envelope
 from service.stats import ServiceStats
-import clients.demo_world  # the measured checkout's client library, not the harness checkout's
+import clients.demo.world  # the measured checkout's client library, not the harness checkout's
 sys.path.insert(0, bench_root)
 from benchmarks.bench_batches import _column_request_bytes, batch_spots, demo_scene
 from benchmarks.scenes import PLAYER
@@ -71,8 +71,8 @@ half = len(ids) // 2
 requests = [_column_request_bytes(ids[:half]), _column_request_bytes(ids[half:])]
 journal = None
 if policy != "none":
-    from service.journal import Journal
-    from service.journal_records import MoverLog
+    from service.persistence.journal import Journal
+    from service.persistence.journal_records import MoverLog
     tmp = tempfile.mkdtemp(prefix="acphys-count-")
     # an hour's interval: the log's thread writes only when woken below, whatever the run's wall time
     journal = Journal(Path(tmp) / "movers.state", 0, policy, interval=3600.0)
@@ -99,7 +99,7 @@ if journal is not None:
         written.wait()
     journal.close()
     size = journal.path.stat().st_size
-import service.journal as journal_module
+import service.persistence.journal as journal_module
 print("RESULT " + json.dumps({"moves": served, "log_bytes": size, "main": threading.get_native_id(),
                               "compiled": not batch.__file__.endswith(".py"),
                               "crc32": getattr(getattr(journal_module, "crc32", None), "__module__", "zlib")}))
@@ -107,7 +107,7 @@ print("RESULT " + json.dumps({"moves": served, "log_bytes": size, "main": thread
 
 _TOTALS = re.compile(r"^(?:totals|summary):\s+(\d+)\s*$", re.MULTILINE)
 #: the functions whose instructions (with their callees') are given apart: the record's two per-byte costs. The
-#: log's crc32 is ISA-L's where python-isal is installed (service/journal.py), else zlib's: both are watched, one
+#: log's crc32 is ISA-L's where python-isal is installed (service/persistence/journal.py), else zlib's: both are watched, one
 #: of them counts. isal's wheel is stripped, so its crc is watched through the module function Python calls,
 #: isal_zlib_crc32 (with its argument handling, a few hundred instructions a call: a call per record part, not
 #: per move); zlib's through crc32_z, the bare loop

@@ -40,10 +40,10 @@ sys.path.insert(0, root)
 from engine import load_scene
 from service import heap
 from service.column_moves import reply_message, run_columns
-from service.column_request import parse_column_request
+from service.protocol.column_request import parse_column_request
 from service.core import ServiceCore
 from service.ownership import Ownership
-from service.requests import RegisterRequest, decode_envelope
+from service.protocol.requests import RegisterRequest, decode_envelope
 from service.stats import ServiceStats
 sys.path.insert(0, bench_root)
 from benchmarks.bench_batches import _column_request_bytes, batch_spots, demo_scene

@@ -343,7 +343,7 @@ def memory_section(mem: dict[str, Any]) -> list[str]:
             "(about 5 KB, over Zenoh's 3 KiB shared-memory threshold), removing its movers and leaving "
             "(benchmarks/bench_memory.py). RSS of the service process from /proc, once a second. The first row is the "
             "service as shipped; the second gives the same service a config file that turns Zenoh's shared-memory "
-            "transport back on, as it ran before (service/zconfig.py says why it is off)."), "",
+            "transport back on, as it ran before (service/bus/zconfig.py says why it is off)."), "",
            "| service | moves | client sessions | seconds | RSS at start | after the first minute | at the end | "
            "growth after the first minute | growth per session |",
            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]

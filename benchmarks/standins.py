@@ -72,7 +72,7 @@ class StandInSession:
 
 
 class SilentBus:
-    """A bus nobody listens on: what ServiceCore needs of service.publication.ZenohBus, for a core run
+    """A bus nobody listens on: what ServiceCore needs of service.bus.publication.ZenohBus, for a core run
     without Zenoh (the kill harness's mirror, the state log's replay tests)."""
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None: ...

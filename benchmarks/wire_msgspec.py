@@ -1,5 +1,5 @@
 """The move request and the column request declared as msgspec Structs: the candidate the wire-decoding
-benchmark (benchmarks/bench_wire_decoding.py) weighs against the service's own schema (service/schema.py).
+benchmark (benchmarks/bench_wire_decoding.py) weighs against the service's own schema (service/protocol/schema.py).
 
 Not used by the service: msgspec is not a dependency of the project, and this module is imported only
 when it is installed. What the Structs cannot say (`Meta` gives bounds and lengths, not "finite", "unit
@@ -23,13 +23,13 @@ import numpy as np
 from engine import limits
 from engine.constants import HUGE_QUANTUM
 from engine.geometry import Quat, Vec3
-from service.column_request import ColumnRequest, _bad_reals
-from service.columns import FLOAT32_MAX, REQUEST_COLUMNS
-from service.errors import ProtocolError
-from service.messages import MoveItem, Target, engine_check
-from service.requests import MoveBatch
-from service.schema_kinds import MAX_TAG_LEN
-from service.wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
+from service.protocol.column_request import ColumnRequest, _bad_reals
+from service.protocol.columns import FLOAT32_MAX, REQUEST_COLUMNS
+from service.protocol.errors import ProtocolError
+from service.protocol.messages import MoveItem, Target, engine_check
+from service.protocol.requests import MoveBatch
+from service.protocol.schema_kinds import MAX_TAG_LEN
+from service.protocol.wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 
 __all__ = ["decode_structs", "decode_single", "decode_batch", "decode_batch_typed", "decode_columns", "decode_register_id",
            "protocol_error"]
@@ -241,7 +241,7 @@ def decode_batch_typed(payload: bytes) -> list[MoveItem | ProtocolError]:
 
 def as_batch(items: list[MoveItem | ProtocolError]) -> MoveBatch:
     """The service's MoveBatch of a decoded batch (its ItemErrors without the id and tag echo)."""
-    from service.requests import ItemError
+    from service.protocol.requests import ItemError
 
     return MoveBatch(False, [ItemError(i) if isinstance(i, ProtocolError) else i for i in items])
 

@@ -3,13 +3,13 @@
     from clients import Client, Move
 """
 
-from .aio import AsyncClient
-from .batch import BatchResults
-from .client import Client, Subscription
-from .errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
-from .query_columns import QueryColumnResults
-from .spatial import SightQuery
-from .types import InstanceInfo, Move, MoverState
+from clients.aio import AsyncClient
+from clients.batch import BatchResults
+from clients.client import Client, Subscription
+from clients.errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
+from clients.query_columns import QueryColumnResults
+from clients.spatial import SightQuery
+from clients.types import InstanceInfo, Move, MoverState
 
 __all__ = [
     "AcphysError",

@@ -14,10 +14,10 @@ import functools
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from .batch import BatchResults
-from .client import Client
-from .errors import AcphysError
-from .types import InstanceInfo, Move, MoverState
+from clients.batch import BatchResults
+from clients.client import Client
+from clients.errors import AcphysError
+from clients.types import InstanceInfo, Move, MoverState
 
 __all__ = ["AsyncClient"]
 

@@ -1,7 +1,7 @@
 """The column form of a move batch, client side: numpy arrays in, numpy arrays out.
 
 `Client.move_batch` packs its arguments into the request columns declared
-in service/columns.py, sends one column request per landblock (the
+in service/protocol/columns.py, sends one column request per landblock (the
 landblock each mover was last seen in; every request goes out before any
 reply is read, so that the instances serving them work at the same time),
 follows `moved` hand-overs by
@@ -18,7 +18,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from service.columns import (
+from service.protocol.columns import (
     REPLY_COLUMNS,
     REQUEST_BY_NAME,
     REQUEST_COLUMNS,
@@ -29,10 +29,10 @@ from service.columns import (
     pack_columns,
     unpack_column,
 )
-from service.wire import ErrorKind
+from service.protocol.wire import ErrorKind
 
-from .errors import AcphysError, ServiceError
-from .request_channel import PendingRequest, RequestChannel
+from clients.errors import AcphysError, ServiceError
+from clients.request_channel import PendingRequest, RequestChannel
 
 __all__ = ["BatchResults", "move_batch"]
 
@@ -70,7 +70,7 @@ class BatchResults:
     cell: Array  # (n,) uint32
     origin: Array  # (n, 3) float64
     orientation: Array  # (n, 4) float64, w x y z
-    flags: Array  # (n,) uint32, service.columns.Flag bits
+    flags: Array  # (n,) uint32, service.protocol.columns.Flag bits
     transition_state: Array  # (n,) uint8, index into TRANSITION_STATES (255: failed)
     frames_stationary_fall: Array  # (n,) uint8 (255: none)
     contact_plane: Array  # (n, 4) float64: nx ny nz d

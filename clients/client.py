@@ -26,17 +26,17 @@ import zenoh
 
 from engine.geometry import Plane, Position, Vec3
 from engine import MoverSpec
-from service.codec import encode_mover_spec
-from service.messages import REGISTER, RegisterRequest
-from service.wire import DEFAULT_PREFIX, MAX_PAYLOAD, ErrorKind, Keys, user_prefix
-from service.zconfig import DEFAULT_ENDPOINT, make_config
+from service.protocol.codec import encode_mover_spec
+from service.protocol.messages import REGISTER, RegisterRequest
+from service.protocol.wire import DEFAULT_PREFIX, MAX_PAYLOAD, ErrorKind, Keys, user_prefix
+from service.bus.zconfig import DEFAULT_ENDPOINT, make_config
 
-from .batch import BatchResults, move_batch
-from .paths import PathQueries
-from .request_channel import PendingRequest, pack_request, read_reply, send_query, unpack_message
-from .spatial import SpatialQueries
-from .errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
-from .types import InstanceInfo, Move, MoverState, item_result
+from clients.batch import BatchResults, move_batch
+from clients.paths import PathQueries
+from clients.request_channel import PendingRequest, pack_request, read_reply, send_query, unpack_message
+from clients.spatial import SpatialQueries
+from clients.errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
+from clients.types import InstanceInfo, Move, MoverState, item_result
 
 __all__ = ["Client", "Subscription"]
 

@@ -23,7 +23,7 @@ from typing import Any
 
 import clients
 import engine
-from service.wire import ErrorKind
+from service.protocol.wire import ErrorKind
 
 __all__ = ["GUIDE", "PROTOCOL", "SECTION_TEXT", "documented_members", "error_kinds_table", "main", "render", "signature_text"]
 
@@ -227,7 +227,7 @@ def _indented_code(doc: str) -> str:
 
 def error_kinds_table(protocol: Path = PROTOCOL) -> list[str]:
     """docs/protocol.md's table of error kinds, as the guide shows it (its links pointed into protocol.md).
-    ValueError when the table does not name every kind the service answers (service.wire.ErrorKind)
+    ValueError when the table does not name every kind the service answers (service.protocol.wire.ErrorKind)
     or names others: then the protocol and the service disagree."""
     text = protocol.read_text(encoding="utf-8")
     start = text.index("\n## Errors\n")

@@ -22,12 +22,12 @@ from typing import Any, cast
 
 from engine.geometry import Position
 from engine import DEFAULT_NAV, MoverSpec, PathResult
-from service.errors import ProtocolError
+from service.protocol.errors import ProtocolError
 from service.protocol import BATCH_FIELDS, MAX_PATH_BATCH, read_answer, write_answer, write_query
-from service.wire import ErrorKind
+from service.protocol.wire import ErrorKind
 
-from .errors import ServiceError
-from .types import MoverState
+from clients.errors import ServiceError
+from clients.types import MoverState
 
 __all__ = ["PathQueries", "Followed", "MAX_PATHS_PER_REQUEST", "path_answer_map"]
 

@@ -14,12 +14,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from service.columns import pack_columns, unpack_column
+from service.protocol.columns import pack_columns, unpack_column
 from service.protocol import BLOCKER_CODES, NO_CODE, PLACEMENT_CODES, QUERY_COLUMNS
-from service.wire import ErrorKind
+from service.protocol.wire import ErrorKind
 
-from .batch import _reindexed, column_rows
-from .errors import AcphysError, ServiceError
+from clients.batch import _reindexed, column_rows
+from clients.errors import AcphysError, ServiceError
 
 if TYPE_CHECKING:
     from collections.abc import Callable

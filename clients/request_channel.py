@@ -17,9 +17,9 @@ from typing import Any, Protocol
 import msgpack
 import zenoh
 
-from service.wire import PROTOCOL_VERSION, ErrorKind, Keys
+from service.protocol.wire import PROTOCOL_VERSION, ErrorKind, Keys
 
-from .errors import NoServiceError, RequestTimeout, ServiceError
+from clients.errors import NoServiceError, RequestTimeout, ServiceError
 
 __all__ = ["PendingRequest", "RequestChannel", "pack_request", "unpack_message", "send_query", "read_reply"]
 

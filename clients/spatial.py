@@ -21,11 +21,11 @@ from typing import Any
 
 from engine.geometry import Position
 from engine import Ground, MoverSpec, PlacementResult, RayHit, SightResult
-from service.codec import encode_mover_spec
+from service.protocol.codec import encode_mover_spec
 from service.protocol import BATCH_FIELDS, read_answer, write_query
 
-from .errors import ServiceError
-from .query_columns import QueryColumnResults, query_columns
+from clients.errors import ServiceError
+from clients.query_columns import QueryColumnResults, query_columns
 
 __all__ = ["SpatialQueries", "SightQuery"]
 

@@ -7,11 +7,11 @@ from typing import Any
 
 from engine.geometry import Plane, Position, Vec3
 from engine import MoveResult
-from service.codec import decode_state
-from service.messages import MOVE
-from service.wire import ErrorKind
+from service.protocol.codec import decode_state
+from service.protocol.messages import MOVE
+from service.protocol.wire import ErrorKind
 
-from .errors import ServiceError
+from clients.errors import ServiceError
 
 __all__ = ["MoverState", "Move", "InstanceInfo"]
 
@@ -35,7 +35,7 @@ class MoverState:
     @classmethod
     def from_wire(cls, m: Any) -> MoverState:
         """A State map as the service sends it (docs/protocol.md, "State"), decoded; for a State read off
-        the bus without the client, e.g. from a `move_many_maps` entry. Raises service.errors.ProtocolError
+        the bus without the client, e.g. from a `move_many_maps` entry. Raises service.protocol.errors.ProtocolError
         (its `path` names the field) for a map that is not a State."""
         mover_id, seq, tag, result = decode_state(m)
         return cls(mover_id, seq, tag, result)
@@ -106,7 +106,7 @@ class Move:
     keep_cell: bool = True
 
     def to_wire(self) -> dict[str, Any]:
-        """The Move map as sent on the wire (docs/protocol.md, "Move request"; service/messages.py, MOVE)."""
+        """The Move map as sent on the wire (docs/protocol.md, "Move request"; service/protocol/messages.py, MOVE)."""
         m = _encode_move(self)
         if not self.keep_cell and "to" in m:
             del m["to"]["cell"]

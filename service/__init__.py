@@ -4,6 +4,6 @@ The bus layer (node, main) imports zenoh; wire, validate, codec and
 requests do not, and the client library reuses them.
 """
 
-from .wire import PROTOCOL_VERSION, ErrorKind, Keys
+from service.protocol.wire import PROTOCOL_VERSION, ErrorKind, Keys
 
 __all__ = ["PROTOCOL_VERSION", "ErrorKind", "Keys"]

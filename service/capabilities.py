@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from .columns import MOVE_FORMS
-from .protocol import QUERY_FORMS, QUERY_OPS
-from .requests import PUBLISH_MODES
-from .wire import PROTOCOL_VERSION
+from service.protocol.columns import MOVE_FORMS
+from service.protocol import QUERY_FORMS, QUERY_OPS
+from service.protocol.requests import PUBLISH_MODES
+from service.protocol.wire import PROTOCOL_VERSION
 
 __all__ = ["CAPABILITY_FIELDS", "capabilities"]
 

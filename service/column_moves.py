@@ -34,9 +34,9 @@ from engine.world.batch import (
 )
 from engine.world.rows import INTS_PER_ROW, REALS_PER_ROW, TRANSIENT_MASK, Status, int_columns, real_slices
 
-from .codec import pack_state
-from .column_request import ColumnRequest
-from .columns import (
+from service.protocol.codec import pack_state
+from service.protocol.column_request import ColumnRequest
+from service.protocol.columns import (
     FAILED_STATE,
     PUBLICATION_ID,
     REPLY_COLUMNS,
@@ -44,14 +44,14 @@ from .columns import (
     Flag,
     pack_columns,
 )
-from .engine_errors import to_protocol_error
-from .errors import ProtocolError
-from .frames import pack
-from .requests import ItemError
-from .wire import ErrorKind
+from service.engine_errors import to_protocol_error
+from service.protocol.errors import ProtocolError
+from service.protocol.frames import pack
+from service.protocol.requests import ItemError
+from service.protocol.wire import ErrorKind
 
 if TYPE_CHECKING:
-    from .core import MoverRecord, ServiceCore
+    from service.core import MoverRecord, ServiceCore
 
 __all__ = ["ColumnResults", "run_columns", "push_columns", "reply_message", "publication_message"]
 
@@ -89,7 +89,7 @@ class ColumnResults:
     publish_each: bool = False
     gather: bool = False
     packed: list[bytes] = field(default_factory=list)
-    #: items before this index are in the state log (service/journal_records.py), when there is one
+    #: items before this index are in the state log (service/persistence/journal_records.py), when there is one
     journaled: int = 0
 
 

@@ -19,15 +19,15 @@ import msgpack
 from engine.geometry import Plane, Position, Vec3
 from engine import MoverSpec, MoveResult, MoveUndo
 
-from .codec import encode_mover_spec, encode_state, encode_vec, pack_state
-from .engine_errors import to_protocol_error
-from .errors import ProtocolError
-from .journal_records import HANDOVER_IN, REGISTER, UPDATE, MoverLog, apply_state, decode_state, mover_state_bytes
-from .messages import HANDOVER
-from .ownership import Ownership
-from .requests import HandoverRequest, ItemError, MoveBatch, MoveItem, RegisterRequest
-from .stats import ServiceStats
-from .wire import ErrorKind, lb_hex
+from service.protocol.codec import encode_mover_spec, encode_state, encode_vec, pack_state
+from service.engine_errors import to_protocol_error
+from service.protocol.errors import ProtocolError
+from service.persistence.journal_records import HANDOVER_IN, REGISTER, UPDATE, MoverLog, apply_state, decode_state, mover_state_bytes
+from service.protocol.messages import HANDOVER
+from service.ownership import Ownership
+from service.protocol.requests import HandoverRequest, ItemError, MoveBatch, MoveItem, RegisterRequest
+from service.stats import ServiceStats
+from service.protocol.wire import ErrorKind, lb_hex
 
 __all__ = ["BusPort", "MoverRecord", "ServiceCore"]
 
@@ -56,7 +56,7 @@ def _move_fields(item: MoveItem) -> dict[str, str]:
     return {"motion": f"{base}motion", "dt": f"{base}dt"}
 
 class BusPort(Protocol):
-    """What the core needs from the bus (service.publication.ZenohBus implements it)."""
+    """What the core needs from the bus (service.bus.publication.ZenohBus implements it)."""
 
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
         """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
@@ -133,7 +133,7 @@ class ServiceCore:
         self.loaded: tuple[int, ...] = ()
         self.engine_cache: dict[str, Any] = {}
         self._cache_read_at = 0.0
-        #: with accounts (service/accounts.py), told after this core read its snapshots, so the other users'
+        #: with accounts (service/security/accounts.py), told after this core read its snapshots, so the other users'
         #: cores over the same world read theirs; and how many of their movers are in a landblock (an unload
         #: must wait for theirs too)
         self.world_changed: Callable[[ServiceCore], None] | None = None
@@ -141,7 +141,7 @@ class ServiceCore:
         self.refresh()
         # the core runs on one thread at a time (the engine thread, or a callback holding the engine lock)
         self._packer = msgpack.Packer(use_bin_type=True)
-        #: the state log's writer (`--state`, service/persistence.py): every resolved change is recorded
+        #: the state log's writer (`--state`, service/persistence/lifecycle.py): every resolved change is recorded
         #: before its reply goes out; None: nothing is recorded
         self.log: MoverLog | None = None
         #: under `--state-sync always`, the States of the request running, published once its records are
@@ -440,7 +440,7 @@ class ServiceCore:
 
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord, state: bytes | None = None) -> dict[str, Any]:
-        """The Hand-over map (service/messages.py, HANDOVER) of the mover as it stands, with the packed
+        """The Hand-over map (service/protocol/messages.py, HANDOVER) of the mover as it stands, with the packed
         State the new owner is to publish, if any."""
         r = rec.last
         return _encode_handover(HandoverRequest(
@@ -495,7 +495,7 @@ class ServiceCore:
             self.bus.publish_state(req.id, req.state)
         return {"id": rec.id, "accepted": True}
 
-    # -- durability (service/state_file.py) -----------------------------------------
+    # -- durability (service/persistence/state_file.py) -----------------------------------------
     def snapshot_movers(self) -> list[dict[str, Any]]:
         """Every mover as a hand-over map plus what a restart also needs: the spec as registered and the
         velocity (a mover falling when the instance stops falls on after the restart)."""
@@ -512,7 +512,7 @@ class ServiceCore:
     def restore_mover(self, req: HandoverRequest, spec: MoverSpec, velocity: Vec3 | None,
                       engine_state: bytes | None = None) -> None:
         """Put back a mover read from a state file (before any request is served); ProtocolError if the
-        world or this instance's ownership cannot take it. `engine_state` (service/journal_records.py):
+        world or this instance's ownership cannot take it. `engine_state` (service/persistence/journal_records.py):
         the mover's whole state, put back exactly (velocity, time held over, every transient flag)."""
         self._check_owner(req.position.landblock, "the saved position")
         if req.id in self.movers:
@@ -554,7 +554,7 @@ class ServiceCore:
         foreign = self.foreign_movers_in(lb) if self.foreign_movers_in is not None else 0
         if inside or foreign:
             shown = ", ".join(f"{i:X}" for i in inside[:10])
-            # other users' movers are counted, never named (service/accounts.py)
+            # other users' movers are counted, never named (service/security/accounts.py)
             others = f"{'; and ' if inside else ''}{foreign} mover(s) of other users" if foreign else ""
             raise ProtocolError(
                 ErrorKind.LANDBLOCK_IN_USE,

@@ -10,8 +10,8 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from .errors import ProtocolError
-from .wire import ErrorKind
+from service.protocol.errors import ProtocolError
+from service.protocol.wire import ErrorKind
 
 __all__ = ["to_protocol_error", "wire_path"]
 

@@ -3,7 +3,7 @@
 Text is one line per record, `time LEVEL logger: message`. JSON is one
 object per line, for log shippers: `time` (UTC, ISO 8601 with
 milliseconds), `level`, `logger`, `message`, `pid`, the record's
-structured fields when it has them (service/request_log.py: `op`, `key`,
+structured fields when it has them (service/bus/request_log.py: `op`, `key`,
 `items`, `result`, `ms`, `kind`, ...) and `exception` (the traceback's
 text) when one was logged.
 """

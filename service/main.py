@@ -1,8 +1,8 @@
 """Running the service: command-line options, signals, clean exit.
 
-`acphys serve` (clients/cli.py) and `python -m service` both end up in
+`acphys serve` (clients/__main__.py) and `python -m service` both end up in
 `serve()`. SIGINT and SIGTERM stop taking requests, finish what is queued,
-undeclare and exit 0. `--workers N` (N > 1) hands over to service/workers.py,
+undeclare and exit 0. `--workers N` (N > 1) hands over to service/scaleout/workers.py,
 which runs this same entry point in N worker processes behind a router.
 """
 
@@ -15,19 +15,19 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from .logs import add_log_arguments, configure_logging
-from .request_log import ERRORS
-from .accounts import Accounts, add_accounts_arguments, apply_accounts, no_logins_file
-from .node import NodeOptions, ServiceNode
-from .queries import DEFAULT_PATH_WORK
-from .persistence import Persistence, add_state_arguments
-from .security import add_security_arguments, security_setup
-from .state_layout import regroup_state
-from .command import positive_int, stop_on_signals
-from .ownership import Ownership
-from .wire import DEFAULT_PREFIX, user_prefix
-from .workers import DEFAULT_WORKER_RESTARTS
-from .zconfig import DEFAULT_ENDPOINT, bound_messages, make_config, zenoh_reason
+from service.logs import add_log_arguments, configure_logging
+from service.bus.request_log import ERRORS
+from service.security.accounts import Accounts, add_accounts_arguments, apply_accounts, no_logins_file
+from service.bus.node import NodeOptions, ServiceNode
+from service.queries import DEFAULT_PATH_WORK
+from service.persistence.lifecycle import Persistence, add_state_arguments
+from service.security.cluster import add_security_arguments, security_setup
+from service.persistence.state_layout import regroup_state
+from service.command import positive_int, stop_on_signals
+from service.ownership import Ownership
+from service.protocol.wire import DEFAULT_PREFIX, user_prefix
+from service.scaleout.workers import DEFAULT_WORKER_RESTARTS
+from service.bus.zconfig import DEFAULT_ENDPOINT, bound_messages, make_config, zenoh_reason
 
 __all__ = ["add_serve_arguments", "serve", "main"]
 
@@ -59,11 +59,11 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
                         "navigation graph is not built yet holds up everyone's moves (default %(default)s)")
     add_log_arguments(p)
     p.add_argument("--workers", default="1", metavar="N",
-                   help="engine processes behind one router (service/workers.py): a count or 'auto' (the CPUs); "
+                   help="engine processes behind one router (service/scaleout/workers.py): a count or 'auto' (the CPUs); "
                         "default 1, one process")
     p.add_argument("--worker-restarts", type=int, default=DEFAULT_WORKER_RESTARTS, metavar="N",
                    help="with --workers: times a worker that dies is started again (0: never; default %(default)s)")
-    # set by `--workers` on the processes it starts (service/workers.py); not for people
+    # set by `--workers` on the processes it starts (service/scaleout/workers.py); not for people
     p.add_argument("--worker-info", metavar="PREFIX", help=argparse.SUPPRESS)
     p.add_argument("--worker-parent", type=int, metavar="PID", help=argparse.SUPPRESS)
     add_security_arguments(p)
@@ -74,7 +74,7 @@ def add_serve_arguments(p: argparse.ArgumentParser) -> None:
 def serve(args: argparse.Namespace, world: Any = None) -> int:
     """Run until SIGINT/SIGTERM; 0 on a clean stop, 2 when the world cannot be opened."""
     configure_logging(args.log_level, getattr(args, "log_format", "text"))
-    from .workers import attach_worker, die_with_parent, serve_workers, worker_count
+    from service.scaleout.workers import attach_worker, die_with_parent, serve_workers, worker_count
 
     try:
         workers = worker_count(getattr(args, "workers", None))
@@ -87,7 +87,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     if worker_info and args.worker_parent is not None:
         die_with_parent(args.worker_parent)  # a worker of `--workers` goes with its parent, even one killed
     if world is None:
-        from .world_source import open_world
+        from service.world_source import open_world
 
         try:
             world = open_world(scene=args.scene, dat_dir=args.dat_dir)
@@ -113,11 +113,11 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
             # the instances of a cluster (a `--workers` worker too) log in to each other with its password
             password = cluster.instance_password() if cluster is not None else None
             forget_logins = apply_accounts(config, args.prefix, accounts, instance_password=password)
-        # with accounts, one tenant per user over the one world (service/accounts.py), each with its own state
+        # with accounts, one tenant per user over the one world (service/security/accounts.py), each with its own state
         # file; the first tenant is the host
         users: list[str | None] = list(accounts.users) if accounts is not None else [None]
         if getattr(args, "state", None) and not worker_info:
-            # movers saved by a `--workers N` run come back to this single process (service/state_layout.py)
+            # movers saved by a `--workers N` run come back to this single process (service/persistence/state_layout.py)
             for user in users:
                 regroup_state(args.state, 1, [ownership], user=user, discard_bad=args.state_discard_bad)
         persistences = [Persistence.from_args(args, user) for user in users]
@@ -158,7 +158,7 @@ def serve(args: argparse.Namespace, world: Any = None) -> int:
     while not stop.wait(persistences[0].tick):
         for n, persistence in zip(nodes, persistences):
             persistence.maybe_save(n)
-        ERRORS.flush()  # how many error lines the rate limit held back (service/request_log.py)
+        ERRORS.flush()  # how many error lines the rate limit held back (service/bus/request_log.py)
     for undo in detach:
         undo()
     _shutdown(nodes)

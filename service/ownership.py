@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from .wire import lb_hex, parse_lb_hex
+from service.protocol.wire import lb_hex, parse_lb_hex
 
 __all__ = ["Ownership"]
 

@@ -20,19 +20,19 @@ from typing import Any
 
 from engine.geometry import Position, Quat, Vec3
 
-from .engine_errors import to_protocol_error
-from .errors import ProtocolError
-from .protocol import BATCH_FIELDS, QUERIES, QUERY_COLUMNS, Item, count_items, read_request, write_answer
-from .protocol.fields import in_landblock
-from .query_columns import (
+from service.engine_errors import to_protocol_error
+from service.protocol.errors import ProtocolError
+from service.protocol import BATCH_FIELDS, QUERIES, QUERY_COLUMNS, Item, count_items, read_request, write_answer
+from service.protocol.fields import in_landblock
+from service.protocol.query_columns import (
     QueryColumnRequest,
     is_query_columns,
     parse_query_columns,
     query_column_count,
     run_query_columns,
 )
-from .validate import field_path
-from .wire import PROTOCOL_VERSION, ErrorKind
+from service.protocol.validate import field_path
+from service.protocol.wire import PROTOCOL_VERSION, ErrorKind
 
 __all__ = ["query_work", "query_count", "DEFAULT_PATH_WORK"]
 
@@ -140,7 +140,7 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
     """Read a query request now (ProtocolError on bad input); the closure runs it on the engine and
     returns the reply map. A batch answers per item: an item the engine refuses (an unknown cell, an
     unloaded landblock) gets `{"error": Error}` in its place and the others their answers. A column
-    request (service/query_columns.py) is answered in columns, item by item as the map form would.
+    request (service/protocol/query_columns.py) is answered in columns, item by item as the map form would.
     `path_work` bounds each path's graph building (World.path's `work`)."""
     if is_query_columns(msg):
         return _column_work(op, lb, msg, world, ids, blocker_id, path_work)
@@ -172,7 +172,7 @@ def query_work(op: str, lb: int | None, msg: dict[str, Any], world: Any, ids: Id
     return run
 
 
-# -- the column form (service/query_columns.py) -----------------------------------------
+# -- the column form (service/protocol/query_columns.py) -----------------------------------------
 def _column_item(req: QueryColumnRequest, i: int) -> Item:
     """Item i of a column request as the map form reads the same values (Python floats, the identity
     orientation where none is given, None where a default applies)."""

@@ -8,8 +8,8 @@ import time
 from collections import Counter, deque
 from typing import Any
 
-from .protocol import REQUEST_OPS
-from .wire import ErrorKind
+from service.protocol import REQUEST_OPS
+from service.protocol.wire import ErrorKind
 
 __all__ = ["LatencyWindow", "ServiceStats", "REQUEST_OPS"]
 

@@ -8,7 +8,7 @@ import numpy as np
 from benchmarks.bench_batches import BATCH_STEP, _column_reply_size, _column_request_bytes
 from engine.world.batch import BatchRows, append_missing
 from service.column_moves import ColumnResults, reply_message
-from service.column_request import parse_column_request
+from service.protocol.column_request import parse_column_request
 
 
 def test_the_bound_replies_with_as_many_bytes_as_the_service() -> None:

@@ -13,7 +13,7 @@ import pytest
 
 from benchmarks import bench_navigation as bn
 from benchmarks.bench_navigation_bus import _by_start_landblock, bus_finding, bus_paths, bus_section
-from clients.demo_world import demo_scene_path
+from clients.demo.world import demo_scene_path
 from engine import Position, Vec3
 
 #: the demo hills' landblock and one of its outdoor cells

@@ -23,7 +23,7 @@ from benchmarks.bench_wire_decoding import (
     section,
 )
 from engine.geometry import Quat, Vec3
-from service.requests import ItemError
+from service.protocol.requests import ItemError
 
 HAS_MSGSPEC = importlib.util.find_spec("msgspec") is not None
 

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import pytest
 
-from clients.demo_walk import LEGS
-from clients.demo_cmd import _estimated_steps
+from clients.demo.walk import LEGS
+from clients.demo.command import _estimated_steps
 from support.service_harness import ROOT, ServiceProcess, child_env, endpoint, free_port
 
 
 def acphys(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "clients.cli", *args], cwd=ROOT, env=child_env(),
+    return subprocess.run([sys.executable, "-m", "clients", *args], cwd=ROOT, env=child_env(),
                           capture_output=True, text=True, timeout=timeout)
 
 
@@ -48,7 +48,7 @@ def test_move_with_a_temporary_mover(service: ServiceProcess) -> None:
 
 
 def _terrain(x: float, y: float) -> float:
-    from clients.demo_world import demo_scene_path
+    from clients.demo.world import demo_scene_path
     from engine import load_scene
 
     return load_scene(str(demo_scene_path())).terrain_height(0xA9B40001, x, y)
@@ -79,7 +79,7 @@ def test_move_and_stats_say_which_service_answered(service: ServiceProcess) -> N
 
 
 def test_the_default_endpoint_is_called_shared() -> None:
-    from clients.which_service import describe_service
+    from clients.cli.which_service import describe_service
 
     line = describe_service(["abc"], None, "acphys")
     assert line.startswith("service: instance abc via tcp/127.0.0.1:7447, prefix 'acphys'")
@@ -160,7 +160,7 @@ def test_demo_embedded(tmp_path: Path) -> None:
 
 def test_serve_defaults_to_the_demo_world_and_stops_on_sigterm() -> None:
     ep = endpoint(free_port())
-    proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "serve", "--listen", ep, "--log-level", "WARNING"],
+    proc = subprocess.Popen([sys.executable, "-m", "clients", "serve", "--listen", ep, "--log-level", "WARNING"],
                             cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         assert proc.stdout is not None
@@ -183,7 +183,7 @@ def test_serve_with_a_missing_scene_fails() -> None:
 
 def test_move_an_existing_mover_by_id(service: ServiceProcess) -> None:
     from clients import Client
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
     from support.service_harness import human
 

@@ -1,7 +1,7 @@
 """What `acphys` says when something is wrong: a message that diagnoses, exit status 2 (the command line is
 wrong) or 1 (the command failed), and never a traceback.
 
-Most commands run in-process (`clients.cli.main` with an argv, stderr captured); a few run as a user runs
+Most commands run in-process (`clients.__main__.main` with an argv, stderr captured); a few run as a user runs
 them (a subprocess), for what only a whole process shows. The services are real ones on free loopback
 ports: a plain one over the demo world and one run with `--users`.
 """
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from clients.cli import build_parser, main
-from clients.cli_parser import walk_parsers
+from clients.__main__ import build_parser, main
+from clients.cli.parser import walk_parsers
 from support.service_harness import ROOT, ServiceProcess, endpoint, free_port
 from test_cli import acphys
 
@@ -268,12 +268,12 @@ def test_serve_and_router_on_a_port_in_use(service: ServiceProcess) -> None:
 
 def test_an_unforeseen_error_is_one_line_unless_the_traceback_is_asked_for(
         capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-    import clients.cli
+    import clients.__main__
 
     def broken(_args: object) -> int:
         raise RuntimeError("the stats table is upside down")
 
-    monkeypatch.setattr(clients.cli, "_cmd_stats", broken)
+    monkeypatch.setattr(clients.__main__, "_cmd_stats", broken)
     status, _, err = run(["stats"], capsys)
     assert status == 1
     assert_clean(err)

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 import engine
-from clients.landblock_cmd import add_landblock_commands, parse_landblock, region_ids
+from clients.cli.landblock import add_landblock_commands, parse_landblock, region_ids
 from support.dat_records import scene_to_dat_files
 from support.datwriter import DATA_SET_CELL, DATA_SET_PORTAL, write_dat
 from support.scene_compare import differences, normalize_scene

@@ -16,7 +16,7 @@ import pytest
 
 from clients import Client
 from engine import Position, Vec3
-from service.codec import encode_mover_spec
+from service.protocol.codec import encode_mover_spec
 from support.service_harness import ServiceProcess, human
 from support.shared_data import SCENES, require_shared
 from test_cli import acphys

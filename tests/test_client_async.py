@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from clients import AsyncClient, Move, MoverState
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from support.service_harness import ServiceProcess, human
 

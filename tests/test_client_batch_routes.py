@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from clients.batch import move_batch
-from service.columns import REPLY_BY_NAME, REPLY_COLUMNS, REQUEST_BY_NAME, Flag, pack_columns, unpack_column
-from service.wire import Keys
+from service.protocol.columns import REPLY_BY_NAME, REPLY_COLUMNS, REQUEST_BY_NAME, Flag, pack_columns, unpack_column
+from service.protocol.wire import Keys
 
 RESOLVED = Flag.RESOLVED | Flag.OK
 

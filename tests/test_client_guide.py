@@ -15,8 +15,8 @@ import pytest
 
 import clients
 from clients import AsyncClient, Client, docgen
-from service.wire import ErrorKind
-from service.zconfig import DEFAULT_ENDPOINT
+from service.protocol.wire import ErrorKind
+from service.bus.zconfig import DEFAULT_ENDPOINT
 from support.service_harness import ServiceProcess, demo_world
 from support.markdown_python import python_blocks, run_blocks
 

@@ -6,7 +6,7 @@ import json
 
 
 from clients import Move, ServiceError
-from clients.demo_world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height
+from clients.demo.world import build_demo_scene, demo_scene_path, global_to_cell, vertex_height
 from clients.errors import BusyError
 from engine import load_scene
 from engine.constants import FLOOR_Z

@@ -30,7 +30,7 @@ MOVE_TRIES = 10
 def _listed(endpoint: str) -> list[str]:
     """The instances one `acphys stats --connect endpoint` lists (a process of its own, as a user runs it:
     inside a process whose Zenoh runtime is already running, the new session meets B sooner)."""
-    r = subprocess.run([sys.executable, "-m", "clients.cli", "stats", "--connect", endpoint], cwd=ROOT,
+    r = subprocess.run([sys.executable, "-m", "clients", "stats", "--connect", endpoint], cwd=ROOT,
                        env=child_env(), capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     return sorted(re.findall(r"^instance (\S+)$", r.stdout, re.MULTILINE))
@@ -68,7 +68,7 @@ def test_a_move_in_the_other_instances_landblock_reaches_it_every_time(tmp_path:
         with Client([first.endpoint], timeout=10.0) as c:
             c.wait_ready(instances=2, timeout=30.0)
         for _ in range(MOVE_TRIES):
-            r = subprocess.run([sys.executable, "-m", "clients.cli", "move", "--start", "AAB40001", "20", "20", "60",
+            r = subprocess.run([sys.executable, "-m", "clients", "move", "--start", "AAB40001", "20", "20", "60",
                                 "--offset", "1", "0", "0", "--connect", first.endpoint], cwd=ROOT, env=child_env(),
                                capture_output=True, text=True, timeout=60)
             assert r.returncode == 0, r.stderr
@@ -111,7 +111,7 @@ def test_two_instances_behind_a_router_are_both_listed_every_time(tmp_path: Path
         return [sys.executable, "-m", "service", "--scene", str(DEMO_SCENE), "--own", own, "--mode", "client",
                 "--listen", f"tcp/127.0.0.1:{free_port()}", "--cluster", str(member), "--log-level", "WARNING"]
 
-    with _running([sys.executable, "-m", "clients.cli", "router", "--listen", router_plain, "--cluster", str(router),
+    with _running([sys.executable, "-m", "clients", "router", "--listen", router_plain, "--cluster", str(router),
                    "--log-level", "WARNING"], "acphys router ready"), \
             _running(instance("A9B4,A9B5"), "acphys service ready"), \
             _running(instance("AAB4,AAB5"), "acphys service ready"):

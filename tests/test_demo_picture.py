@@ -1,6 +1,6 @@
 """The demo picture: what it tells, and where its labels go.
 
-The label placer (`clients.demo_label_layout`) is checked on hand-made geometry;
+The label placer (`clients.demo.label_layout`) is checked on hand-made geometry;
 the picture is checked through the figure's own layout data (each label's
 drawn box, each object's extent, in display pixels), never its pixels.
 """
@@ -14,10 +14,10 @@ from typing import Any
 
 import pytest
 
-from clients.demo_cmd import _table
-from clients.demo_walk import WalkResult, walk_demo
-from clients.demo_world import build_demo_scene, demo_footprints, global_to_cell
-from clients.demo_label_layout import Box, Label, place_labels
+from clients.demo.command import _table
+from clients.demo.walk import WalkResult, walk_demo
+from clients.demo.world import build_demo_scene, demo_footprints, global_to_cell
+from clients.demo.label_layout import Box, Label, place_labels
 from engine import world_from_scene_dict
 from support.demo_engine_client import EngineClient
 
@@ -92,8 +92,8 @@ def walk() -> WalkResult:
 @pytest.fixture(scope="module")
 def picture(walk: WalkResult, tmp_path_factory: pytest.TempPathFactory) -> Any:
     pytest.importorskip("matplotlib")
-    from clients.demo_map import height_grid
-    from clients.demo_picture import render_walk
+    from clients.demo.map import height_grid
+    from clients.demo.picture import render_walk
 
     world = world_from_scene_dict(build_demo_scene())
 
@@ -127,7 +127,7 @@ def _data_box(ax: Any, x0: float, y0: float, x1: float, y1: float) -> Box:
 
 
 def test_no_label_in_the_village_covers_another_an_object_or_a_mark(picture: Any, walk: WalkResult) -> None:
-    from clients.demo_picture import VILLAGE_BOX
+    from clients.demo.picture import VILLAGE_BOX
 
     renderer = picture.figure.canvas.get_renderer()
     ax = picture.village_labels.ax
@@ -223,7 +223,7 @@ def test_the_table_and_the_pictures_number_the_legs_alike(picture: Any, walk: Wa
 
 
 def test_the_picture_tells_the_walk(picture: Any, walk: WalkResult) -> None:
-    from clients.demo_picture import EVENT_STYLE, VILLAGE_BOX, event_letters
+    from clients.demo.picture import EVENT_STYLE, VILLAGE_BOX, event_letters
 
     res, fig = walk, picture.figure
     ax_map, ax_zoom, ax_story, ax_prof = fig.axes[:4]
@@ -271,7 +271,7 @@ def test_the_path_and_the_track_along_it_are_drawn(picture: Any, walk: WalkResul
     from matplotlib.collections import LineCollection
     from matplotlib.colors import to_hex
 
-    from clients.demo_picture import PATH_COLOUR, PATH_WALK_COLOUR
+    from clients.demo.picture import PATH_COLOUR, PATH_WALK_COLOUR
 
     (leg,) = [leg for leg in walk.legs if leg.waypoints]
     fig = picture.figure

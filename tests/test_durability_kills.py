@@ -18,7 +18,7 @@ import zenoh
 
 from benchmarks.durability_kills import WINDOW_S, run_kills
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from clients.errors import AcphysError
 from support.cluster_files import cluster_pair
 from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground

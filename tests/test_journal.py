@@ -1,4 +1,4 @@
-"""The state log's framing (service/journal.py): what is written reads back whole; a record a kill cut off
+"""The state log's framing (service/persistence/journal.py): what is written reads back whole; a record a kill cut off
 at the end is dropped and said; damage with records after it is refused, never skipped."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-import service.journal as journal_module
-from service.journal import HEADER_BYTES, Journal, JournalCorrupt, frame, journal_files, journal_path, read_journal
+import service.persistence.journal as journal_module
+from service.persistence.journal import HEADER_BYTES, Journal, JournalCorrupt, frame, journal_files, journal_path, read_journal
 
 PAYLOADS = [b"first record", bytes(range(256)) * 3, b"x", b"the last one"]
 
@@ -205,7 +205,7 @@ def test_a_failed_write_leaves_no_half_record_and_is_written_again(tmp_path: Pat
     import errno
     import os
 
-    import service.journal as journal_module
+    import service.persistence.journal as journal_module
 
     state = tmp_path / "s.state"
     j = Journal(state, 0, "always")
@@ -236,7 +236,7 @@ def test_short_writes_go_on_where_they_stopped(tmp_path: Path, monkeypatch: pyte
     here every writev writes at most 7 bytes, so each stops inside a frame's header or payload."""
     import os
 
-    import service.journal as journal_module
+    import service.persistence.journal as journal_module
 
     real_writev = os.writev
     calls = 0

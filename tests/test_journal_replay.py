@@ -1,4 +1,4 @@
-"""The state log replayed (service/state_replay.py): a core records every change of every kind
+"""The state log replayed (service/persistence/state_replay.py): a core records every change of every kind
 (register, moves of the map and the column form, update, remove); what the log gives back is each mover
 as the core holds it, bit for bit, and a mover restored from it moves on as the uninterrupted one does.
 Records that do not fit, a damaged log and a torn tail are refused, set aside or dropped as documented."""
@@ -13,20 +13,20 @@ import msgpack
 import pytest
 
 from benchmarks.standins import SilentBus
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from engine.world.mover import Mover
-from service.codec import encode_position, encode_state
+from service.protocol.codec import encode_position, encode_state
 from service.column_moves import run_columns
-from service.column_request import parse_column_request
+from service.protocol.column_request import parse_column_request
 from service.core import ServiceCore
-from service.journal import DEFAULT_BUDGET, Journal, journal_files, journal_path
-from service.journal_records import MoverLog, decode_state, mover_state_bytes
-from service.messages import RegisterRequest
+from service.persistence.journal import DEFAULT_BUDGET, Journal, journal_files, journal_path
+from service.persistence.journal_records import MoverLog, decode_state, mover_state_bytes
+from service.protocol.messages import RegisterRequest
 from service.ownership import Ownership
-from service.requests import MoveItem
-from service.state_file import StateFileError, restore, write_state
-from service.state_replay import load_saved
+from service.protocol.requests import MoveItem
+from service.persistence.state_file import StateFileError, restore, write_state
+from service.persistence.state_replay import load_saved
 from service.stats import ServiceStats
 from support.service_harness import demo_world, human, start_on_ground
 

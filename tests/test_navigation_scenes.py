@@ -224,7 +224,7 @@ def test_a_dungeon_corridor_and_a_doorway_too_low() -> None:
 
 
 def demo_world() -> engine.World:
-    from clients.demo_world import demo_scene_path
+    from clients.demo.world import demo_scene_path
 
     return engine.load_scene(demo_scene_path())
 

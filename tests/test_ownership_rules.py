@@ -11,9 +11,9 @@ import random
 import pytest
 import zenoh
 
-from service.aggregate import WorkerView, merge_health, merge_landblocks, merge_stats, merged_window
+from service.scaleout.aggregate import WorkerView, merge_health, merge_landblocks, merge_stats, merged_window
 from service.ownership import Ownership
-from service.workers import worker_count
+from service.scaleout.workers import worker_count
 
 
 def test_x_stripe_parses_and_owns_by_the_high_byte() -> None:

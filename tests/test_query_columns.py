@@ -1,7 +1,7 @@
 """The column form of the spatial queries (docs/protocol.md, "Query columns").
 
 - the doc's tables, flag bits and worked example against the one declaration
-  in service/query_columns.py;
+  in service/protocol/query_columns.py;
 - the request checks without a service: whole-request errors name the
   column, item errors name the column, the item and the component.
 
@@ -20,7 +20,7 @@ from typing import Any
 import msgpack
 import pytest
 
-from service.errors import ProtocolError
+from service.protocol.errors import ProtocolError
 from service.protocol import (
     BLOCKER_CODES,
     PLACEMENT_CODES,
@@ -30,8 +30,8 @@ from service.protocol import (
     REASON_CODES,
     REQUEST_OPS,
 )
-from service.query_columns import parse_query_columns
-from service.wire import ErrorKind
+from service.protocol.query_columns import parse_query_columns
+from service.protocol.wire import ErrorKind
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"
 A9B4 = 0xA9B4

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from clients import Client
-from service.zconfig import DEFAULT_ENDPOINT
+from service.bus.zconfig import DEFAULT_ENDPOINT
 from support.service_harness import ServiceProcess
 from support.markdown_python import python_blocks, run_blocks
 from support.shared_data import SHARED, needs_shared

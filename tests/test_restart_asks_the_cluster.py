@@ -1,11 +1,11 @@
 """A restarted cluster instance asks the others which of its saved movers they hold now, and must first be
-able to reach them: service.persistence._await_cluster waits until some other instance answers Health
+able to reach them: service.persistence.lifecycle._await_cluster waits until some other instance answers Health
 (the restarting instance has declared no key yet), for at most its timeout."""
 
 from __future__ import annotations
 
-from service.persistence import _await_cluster
-from service.wire import Keys
+from service.persistence.lifecycle import _await_cluster
+from service.protocol.wire import Keys
 from support.service_harness import ServiceProcess, free_port, raw_session
 
 

@@ -1,5 +1,5 @@
 """Accounts (`acphys serve --users FILE`): each user reaches its own movers only, by Zenoh's own
-authentication (usrpwd) and access control (service/accounts.py).
+authentication (usrpwd) and access control (service/security/accounts.py).
 
 One service with two users, alice and bob, over the demo world. Bob's own client and a raw Zenoh
 session logged in as bob try every way into alice's movers: her ids on his keys, her keys, wildcards,
@@ -27,10 +27,10 @@ import pytest
 import zenoh
 
 from clients import Client, ServiceError
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position
-from service.accounts import Accounts, AccountsError
-from service.zconfig import make_config
+from service.security.accounts import Accounts, AccountsError
+from service.bus.zconfig import make_config
 from support.cluster_files import cluster_file, make_certificates, tls_endpoint
 from support.service_harness import ROOT, ServiceProcess, child_env, demo_world, free_port, human, start_on_ground, wait_until
 
@@ -308,7 +308,7 @@ def test_an_admin_loads_and_unloads_for_everyone(users_file: Path) -> None:
 def test_the_command_line_logs_in(service: ServiceProcess, tmp_path: Path) -> None:
     secret = tmp_path / "alice.pw"
     secret.write_text(USERS["alice"] + "\n", encoding="utf-8")
-    base = [sys.executable, "-m", "clients.cli", "stats", "--connect", service.endpoint, "--timeout", "3", "--json"]
+    base = [sys.executable, "-m", "clients", "stats", "--connect", service.endpoint, "--timeout", "3", "--json"]
     by_file = subprocess.run([*base, "--user", "alice", "--password-file", str(secret)], cwd=ROOT, env=child_env(),
                              capture_output=True, text=True, timeout=60)
     assert by_file.returncode == 0, by_file.stderr
@@ -328,7 +328,7 @@ def test_the_demo_walks_in_a_users_space_without_loading(service: ServiceProcess
     with _client(service, "bob") as bob:
         (before,) = bob.stats()
     env = {**child_env(), "ACPHYS_PASSWORD": USERS["bob"]}
-    r = subprocess.run([sys.executable, "-m", "clients.cli", "demo", "--connect", service.endpoint, "--user", "bob",
+    r = subprocess.run([sys.executable, "-m", "clients", "demo", "--connect", service.endpoint, "--user", "bob",
                         "--out", str(out), "--quiet"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "using the running service" in r.stderr and "embedded" not in r.stderr
@@ -529,7 +529,7 @@ def test_a_router_checks_the_logins_for_the_instances_behind_it(users_file: Path
                 "--mode", "client", "--listen", f"tcp/127.0.0.1:{free_port()}", "--cluster", str(member),
                 "--log-level", "WARNING", *users]
 
-    with _running([sys.executable, "-m", "clients.cli", "router", "--listen", router_plain, "--cluster", str(router),
+    with _running([sys.executable, "-m", "clients", "router", "--listen", router_plain, "--cluster", str(router),
                    "--log-level", "WARNING", *users], "acphys router ready"), \
             _running(instance("A9B4,A9B5"), "acphys service ready"), \
             _running(instance("AAB4,AAB5"), "acphys service ready"):

@@ -1,8 +1,8 @@
 """The column form of a move batch (docs/protocol.md, "Column batches").
 
 - the doc's column tables, flag bits, state codes and worked hex example
-  against the one declaration in service/columns.py;
-- the request checks without a service (service/column_request.py);
+  against the one declaration in service/protocol/columns.py;
+- the request checks without a service (service/protocol/column_request.py);
 - against a running service: the same moves through the map form and the
   column form give the same States bit for bit; bad input fails its item
   (or the whole request) and changes nothing it concerns; the columnar
@@ -27,11 +27,11 @@ import zenoh
 
 from clients import Client, Move
 from clients.batch import BatchResults
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Quat, Vec3
-from service.column_request import parse_column_request
-from service.columns import REPLY_COLUMNS, REQUEST_COLUMNS, TRANSIENT_FLAGS, TRANSITION_STATES, Flag
-from service.errors import ProtocolError
+from service.protocol.column_request import parse_column_request
+from service.protocol.columns import REPLY_COLUMNS, REQUEST_COLUMNS, TRANSIENT_FLAGS, TRANSITION_STATES, Flag
+from service.protocol.errors import ProtocolError
 from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from support.cluster_files import cluster_pair
 from engine.geometry import Vec3
 from support.service_harness import ServiceProcess, demo_world, human, start_on_ground, wait_until

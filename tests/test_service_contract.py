@@ -10,7 +10,7 @@ import pytest
 import zenoh
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from support.service_harness import ServiceProcess, human, raw_query, raw_session
 

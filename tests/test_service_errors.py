@@ -14,9 +14,9 @@ import pytest
 import zenoh
 
 from clients import Client, ServiceError
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
-from service.codec import encode_mover_spec
+from service.protocol.codec import encode_mover_spec
 from support.service_harness import ServiceProcess, comparable, human, raw_query, raw_session, wait_until
 
 P = "acphys"

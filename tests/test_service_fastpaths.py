@@ -1,9 +1,9 @@
 """The service's fast paths agree with the per-field readers they stand in for.
 
 Moves and States of the usual shape are read without the per-field readers
-(service.requests._plain_move, service.codec._plain_state: the fast readers
-service/schema.py generates from the MOVE and STATE declarations) and whole
-messages are put together from packed States (service.frames). Each must
+(service.protocol.requests._plain_move, service.protocol.codec._plain_state: the fast readers
+service/protocol/schema.py generates from the MOVE and STATE declarations) and whole
+messages are put together from packed States (service.protocol.frames). Each must
 give exactly what the slow path gives, and must never accept what the slow
 path refuses: whatever the fast path cannot vouch for goes to the slow path,
 which names the offending field.
@@ -22,11 +22,11 @@ from hypothesis import strategies as st
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import MoveResult
-from service.codec import _plain_state, decode_state, encode_state, pack_state, read_state
-from service.errors import ProtocolError
-from service.frames import array_header, results_message, state_message
-from service.jobqueue import JobQueue
-from service.requests import _plain_move, parse_move_item, parse_moves, read_move_item
+from service.protocol.codec import _plain_state, decode_state, encode_state, pack_state, read_state
+from service.protocol.errors import ProtocolError
+from service.protocol.frames import array_header, results_message, state_message
+from service.bus.jobqueue import JobQueue
+from service.protocol.requests import _plain_move, parse_move_item, parse_moves, read_move_item
 
 CELL = 0xA9B40001
 HALF_TURN_Z = [0.0, 0.0, 0.0, 1.0]  # 180 degrees about z: a unit quaternion

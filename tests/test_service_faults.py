@@ -16,10 +16,10 @@ import pytest
 import zenoh
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from clients.errors import AcphysError
 from support.cluster_files import cluster_file, make_certificates, tls_endpoint
-from service.journal import DEFAULT_BUDGET
+from service.persistence.journal import DEFAULT_BUDGET
 from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground
 
 

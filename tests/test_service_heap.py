@@ -10,9 +10,9 @@ import pytest
 
 from engine import World, load_scene
 from service import heap
-from service.dispatch import OPERATIONS
-from service.node import NodeOptions, ServiceNode
-from service.zconfig import make_config
+from service.bus.dispatch import OPERATIONS
+from service.bus.node import NodeOptions, ServiceNode
+from service.bus.zconfig import make_config
 from support.service_harness import DEMO_SCENE, endpoint, free_port
 
 

@@ -12,7 +12,7 @@ from collections.abc import Iterator
 import pytest
 
 from clients import Client, Move, MoverState, ServiceError
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Quat, Vec3
 from support.service_harness import ServiceProcess, comparable, demo_world, human, prime_states, start_on_ground, wait_until
 

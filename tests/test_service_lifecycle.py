@@ -12,9 +12,9 @@ import pytest
 import zenoh
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
-from service.wire import MAX_BATCH
+from service.protocol.wire import MAX_BATCH
 from support.service_harness import ServiceProcess, human, raw_session, wait_until
 
 

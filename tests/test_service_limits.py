@@ -18,11 +18,11 @@ import msgpack
 import pytest
 import zenoh
 
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine import World
 from engine.constants import HUGE_QUANTUM
 from engine.geometry import Plane, Position, Vec3
-from service.codec import encode_mover_spec
+from service.protocol.codec import encode_mover_spec
 from support.service_harness import ServiceProcess, comparable, demo_world, human, raw_query, raw_session, start_on_ground
 
 P = "acphys"

@@ -1,6 +1,6 @@
 """The service's logs: INFO at start, stop and each state write; DEBUG one line per request (key, items,
 result, time); WARNING for every error answered, rate-limited per kind; `--log-format json`, one object
-per line (service/logs.py, service/request_log.py)."""
+per line (service/logs.py, service/bus/request_log.py)."""
 
 from __future__ import annotations
 
@@ -16,10 +16,10 @@ from typing import Any
 import msgpack
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.logs import JsonFormatter
-from service.request_log import ErrorLog
+from service.bus.request_log import ErrorLog
 from support.service_harness import ROOT, ServiceProcess, child_env, demo_world, human, raw_query, raw_session, wait_until
 
 

@@ -4,7 +4,7 @@ With Zenoh's shared-memory transport on (zenoh's default), every message over
 3 KiB that a client process sends goes through a 16 MiB shared-memory pool of
 the client's, which the service kept mapped after the client left: about 20
 MB of RSS per client session, never given back. The service now switches that
-transport off (service/zconfig.py). The clients here use Zenoh's *default*
+transport off (service/bus/zconfig.py). The clients here use Zenoh's *default*
 config (shared memory on), as a client in another language would.
 """
 
@@ -14,7 +14,7 @@ import subprocess
 import sys
 import textwrap
 
-from service.zconfig import SHM_KEY, make_config
+from service.bus.zconfig import SHM_KEY, make_config
 from support.service_harness import ROOT, ServiceProcess, child_env
 
 # One client session: register a mover, send `queries` batch moves of 100 moves each (about 5 KB, over

@@ -5,11 +5,11 @@ namespaces wired to it by veth pairs, with addresses in 10.213.7.0/24 that
 exist only inside them. `acphys router` runs in one (10.213.7.1), a service
 instance in each of two more (the demo world split west A9B4,A9B5 / east
 AAB4,AAB5, both in client mode connected to the router over mutual TLS,
-with certificates of a CA the test makes: a cluster, service/security.py),
+with certificates of a CA the test makes: a cluster, service/security/cluster.py),
 and a client, with no credentials, over plain tcp in the fourth, which walks a mover across the split and back. Every request
 must be answered exactly once and every state arrive, in seq order, on the
 client's `P/obj/*/state` subscription. The commands are those of
-docs/protocol.md, "Across machines" (`acphys` run as `python3 -m clients.cli`).
+docs/protocol.md, "Across machines" (`acphys` run as `python3 -m clients`).
 
 Names are unique per run; every namespace and process is removed at the end,
 also on failure. Skipped, with the reason, where namespaces cannot be made.
@@ -167,7 +167,7 @@ def network() -> Iterator[Network]:
 
 
 def acphys(*args: str) -> list[str]:
-    return [sys.executable, "-m", "clients.cli", *args]
+    return [sys.executable, "-m", "clients", *args]
 
 
 def service(own: str, member: Path) -> list[str]:
@@ -224,10 +224,10 @@ def client_main(router: str) -> dict[str, Any]:
     import zenoh
 
     from clients import Client
-    from clients.demo_world import global_to_cell
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
-    from service.codec import encode_mover_spec, encode_position
-    from service.zconfig import make_config
+    from service.protocol.codec import encode_mover_spec, encode_position
+    from service.bus.zconfig import make_config
     from support.service_harness import human
 
     session = zenoh.open(make_config(connect=[router]))

@@ -16,15 +16,15 @@ import msgpack
 import pytest
 import zenoh
 
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine import load_scene
 from engine.geometry import Position, Vec3
-from service.codec import encode_mover_spec, encode_position
-from service.errors import ProtocolError
-from service.node import NodeOptions, ServiceNode
-from service.requests import parse_register
-from service.wire import ErrorKind
-from service.zconfig import make_config
+from service.protocol.codec import encode_mover_spec, encode_position
+from service.protocol.errors import ProtocolError
+from service.bus.node import NodeOptions, ServiceNode
+from service.protocol.requests import parse_register
+from service.protocol.wire import ErrorKind
+from service.bus.zconfig import make_config
 from support.service_harness import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, wait_until
 
 LB = 0xA9B4

@@ -3,8 +3,8 @@
 
 Before: each was copied out of Zenoh and then refused `too_large`, and a flood of 20 left the
 service's RSS at 3-4 times its start, for good. Now a payload is refused by its length before it is
-copied (service/node.py), and the service's Zenoh session assembles no message over
-`SERVICE_MAX_MESSAGE` (service/zconfig.py): larger ones are dropped while Zenoh reassembles them
+copied (service/bus/node.py), and the service's Zenoh session assembles no message over
+`SERVICE_MAX_MESSAGE` (service/bus/zconfig.py): larger ones are dropped while Zenoh reassembles them
 (no reply; docs/protocol.md, "Limits and known gaps"). A payload between the two limits is still
 answered `too_large`.
 """
@@ -16,8 +16,8 @@ from pathlib import Path
 import msgpack
 import zenoh
 
-from service.wire import MAX_PAYLOAD
-from service.zconfig import MAX_MESSAGE_KEY, SERVICE_MAX_MESSAGE, bound_messages, make_config
+from service.protocol.wire import MAX_PAYLOAD
+from service.bus.zconfig import MAX_MESSAGE_KEY, SERVICE_MAX_MESSAGE, bound_messages, make_config
 from support.service_harness import ServiceProcess, raw_query, raw_session, wait_until
 
 P = "acphys"

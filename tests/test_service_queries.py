@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from clients import Client, SightQuery
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from clients.errors import ServiceError
 from engine.geometry import Position, Vec3
-from service.wire import ErrorKind
+from service.protocol.wire import ErrorKind
 from support.service_harness import ServiceProcess, comparable, demo_world, human, raw_query, raw_session
 
 WORLD = demo_world()
@@ -136,7 +136,7 @@ def test_bad_queries_get_the_move_error_kinds_and_the_service_keeps_serving(clie
 def test_query_keys_are_checked_like_move_keys(service: ServiceProcess) -> None:
     import msgpack
 
-    from service.codec import encode_position
+    from service.protocol.codec import encode_position
 
     good = above(40.0, 50.0, 2.0)
     body = msgpack.packb({"v": 1, "ground": {"position": encode_position(good)}}, use_bin_type=True)
@@ -176,7 +176,7 @@ def test_a_registered_mover_blocks_a_ray_and_is_named_by_its_wire_id(client: Cli
 def test_an_unknown_viewer_or_target_is_named_by_its_own_path(service: ServiceProcess) -> None:
     import msgpack
 
-    from service.codec import encode_position
+    from service.protocol.codec import encode_position
 
     a, b = above(40.0, 50.0, 1.6), above(60.0, 50.0, 1.6)
     sight = {"from": encode_position(a), "to": encode_position(b)}
@@ -197,7 +197,7 @@ def test_a_radius_below_a_millimetre_is_refused_naming_it_and_a_nil_batch_field_
     (a division by zero), one of 1e-4 m an invented hit at the start. Now `bad_value` on `OP.radius`."""
     import msgpack
 
-    from service.codec import encode_position
+    from service.protocol.codec import encode_position
 
     seg = {"from": encode_position(above(40.0, 50.0, 1.6)), "to": encode_position(above(42.0, 50.0, 1.6))}
     with raw_session(service.endpoint) as s:

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from service.columns import REPLY_BY_NAME, REQUEST_COLUMNS, pack_columns, unpack_column
-from service.node import NodeOptions, ServiceNode
+from service.protocol.columns import REPLY_BY_NAME, REQUEST_COLUMNS, pack_columns, unpack_column
+from service.bus.node import NodeOptions, ServiceNode
 from service.ownership import Ownership
 from service.world_source import open_world
-from service.zconfig import make_config
+from service.bus.zconfig import make_config
 from support.service_harness import StandInQuery, free_port
 
 DEMO = "clients/demo/demo.json"

@@ -14,8 +14,8 @@ import pytest
 
 from support.cluster_files import cluster_pair
 from clients import Client, Move, MoverState, ServiceError
-from clients.demo_walk import global_xy
-from clients.demo_world import global_to_cell
+from clients.demo.walk import global_xy
+from clients.demo.world import global_to_cell
 from engine.geometry import Vec3
 from support.service_harness import (
     ServiceProcess,
@@ -34,7 +34,7 @@ ZERO = (0.0, 0.0, 0.0)
 
 @pytest.fixture(scope="module")
 def pair(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
-    # a cluster: the instances reach each other over mutual TLS (service/security.py), clients over tcp
+    # a cluster: the instances reach each other over mutual TLS (service/security/cluster.py), clients over tcp
     a_args, b_args = cluster_pair(tmp_path_factory.mktemp("cluster"))
     with ServiceProcess(own="A9B4,A9B5", extra=a_args) as a:
         with ServiceProcess(own="AAB4,AAB5", extra=b_args) as b:  # joined to A over TLS only

@@ -1,4 +1,4 @@
-"""docs/protocol.md's field tables against the messages' declarations (service/messages.py), and the
+"""docs/protocol.md's field tables against the messages' declarations (service/protocol/messages.py), and the
 declarations' readers and writers against each other.
 
 The document is the contract independent clients are written from; the declaration drives the service's
@@ -16,8 +16,8 @@ import pytest
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import CylSphereSpec, MoverSpec, SphereSpec
-from service.errors import ProtocolError
-from service.messages import (
+from service.protocol.errors import ProtocolError
+from service.protocol.messages import (
     ERROR,
     HANDOVER,
     HEALTH,
@@ -35,8 +35,8 @@ from service.messages import (
     HandoverRequest,
     RegisterRequest,
 )
-from service.schema import Map
-from service.wire import ErrorKind
+from service.protocol.schema import Map
+from service.protocol.wire import ErrorKind
 
 DOC = (Path(__file__).resolve().parent.parent / "docs" / "protocol.md").read_text(encoding="utf-8")
 
@@ -221,7 +221,7 @@ def test_handover_written_reads_back() -> None:
 
 
 def test_handover_state_reads_back_and_is_bounded() -> None:
-    from service.messages import MAX_HANDOVER_STATE
+    from service.protocol.messages import MAX_HANDOVER_STATE
 
     pos = Position.at(0xA9B40001, Vec3(10.0, 12.0, 50.0))
     sent = HandoverRequest(9, 4, _spec(), pos, None, None, None, False, "zid", b"\x81\xa2id\x09")

@@ -1,4 +1,4 @@
-"""Instance keys are closed to clients by Zenoh's own TLS and access control (service/security.py).
+"""Instance keys are closed to clients by Zenoh's own TLS and access control (service/security/cluster.py).
 
 A plain client (tcp, no credentials) keeps every ordinary operation but cannot put a mover into an
 instance by a forged hand-over, nor answer hand-overs in an instance's place; two instances joined
@@ -19,10 +19,10 @@ import pytest
 import zenoh
 
 from clients import Client, ServiceError
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from support.cluster_files import cluster_file, cluster_pair, make_certificates, tls_endpoint
 from engine.geometry import Position, Vec3
-from service.codec import encode_mover_spec, encode_position
+from service.protocol.codec import encode_mover_spec, encode_position
 from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
 
 
@@ -198,7 +198,7 @@ def test_access_control_of_a_config_file_is_kept_and_ours_added(tmp_path: Path) 
 
 
 def test_the_services_rules_are_added_to_a_config_files_own() -> None:
-    from service.security import apply_security
+    from service.security.cluster import apply_security
 
     cfg = zenoh.Config()
     cfg.insert_json5("access_control", """{ enabled: true, default_permission: "allow",

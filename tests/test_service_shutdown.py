@@ -12,7 +12,7 @@ import msgpack
 import zenoh
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from support.service_harness import ServiceProcess, human, raw_session, wait_until
 

@@ -11,11 +11,11 @@ import msgpack
 import pytest
 
 from clients import Client, ServiceError
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
-from service.codec import encode_plane, encode_position
-from service.journal import DEFAULT_BUDGET, journal_files, read_journal
-from service.state_file import read_state
+from service.protocol.codec import encode_plane, encode_position
+from service.persistence.journal import DEFAULT_BUDGET, journal_files, read_journal
+from service.persistence.state_file import read_state
 from support.service_harness import (
     DEMO_SCENE,
     ROOT,

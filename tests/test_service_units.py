@@ -9,13 +9,13 @@ import pytest
 
 from engine.geometry import Plane, Position, Quat, Vec3
 from engine.world.types import MoveResult
-from service.codec import decode_mover_spec, decode_state, encode_mover_spec, encode_state
-from service.errors import ProtocolError
-from service.jobqueue import JobQueue
+from service.protocol.codec import decode_mover_spec, decode_state, encode_mover_spec, encode_state
+from service.protocol.errors import ProtocolError
+from service.bus.jobqueue import JobQueue
 from service.ownership import Ownership
-from service.requests import ItemError, decode_envelope, parse_moves
+from service.protocol.requests import ItemError, decode_envelope, parse_moves
 from service.stats import LatencyWindow
-from service.wire import Keys, lb_hex, obj_hex
+from service.protocol.wire import Keys, lb_hex, obj_hex
 from support.service_harness import human
 
 

@@ -24,7 +24,7 @@ from clients import Client, MoverState
 from support.cluster_files import cluster_pair
 from support.shared_data import needs_shared
 from engine.geometry import Vec3
-from service.journal import DEFAULT_BUDGET
+from service.persistence.journal import DEFAULT_BUDGET
 from support.service_harness import (
     ROOT,
     ServiceProcess,
@@ -76,7 +76,7 @@ def test_one_face_health_stats_and_landblocks(client: Client) -> None:
 
 
 def test_acphys_stats_shows_the_workers(service: ServiceProcess, client: Client) -> None:
-    r = subprocess.run([sys.executable, "-m", "clients.cli", "stats", "--connect", service.endpoint], cwd=ROOT,
+    r = subprocess.run([sys.executable, "-m", "clients", "stats", "--connect", service.endpoint], cwd=ROOT,
                        env=child_env(), capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert r.stdout.count("instance ") == 1 + 2  # the service, then each worker's line

@@ -1,5 +1,5 @@
 """`--state FILE` across a change of `--workers`: the saved movers go to the files of the new layout's
-workers by landblock (service/state_layout.py), or the start is refused with every file left as it was.
+workers by landblock (service/persistence/state_layout.py), or the start is refused with every file left as it was.
 
 The demo world's four landblocks, split by hand: two workers own A9B4,A9B5 | AAB4,AAB5; three own
 A9B4 | A9B5 | AAB4,AAB5; a single process owns all four.
@@ -16,13 +16,13 @@ from typing import Any
 import pytest
 
 from clients import Client
-from clients.demo_world import global_to_cell
+from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
-from service.codec import encode_mover_spec, encode_position
-from service.messages import HANDOVER, HandoverRequest
+from service.protocol.codec import encode_mover_spec, encode_position
+from service.protocol.messages import HANDOVER, HandoverRequest
 from service.ownership import Ownership
-from service.state_file import StateFileError, read_state, write_state
-from service.state_layout import layout_paths, regroup_state, saved_files
+from service.persistence.state_file import StateFileError, read_state, write_state
+from service.persistence.state_layout import layout_paths, regroup_state, saved_files
 from support.service_harness import DEMO_SCENE, ROOT, ServiceProcess, child_env, demo_world, free_port, human
 
 _encode = HANDOVER.encode_fn()

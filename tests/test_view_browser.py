@@ -55,7 +55,7 @@ def _view_process(extra: list[str]) -> Iterator[tuple[ServiceProcess, str]]:
     """A service, and `acphys view` connected to it (with `extra` options), until the test is done."""
     with ServiceProcess(extra=["--prefix", PREFIX]) as svc:
         port = free_port()
-        proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "view", "--connect", svc.endpoint,
+        proc = subprocess.Popen([sys.executable, "-m", "clients", "view", "--connect", svc.endpoint,
                                  "--prefix", PREFIX, "--port", str(port), *extra],
                                 cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         url = f"http://127.0.0.1:{port}/"
@@ -133,8 +133,9 @@ def test_the_live_map_shows_the_movers_of_a_demo_walk_moving(view: tuple[Service
     from selenium.webdriver.common.by import By
 
     from clients import Client
-    from clients.demo_walk import demo_mover, walk_demo
-    from clients.demo_world import global_to_cell
+    from clients.cli.player import player_mover
+    from clients.demo.walk import walk_demo
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
 
     svc, url = view
@@ -166,7 +167,7 @@ def test_the_live_map_shows_the_movers_of_a_demo_walk_moving(view: tuple[Service
     with Client([svc.endpoint], prefix=PREFIX, timeout=10.0) as c:
         # a mover that stands still: it appears once the page's view has its state (re-sent until it has)
         cell, x, y = global_to_cell(100.0, 100.0)
-        still = c.register(demo_mover(), Position.at(cell, Vec3(x, y, 60.0)))
+        still = c.register(player_mover(), Position.at(cell, Vec3(x, y, 60.0)))
         still_hex = f"{still.id:X}"
         thread = threading.Thread(target=walk, daemon=True)
         thread.start()
@@ -260,8 +261,8 @@ def test_the_live_map_lays_out_its_labels_key_buildings_and_list(view: tuple[Ser
     from selenium.webdriver.common.by import By
 
     from clients import Client
-    from clients.demo_walk import demo_mover
-    from clients.demo_world import ORIGIN_LANDBLOCK, demo_footprints, global_to_cell
+    from clients.cli.player import player_mover
+    from clients.demo.world import ORIGIN_LANDBLOCK, demo_footprints, global_to_cell
     from engine.geometry import Position, Vec3
 
     svc, url = view
@@ -288,7 +289,7 @@ def test_the_live_map_lays_out_its_labels_key_buildings_and_list(view: tuple[Ser
         ids = []
         for gx, gy in spots:
             cell, x, y = global_to_cell(gx, gy)
-            ids.append(c.register(demo_mover(), Position.at(cell, Vec3(x, y, 60.0))).id)
+            ids.append(c.register(player_mover(), Position.at(cell, Vec3(x, y, 60.0))).id)
         keys = [f"{i:X}" for i in ids]
         states: dict[int, Any] = {}
 
@@ -395,9 +396,9 @@ def test_the_live_map_draws_the_paths_asked(path_view: tuple[ServiceProcess, str
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
-    from clients.demo_walk import demo_mover
-    from clients.demo_world import demo_scene_path
-    from clients.view_paths import parse_path_words
+    from clients.cli.player import player_mover
+    from clients.demo.world import demo_scene_path
+    from clients.view.paths import parse_path_words
     from engine import load_scene
 
     _, url = path_view
@@ -405,7 +406,7 @@ def test_the_live_map_draws_the_paths_asked(path_view: tuple[ServiceProcess, str
     js = browser.execute_script
     _wait(lambda: js("return window.acphysView && window.acphysView.terrainReady()") == 4, "the terrain")
     # the --path, answered and drawn: one polyline through as many points as the world's own path has waypoints
-    local = load_scene(str(demo_scene_path())).path(demo_mover(), *parse_path_words(PATH_WORDS))
+    local = load_scene(str(demo_scene_path())).path(player_mover(), *parse_path_words(PATH_WORDS))
     assert local.found
 
     def drawn(n: int) -> Any:

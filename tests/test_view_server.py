@@ -40,7 +40,7 @@ def _get(url: str) -> tuple[int, Any]:
 def view_url() -> Iterator[tuple[str, ServiceProcess]]:
     with ServiceProcess(extra=["--prefix", PREFIX]) as svc:
         port = free_port()
-        proc = subprocess.Popen([sys.executable, "-m", "clients.cli", "view", "--connect", svc.endpoint,
+        proc = subprocess.Popen([sys.executable, "-m", "clients", "view", "--connect", svc.endpoint,
                                  "--prefix", PREFIX, "--port", str(port), "--path", *PATH_WORDS],
                                 cwd=ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         url = f"http://127.0.0.1:{port}/"
@@ -77,7 +77,7 @@ def test_the_view_serves_its_page_and_says_what_it_watches(view_url: tuple[str, 
 
 
 def test_terrain_grids_are_the_worlds_heights(view_url: tuple[str, ServiceProcess]) -> None:
-    from clients.demo_world import demo_scene_path
+    from clients.demo.world import demo_scene_path
     from engine import load_scene
 
     url, _ = view_url
@@ -103,7 +103,7 @@ def test_bad_terrain_requests_get_clear_errors(view_url: tuple[str, ServiceProce
 
 
 def test_the_board_keeps_the_newest_state_of_each_mover() -> None:
-    from clients.view_board import MoverBoard
+    from clients.view.board import MoverBoard
 
     board = MoverBoard(session=None, prefix="p")
     big = 0x52BCE000000001  # beyond JavaScript's exact integers: the page gets it in hex
@@ -124,7 +124,7 @@ def _bbox(points: list[list[float]]) -> tuple[float, float, float, float]:
 
 
 def test_the_view_draws_the_worlds_buildings_and_objects(view_url: tuple[str, ServiceProcess]) -> None:
-    from clients.demo_world import ORIGIN_LANDBLOCK, demo_footprints
+    from clients.demo.world import ORIGIN_LANDBLOCK, demo_footprints
 
     url, _ = view_url
     # the demo world's own account of its village (global demo metres from A9B4's corner), in the view's
@@ -153,7 +153,7 @@ def test_the_view_draws_the_worlds_buildings_and_objects(view_url: tuple[str, Se
 
 
 def test_a_convex_hull_keeps_the_corners_only() -> None:
-    from clients.view_objects import convex_hull
+    from clients.view.objects import convex_hull
 
     square_with_inside = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (1.0, 1.0), (1.0, 0.0), (0.5, 1.5)]
     assert convex_hull(square_with_inside) == [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]  # counter-clockwise
@@ -166,8 +166,8 @@ def _state(mid: int, seq: int) -> dict[str, Any]:
 
 
 def test_a_quiet_mover_the_service_no_longer_holds_is_forgotten_after_two_answers() -> None:
-    from clients.view_board import MoverBoard
-    from clients.view_removals import QUIET_S, RECHECK_S, RETRY_S, RemovalWatch
+    from clients.view.board import MoverBoard
+    from clients.view.removals import QUIET_S, RECHECK_S, RETRY_S, RemovalWatch
 
     board = MoverBoard(session=None, prefix="p")
     held = {0xA1: True, 0xB2: False, 0xC3: None}  # held; gone; the service does not answer
@@ -195,8 +195,8 @@ def test_a_quiet_mover_the_service_no_longer_holds_is_forgotten_after_two_answer
 
 
 def test_a_mover_that_spoke_again_is_not_forgotten() -> None:
-    from clients.view_board import MoverBoard
-    from clients.view_removals import QUIET_S, RETRY_S, RemovalWatch
+    from clients.view.board import MoverBoard
+    from clients.view.removals import QUIET_S, RETRY_S, RemovalWatch
 
     board = MoverBoard(session=None, prefix="p")
     board.offer(_state(0xB2, 1))
@@ -210,14 +210,14 @@ def test_a_mover_that_spoke_again_is_not_forgotten() -> None:
 
 def test_the_view_drops_a_mover_the_service_removed(view_url: tuple[str, ServiceProcess]) -> None:
     from clients import Client
-    from clients.demo_walk import demo_mover
-    from clients.demo_world import global_to_cell
+    from clients.cli.player import player_mover
+    from clients.demo.world import global_to_cell
     from engine.geometry import Position, Vec3
 
     url, svc = view_url
     with Client([svc.endpoint], prefix=PREFIX, timeout=10.0) as c:
         cell, x, y = global_to_cell(50.0, 50.0)
-        st = c.register(demo_mover(), Position.at(cell, Vec3(x, y, 60.0)))
+        st = c.register(player_mover(), Position.at(cell, Vec3(x, y, 60.0)))
         key = f"{st.id:X}"
         deadline = time.monotonic() + 30.0
         while key not in {m["id"] for m in _get(url + "api/movers")[1]}:  # re-sent until the view has one
@@ -249,9 +249,9 @@ def _same_waypoints(served: list[dict[str, Any]], local: Any) -> None:
 
 
 def test_the_view_serves_the_paths_asked_as_the_world_finds_them(view_url: tuple[str, ServiceProcess]) -> None:
-    from clients.demo_walk import demo_mover
-    from clients.demo_world import demo_scene_path
-    from clients.view_paths import parse_path_words
+    from clients.cli.player import player_mover
+    from clients.demo.world import demo_scene_path
+    from clients.view.paths import parse_path_words
     from engine import load_scene
     from engine.geometry import Position, Vec3
 
@@ -269,7 +269,7 @@ def test_the_view_serves_the_paths_asked_as_the_world_finds_them(view_url: tuple
                                                            "origin": [108.0, 108.0, 40.0]}
     # the same path as the world loaded here finds for the same walker, asked in the same order
     world = load_scene(str(demo_scene_path()))
-    walker = demo_mover()
+    walker = player_mover()
     local = world.path(walker, *parse_path_words(PATH_WORDS))
     assert local.found and p["found"] and p["length"] == pytest.approx(local.length, abs=1e-3)
     _same_waypoints(p["waypoints"], local)

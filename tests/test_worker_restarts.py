@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from service.ownership import Ownership
-from service.workers import RESTART_DELAY_MAX, WorkerProcess, WorkerSupervisor, restart_delay
+from service.scaleout.workers import RESTART_DELAY_MAX, WorkerProcess, WorkerSupervisor, restart_delay
 
 
 class _DeadProcess:

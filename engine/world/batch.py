@@ -83,7 +83,7 @@ _NO_INTS: Final = bytes(8 * INTS_PER_ROW)
 
 #: A mover's whole state as `write_mover_state` writes it: little-endian, four int64s then 24 float64s
 #: (vectors as x y z, the orientation as w x y z). `flags`: 1 missile, 2 colliding with the environment.
-#: With it a mover is put back exactly as it stood (a service's journal, service/journal_records.py).
+#: With it a mover is put back exactly as it stood (a service's journal, service/persistence/journal_records.py).
 MOVER_STATE_FIELDS: Final = (
     ("cell_id", 1), ("transient", 1), ("contact_plane_cell_id", 1), ("flags", 1),
     ("origin", 3), ("orientation", 4), ("contact_plane_normal", 3), ("contact_plane_d", 1), ("sliding_normal", 3),

@@ -1,14 +1,15 @@
-"""The wire's vocabulary, one declaration per message, and its readers and writers; no I/O.
+"""The wire's vocabulary: every message declared once, its readers and writers; no I/O.
 
-Today it holds the list of operations and the queries on `P/lb/XXYY/<op>` (sight, ray, ground, place, path: `QUERIES`), in their
-map, batch and column forms. The service reads requests and writes answers with it; the client library
-writes requests and reads answers with it; the test of docs/protocol.md's tables reads it. Moves,
-movers and the other messages are declared in service/messages.py and service/columns.py still.
+The queries on `P/lb/XXYY/<op>` (sight, ray, ground, place, path: `QUERIES`) in their map, batch and
+column forms are declared in queries.py, the operation lists in operations.py; the moves and mover
+messages in messages.py (map form) and columns.py (column form); wire.py holds keys, limits and the
+error kinds. The service reads requests and writes answers with it, the client library writes requests
+and reads answers with it, and the test of docs/protocol.md's tables reads it.
 """
 
 from __future__ import annotations
 
-from .queries import (
+from service.protocol.queries import (
     BATCH_FIELDS,
     BLOCKER_CODES,
     MAX_PATH_BATCH,
@@ -24,9 +25,9 @@ from .queries import (
     QueryColumns,
     QueryKind,
 )
-from .operations import LB_OPS, MOVER_OPS, REQUEST_OPS
-from .readers import Item, count_items, read_answer, read_item, read_options, read_request
-from .writers import write_answer, write_query
+from service.protocol.operations import LB_OPS, MOVER_OPS, REQUEST_OPS
+from service.protocol.readers import Item, count_items, read_answer, read_item, read_options, read_request
+from service.protocol.writers import write_answer, write_query
 
 __all__ = [
     "MOVER_OPS", "LB_OPS", "REQUEST_OPS", "QUERIES", "QUERY_OPS", "BATCH_FIELDS", "QUERY_COLUMNS", "QUERY_FORMS", "QueryKind", "QueryColumns",

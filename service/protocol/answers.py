@@ -15,7 +15,7 @@ from typing import Any
 from engine.geometry import Position, Quat, Vec3
 from engine import Blocker
 
-from ..codec import decode_plane, decode_position, encode_plane, encode_position, encode_vec
+from service.protocol.codec import decode_plane, decode_position, encode_plane, encode_position, encode_vec
 
 __all__ = ["Out", "IdMap", "REAL", "COUNT", "FLAG", "TEXT", "CELL", "POSITION", "VECTOR", "PLANE", "BLOCKER",
            "POSITIONS", "out"]

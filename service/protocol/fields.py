@@ -3,7 +3,7 @@
 A `Field` of a query declaration (service/protocol/queries.py) names its wire key and its `Kind`; the
 readers (service side: refuse what is wrong, naming the field's path) and the writers (client side: the
 wire map of a Python value) both come from that one declaration. Reading goes through the readers of
-service/validate.py and service/codec.py, so every kind and message of protocol.md's Errors is theirs.
+service/protocol/validate.py and service/protocol/codec.py, so every kind and message of protocol.md's Errors is theirs.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from typing import Any
 
 from engine.geometry import Position
 
-from ..codec import decode_mover_spec, decode_position, encode_mover_spec, encode_position
-from ..errors import ProtocolError
-from ..validate import as_bool, as_float, as_str, as_uint
-from ..wire import ErrorKind
+from service.protocol.codec import decode_mover_spec, decode_position, encode_mover_spec, encode_position
+from service.protocol.errors import ProtocolError
+from service.protocol.validate import as_bool, as_float, as_str, as_uint
+from service.protocol.wire import ErrorKind
 
 __all__ = ["Kind", "Field", "POSITION", "MOVER", "ID", "BOOL", "Real", "Count", "Choice", "in_landblock"]
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Final
 
-from .queries import QUERY_OPS
+from service.protocol.queries import QUERY_OPS
 
 __all__ = ["MOVER_OPS", "LB_OPS", "REQUEST_OPS"]
 

@@ -21,12 +21,12 @@ from typing import Any, Final
 from engine.limits import MAX_PATH_DISTANCE, MAX_RAY_RADIUS, MAX_WANDER_RADIUS, MIN_SPHERE_RADIUS
 from engine import REASONS, Ground, PathResult, PlacementResult, RayHit, SightResult
 
-from ..columns import Column, reply_columns
-from ..errors import ProtocolError
-from ..validate import as_uint, field_path
-from ..wire import MAX_BATCH, ErrorKind
-from . import answers as a
-from .fields import BOOL, ID, MOVER, POSITION, Choice, Count, Field, Kind, Real
+from service.protocol.columns import Column, reply_columns
+from service.protocol.errors import ProtocolError
+from service.protocol.validate import as_uint, field_path
+from service.protocol.wire import MAX_BATCH, ErrorKind
+from service.protocol import answers as a
+from service.protocol.fields import BOOL, ID, MOVER, POSITION, Choice, Count, Field, Kind, Real
 
 __all__ = [
     "QueryKind",

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import ProtocolError
-from ..validate import as_list, as_map, field_path, get_field, opt_field
-from ..wire import ErrorKind
-from .fields import Field, in_landblock
-from .queries import QUERIES, QueryKind
+from service.protocol.errors import ProtocolError
+from service.protocol.validate import as_list, as_map, field_path, get_field, opt_field
+from service.protocol.wire import ErrorKind
+from service.protocol.fields import Field, in_landblock
+from service.protocol.queries import QUERIES, QueryKind
 
 __all__ = ["Item", "read_request", "read_item", "read_options", "read_answer", "count_items"]
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .answers import IdMap
-from .queries import QUERIES
+from service.protocol.answers import IdMap
+from service.protocol.queries import QUERIES
 
 __all__ = ["write_answer", "write_query"]
 

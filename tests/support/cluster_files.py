@@ -1,6 +1,6 @@
 """A cluster of service instances for tests: a throwaway CA, an instance certificate, cluster files.
 
-Certificates are made by service/certificates.py (the `cryptography` package), valid for two days, for
+Certificates are made by service/security/certificates.py (the `cryptography` package), valid for two days, for
 127.0.0.1 and localhost; nothing is read from or written outside the test's own directory.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from service.certificates import INSTANCE_CN, make_certificates
+from service.security.certificates import INSTANCE_CN, make_certificates
 from support.service_harness import endpoint, free_port
 
 __all__ = ["INSTANCE_CN", "make_certificates", "tls_endpoint", "cluster_file", "cluster_pair"]

@@ -25,8 +25,8 @@ import zenoh
 from engine import MoverSpec, SphereSpec, World, load_scene
 from engine.geometry import Position, Vec3
 from engine.world.types import MoveResult
-from service.codec import encode_state
-from service.zconfig import make_config
+from service.protocol.codec import encode_state
+from service.bus.zconfig import make_config
 
 ROOT = Path(__file__).resolve().parents[2]
 TESTS = ROOT / "tests"
@@ -173,7 +173,7 @@ def load_worker(endpoint_: str, index: int, requests: int, batch_every: int) -> 
     states: list[int] = []
     lock = threading.Lock()
     with Client([endpoint_], timeout=20.0) as c:
-        from clients.demo_world import global_to_cell
+        from clients.demo.world import global_to_cell
 
         cell, lx, ly = global_to_cell(30.0 + 20.0 * index, 30.0)
         st = c.register(human(), Position.at(cell, Vec3(lx, ly, 70.0)))

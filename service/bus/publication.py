@@ -1,0 +1,183 @@
+"""What an instance puts on the bus besides its replies: States, errors, forwarded moves, hand-overs.
+
+`ZenohBus` is the core's `BusPort` (service/core.py) on an open Zenoh session. It owns the publishers
+the node declares for it and the question "would a put here reach anyone": each publication asks
+Zenoh's matching status once per request, so an instance nobody watches publishes nothing
+(docs/protocol.md, "State publication"). The node keeps the session, the queryables and the engine
+thread; it lends the bus two things for a hand-over's wait (`HandoverWait`).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any, Protocol
+
+import msgpack
+import zenoh
+
+from service.protocol.errors import ProtocolError
+from service.bus.request_log import ERRORS
+from service.protocol.frames import pack, state_message, states_message
+from service.protocol.wire import ErrorKind, Keys
+
+__all__ = ["ZenohBus", "HandoverWait"]
+
+#: State keys kept parsed (one per mover published recently)
+_KEY_CACHE = 100_000
+
+
+class HandoverWait(Protocol):
+    """How the node stays responsive while the engine thread waits on a hand-over's answer."""
+
+    def wake(self) -> None:
+        """The answer has come: stop waiting now."""
+        ...
+
+    def serve_until(self, done: threading.Event, deadline: float) -> None:
+        """Run the jobs that may not wait (arriving hand-overs) until `done` is set or `deadline` passes."""
+        ...
+
+
+class ZenohBus:
+    """The core's view of the bus (BusPort), on `session` under `keys`'s prefix."""
+
+    def __init__(self, session: zenoh.Session, keys: Keys, wait: HandoverWait, *, publish_states: bool,
+                 skip_unwatched_states: bool, handover_timeout: float) -> None:
+        self.session = session
+        self.keys = keys
+        self.publish_states = publish_states
+        self.skip_unwatched_states = skip_unwatched_states
+        self.handover_timeout = handover_timeout
+        self._wait = wait
+        self._state_keys: dict[int, zenoh.KeyExpr] = {}
+        # a publisher on P/obj/*/state only for its matching status; kept until the queued requests are
+        # answered at shutdown (they ask it)
+        self._state_watch: Any = session.declare_publisher(keys.state("*")) if skip_unwatched_states else None
+        self._batch_pub: Any = session.declare_publisher(keys.states)
+        self._columns_pub: Any = session.declare_publisher(keys.state_columns)
+        self._open = True
+
+    def close(self) -> None:
+        """Undeclare the publishers (the session stays the node's to close)."""
+        self._open = False
+        for pub in (self._state_watch, self._batch_pub, self._columns_pub):
+            if pub is not None:
+                try:
+                    pub.undeclare()
+                except Exception:  # already gone with the session
+                    pass
+        self._state_watch = self._batch_pub = self._columns_pub = None
+
+    # -- would a put reach anyone -------------------------------------------------
+    def states_watched(self) -> bool:
+        """Whether anyone subscribes to a state key now (else the States need not be published)."""
+        if not self.publish_states or not self._open:
+            return False
+        watch = self._state_watch
+        if watch is None:
+            return True
+        try:
+            # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
+            return bool(watch.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def _watched(self, pub: Any) -> bool:
+        """Whether a put on `pub`'s key would reach anyone (Zenoh's matching status, read now)."""
+        if not self.publish_states or pub is None:
+            return False
+        if not self.skip_unwatched_states:
+            return True
+        try:
+            return bool(pub.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def batch_watched(self) -> bool:
+        """Whether anyone subscribes to P/states now."""
+        return self._watched(self._batch_pub)
+
+    def columns_watched(self) -> bool:
+        """Whether anyone subscribes to P/state_columns now."""
+        return self._watched(self._columns_pub)
+
+    # -- puts ----------------------------------------------------------------------
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
+        """A mover's State (given packed) on its key, framed as `{"v", "state"}`."""
+        if not self.publish_states or not self._open:
+            return
+        key = self._state_keys.get(mover_id)
+        if key is None:  # parsing the key expression costs more than the put itself
+            if len(self._state_keys) >= _KEY_CACHE:
+                self._state_keys.clear()
+            key = self._state_keys[mover_id] = zenoh.KeyExpr(self.keys.state(mover_id))
+        self.session.put(key, state_message(packed_state))
+
+    def publish_batch(self, packed_states: list[bytes]) -> None:
+        """One request's States as one message on P/states."""
+        pub = self._batch_pub
+        if pub is not None:
+            pub.put(states_message(packed_states))
+
+    def publish_columns(self, message: bytes) -> None:
+        """A columnar publication (a whole message) on P/state_columns."""
+        pub = self._columns_pub
+        if pub is not None:
+            pub.put(message)
+
+    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
+        """An error on the mover's error key, or on P/errors when no mover is known."""
+        key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
+        detail = error.get("error")
+        if isinstance(detail, dict):  # a pushed move's error: answered here, so logged (rate-limited)
+            ERRORS.error(str(detail.get("kind")), "push", key, str(detail.get("message")), id=mover_id)
+        self.put(key, error)
+
+    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
+        """A fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
+        self.put(self.keys.push(lb), {"move": item, "publish": "batch"} if publish_batch else {"move": item})
+
+    def forward_columns(self, lb: int, message: bytes) -> None:
+        """A column push (a whole message) on `lb`'s push key."""
+        if self._open:
+            self.session.put(self.keys.push(lb), message)
+
+    def put(self, key: str, content: dict[str, Any]) -> None:
+        """Any map, packed, on `key`."""
+        if self._open:
+            self.session.put(key, pack(content))
+
+    # -- hand-over -----------------------------------------------------------------
+    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
+        """Ask `lb`'s owner to take a mover; its reply map, or ProtocolError. Arriving hand-overs are
+        served meanwhile (two instances handing movers to each other must not wait on each other)."""
+        replies: list[zenoh.Reply] = []
+        done = threading.Event()
+
+        def on_done() -> None:
+            done.set()
+            self._wait.wake()
+
+        self.session.get(
+            self.keys.lb(lb, "handover"),
+            zenoh.handlers.Callback(replies.append, on_done),
+            payload=pack(payload),
+            timeout=self.handover_timeout,
+        )
+        self._wait.serve_until(done, time.monotonic() + self.handover_timeout + 1.0)
+        for r in replies:
+            if r.ok is not None:
+                return dict(msgpack.unpackb(r.ok.payload.to_bytes(), raw=False))
+        for r in replies:
+            if r.err is None:
+                continue
+            raw = r.err.payload.to_bytes()
+            try:
+                err = msgpack.unpackb(raw, raw=False)["error"]
+                raise ProtocolError(err.get("kind", ErrorKind.INTERNAL), err.get("message", ""))
+            except ProtocolError:
+                raise
+            except Exception:
+                raise ProtocolError(ErrorKind.NO_OWNER, raw.decode("utf-8", "replace")) from None
+        raise ProtocolError(ErrorKind.NO_OWNER, "no instance owns that landblock")
