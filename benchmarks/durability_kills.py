@@ -17,7 +17,7 @@ wrote, and a Get of each) are checked against the mirror and the answers the cli
 - `every-second` and `never`: nothing answered more than WINDOW_S before the kill is lost.
 
 The mirror then restores the same movers (as the service's start does) and the run goes on: the
-checks of the next kill start from there. tests/test_durability_kills.py runs a few kills per policy;
+checks of the next kill start from there. tests/service/persistence/test_durability_kills.py runs a few kills per policy;
 benchmarks/bench_durability.py many more.
 """
 

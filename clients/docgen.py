@@ -7,7 +7,7 @@ The guide is the docstrings of the public classes (`clients.__all__` and the
 engine's query results they return), every public method and property with
 its signature, in the order the source defines them; only the few paragraphs
 of `INTRODUCTION` and of `SECTION_TEXT` (a section's opening, such as the
-paths' example) are written here. tests/test_client_guide.py checks that
+paths' example) are written here. tests/clients/test_client_guide.py checks that
 the committed guide is this module's output, so a docstring changed without
 running this fails the tests.
 """

@@ -12,9 +12,17 @@ import dataclasses
 import struct
 
 from engine.cells.cell_array import CellArray
-from engine.geometry import Sphere, Vec3
+from engine.geometry import Position, Sphere, Vec3
 from benchmarks.scenes import PLAYER, world_from_heights
-from tests.test_queries import at, cell
+
+
+def cell(lb: int, x: float, y: float) -> int:
+    """The outdoor cell id of landblock-local (x, y): 24 m cells, numbered from 1 along y first."""
+    return (lb << 16) | (int(x // 24) * 8 + int(y // 24) + 1)
+
+
+def at(lb: int, x: float, y: float, z: float) -> Position:
+    return Position.at(cell(lb, x, y), Vec3(x, y, z))
 
 
 def f32(x: float) -> float:

@@ -39,7 +39,7 @@ SHM_KEY = "transport/shared_memory/enabled"
 MAX_MESSAGE_KEY = "transport/link/rx/max_message_size"
 #: The largest message a serving instance's Zenoh session assembles: the largest request (MAX_PAYLOAD) and
 #: 1 MiB more, so a payload a little over the limit (a client's honest mistake) still reaches the service
-#: and is answered `too_large`. Measured (a 20-60 MB flood, tests/test_service_oversized.py): RSS 8 % above
+#: and is answered `too_large`. Measured (a 20-60 MB flood, tests/service/test_service_oversized.py): RSS 8 % above
 #: its start with this limit, 13-21 % with 8 MiB, 40 % with 16 MiB, 250 % with Zenoh's 1 GiB.
 SERVICE_MAX_MESSAGE = MAX_PAYLOAD + (1 << 20)
 

@@ -2,7 +2,7 @@
 
 Each declaration (service/protocol/schema.py) is what the service reads a request with (the full reader and
 the fast reader generated from it), what it writes a reply or a State with, what the client library
-writes its requests and reads the States with, and what tests/test_service_schema.py checks the
+writes its requests and reads the States with, and what tests/service/protocol/test_service_schema.py checks the
 protocol document's tables against. The column form's declaration is service/protocol/columns.py.
 
 Only the engine's value types and limits are used (no World), so the client library shares this module.

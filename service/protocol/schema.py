@@ -13,7 +13,7 @@ a nested map). From that one declaration (service/protocol/messages.py holds eve
 - `packing.make_packer(map, ...)`: for the per-move State, a function that writes the msgpack bytes directly
   (service/protocol/packing.py), generated from the same fields;
 - `Field.doc_type` and `Map.required_names`: what docs/protocol.md's tables are checked against
-  (tests/test_service_schema.py).
+  (tests/service/protocol/test_service_schema.py).
 
 The value kinds are in service/protocol/schema_kinds.py; this module holds the maps and their fields.
 Only the wire constants, validate.py's readers and the standard library are used here.

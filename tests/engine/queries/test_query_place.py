@@ -163,7 +163,7 @@ def test_the_readme_queries_example_runs(monkeypatch: pytest.MonkeyPatch, capsys
     """README.md's "Spatial queries" example, run as written from the repo root."""
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[3]
     text = (root / "README.md").read_text()
     section = text.split("### Spatial queries", 1)[1]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]

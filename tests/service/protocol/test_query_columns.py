@@ -6,7 +6,7 @@
   column, item errors name the column, the item and the component.
 
 Against a service (the column answers equal the map form's bit for bit):
-tests/test_service_queries.py.
+tests/service/test_service_queries.py.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from service.protocol import (
 from service.protocol.query_columns import parse_query_columns
 from service.protocol.wire import ErrorKind
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"
+DOC = Path(__file__).resolve().parents[3] / "docs" / "protocol.md"
 A9B4 = 0xA9B4
 
 

@@ -1,5 +1,5 @@
 """A Client that reaches no service says where it looked: the endpoint, the prefix, and the login it
-may need (the library's counterpart of the CLI's diagnosis, tests/test_cli_errors.py)."""
+may need (the library's counterpart of the CLI's diagnosis, tests/clients/cli/test_cli_errors.py)."""
 
 from __future__ import annotations
 

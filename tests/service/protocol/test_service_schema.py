@@ -38,7 +38,7 @@ from service.protocol.messages import (
 from service.protocol.schema import Map
 from service.protocol.wire import ErrorKind
 
-DOC = (Path(__file__).resolve().parent.parent / "docs" / "protocol.md").read_text(encoding="utf-8")
+DOC = (Path(__file__).resolve().parents[3] / "docs" / "protocol.md").read_text(encoding="utf-8")
 
 
 def _section(heading: str) -> str:

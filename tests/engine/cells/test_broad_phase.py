@@ -33,7 +33,7 @@ from engine.transition.sphere_path import SpherePath
 from engine.world import shadows
 from support.shared_data import ORACLE, needs_shared
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 

@@ -1,4 +1,4 @@
-"""One rule each, spoken by a raw client (zenoh and msgpack only, as tests/test_service_raw.py):
+"""One rule each, spoken by a raw client (zenoh and msgpack only, as tests/service/test_service_raw.py):
 
 - keys: a request, put or query, must name its operation in the last chunk of its key
   (docs/protocol.md, "Key expressions"): a put on `P/lb/A9B4/*` or `P/lb/**` runs nothing and is

@@ -20,7 +20,7 @@ from service.bus.zconfig import DEFAULT_ENDPOINT
 from support.service_harness import ServiceProcess, demo_world
 from support.markdown_python import python_blocks, run_blocks
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 GUIDE = ROOT / "docs" / "client.md"
 
 

@@ -34,7 +34,7 @@ from service.protocol.columns import REPLY_COLUMNS, REQUEST_COLUMNS, TRANSIENT_F
 from service.protocol.errors import ProtocolError
 from support.service_harness import ServiceProcess, demo_world, human, raw_session, start_on_ground, wait_until
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "protocol.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "protocol.md"
 P = "acphys"
 
 
