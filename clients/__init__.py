@@ -5,10 +5,11 @@
 
 from clients.aio import AsyncClient
 from clients.batch import BatchResults
-from clients.client import Client, Subscription
+from clients.client import Client
 from clients.errors import AcphysError, BusyError, NoServiceError, RequestTimeout, ServiceError
 from clients.query_columns import QueryColumnResults
 from clients.spatial import SightQuery
+from clients.subscriptions import Subscription
 from clients.types import InstanceInfo, Move, MoverState
 
 __all__ = [

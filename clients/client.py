@@ -12,14 +12,19 @@ The client remembers which landblock each mover it has seen is in (from
 every state it receives) and sends that mover's requests to that
 landblock's key; when the service answers that a mover was handed over to
 another instance, it follows and retries.
+
+This file holds the connection, that routing (`landblock_of`, `find`, the request plumbing) and the
+movers' register / update / remove / get. The rest of `Client` is mixed in, a concept a file: the moves
+(clients/moves.py), the subscriptions (clients/subscriptions.py), the calls to the instances (landblocks,
+health, stats: clients/instances.py), the spatial queries (clients/spatial.py) and the paths
+(clients/paths.py).
 """
 
 from __future__ import annotations
 
-import logging
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import zenoh
@@ -28,23 +33,20 @@ from engine.geometry import Plane, Position, Vec3
 from engine import MoverSpec
 from service.protocol.codec import encode_mover_spec
 from service.protocol.messages import REGISTER, RegisterRequest
-from service.protocol.wire import DEFAULT_PREFIX, MAX_PAYLOAD, ErrorKind, Keys, user_prefix
+from service.protocol.wire import DEFAULT_PREFIX, ErrorKind, Keys, user_prefix
 from service.bus.zconfig import DEFAULT_ENDPOINT, make_config
 
-from clients.batch import BatchResults, move_batch
+from clients.instances import InstanceCalls
+from clients.moves import MAX_REDIRECTS, REDIRECTS, MoveCalls
 from clients.paths import PathQueries
 from clients.request_channel import PendingRequest, pack_request, read_reply, send_query, unpack_message
 from clients.spatial import SpatialQueries
-from clients.errors import AcphysError, NoServiceError, RequestTimeout, ServiceError
-from clients.types import InstanceInfo, Move, MoverState, item_result
+from clients.subscriptions import Subscription, SubscriptionCalls
+from clients.errors import NoServiceError, ServiceError
+from clients.types import MoverState
 
 __all__ = ["Client", "Subscription"]
 
-log = logging.getLogger("acphys.client")
-
-#: Error kinds that say "ask again at landblock `landblock`".
-_REDIRECTS = (ErrorKind.MOVED, ErrorKind.WRONG_LANDBLOCK)
-_MAX_REDIRECTS = 4
 #: most per-landblock request keys kept parsed (`Client._lb_key`)
 _KEY_CACHE = 4096
 #: Seconds a new peer session takes to meet every instance of a cluster. It connects to one endpoint and
@@ -59,36 +61,7 @@ SETTLE_S = 0.5
 _encode_register = REGISTER.encode_fn()
 
 
-class Subscription:
-    """A live subscription, as `Client.subscribe`, `subscribe_batches` and `subscribe_errors` return it.
-
-    Its callback keeps being called (on a Zenoh thread) until `close()`, or the end of a `with` block:
-
-        with client.subscribe(print, mover_id):
-            client.move(mover_id, offset=(1, 0, 0))
-    """
-
-    def __init__(self, subscribers: list[Any]) -> None:
-        self._subs = subscribers
-
-    def close(self) -> None:
-        """Stop the callbacks (undeclare the Zenoh subscribers). Safe to call twice, and after the client
-        closed; raises nothing."""
-        for s in self._subs:
-            try:
-                s.undeclare()
-            except Exception:  # the session may already be closed
-                pass
-        self._subs = []
-
-    def __enter__(self) -> Subscription:
-        return self
-
-    def __exit__(self, *_: object) -> None:
-        self.close()
-
-
-class Client(SpatialQueries, PathQueries):
+class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQueries):
     """A connection to the acphys service: register movers, move them, ask the spatial queries and paths,
     watch States.
 
@@ -283,30 +256,17 @@ class Client(SpatialQueries, PathQueries):
     def _lb_request(self, lb: int, op: str, content: dict[str, Any], mover_id: int | None = None,
                     timeout: float | None = None) -> dict[str, Any]:
         """A per-landblock request, following `moved` / `wrong_landblock` redirects."""
-        for _ in range(_MAX_REDIRECTS):
+        for _ in range(MAX_REDIRECTS):
             try:
                 return self._request(self._lb_key(lb, op), content, timeout)
             except ServiceError as e:
                 target = e.details.get("landblock")
-                if e.kind not in _REDIRECTS or not isinstance(target, int) or target == lb:
+                if e.kind not in REDIRECTS or not isinstance(target, int) or target == lb:
                     raise
                 lb = target
                 if mover_id is not None:
                     self.known_landblocks[mover_id] = lb
         return self._request(self.keys.lb(lb, op), content, timeout)
-
-    def _all(self, key: str, timeout: float | None, settle: bool = True) -> list[InstanceInfo]:
-        """Every instance's answer on `key`; `settle`: first wait until the session has met them all."""
-        if settle:
-            self._settle()
-        out = []
-        for r in self._replies_of_all(key, {}, timeout):
-            if r.ok is None:
-                continue
-            msg = unpack_message(r.ok.payload.to_bytes())
-            if isinstance(msg, dict):
-                out.append(InstanceInfo(str(msg.get("instance", "?")), msg))
-        return out
 
     # -- movers -----------------------------------------------------------------------
     def register(
@@ -363,308 +323,3 @@ class Client(SpatialQueries, PathQueries):
         (`unknown_mover`), NoServiceError, RequestTimeout."""
         reply = self._lb_request(self.landblock_of(mover_id), "get", {"id": mover_id}, mover_id, timeout)
         return self._learn(MoverState.from_wire(reply["state"])), reply["mover"]
-
-    # -- moves --------------------------------------------------------------------------
-    def move(
-        self,
-        mover_id: int,
-        to: Position | None = None,
-        *,
-        offset: Vec3 | tuple[float, float, float] | None = None,
-        velocity: Vec3 | tuple[float, float, float] | None = None,
-        tag: int | str | None = None,
-        timeout: float | None = None,
-    ) -> MoverState:
-        """One transition of mover `mover_id` toward `to`, or toward its current origin plus `offset`;
-        its State after it.
-
-        `to`: a Position (its cell id names the frame of its origin; the transition finds the real cell);
-        `offset`: metres in the landblock frame (x east, y north, z up), same cell and orientation.
-        Exactly one of them. `velocity`: metres per second the mover has while this move is resolved (what
-        contact checks and collision responses see; at most 1000 m/s). `tag`: an int or a string of at
-        most 256 characters, echoed in the State. A move that finds no position answers `ok` False with
-        the mover where it was; that is a State, not an error (docs/protocol.md, "Move request").
-
-        Raises ServiceError: `missing_field` / `bad_value` for neither or both of `to` and `offset`,
-        `unknown_mover`, `bad_value` (a target outside docs/protocol.md's "Limits on values": the path
-        names the target's axis), `non_finite`, `no_owner` (the move would leave every instance's
-        landblocks; it is taken back); NoServiceError, RequestTimeout."""
-        return self.send(Move(mover_id, to=to, offset=offset, velocity=velocity, tag=tag), timeout)
-
-    def step(self, mover_id: int, motion: Vec3 | tuple[float, float, float], dt: float, *,
-             tag: int | str | None = None, timeout: float | None = None) -> MoverState:
-        """One physics step of mover `mover_id` over `dt` seconds; its State after it.
-
-        `motion`: the mover's own motion over `dt`, in metres, in its own frame (y forward, x right,
-        z up): walking north at 4 m/s with identity orientation is `(0, 0.8, 0)` per 0.2 s step. It acts
-        only while the mover stands on walkable ground; velocity, gravity and friction act always
-        (UpdateObjectInternal, then the transition). `dt`: more than 0, at most 2 s. As the client spends
-        a frame: time under 1/30 s is held with its motion until later steps bring enough (that step
-        answers `NoTransition`), longer time runs as steps of at most 0.2 s. In the air own motion does
-        nothing, and the first step of a mover at rest there only gives it its velocity under gravity
-        (`NoTransition`): it falls from the next step on.
-
-        Raises ServiceError: `unknown_mover`, `bad_value` (`dt` out of range, a motion component beyond
-        384 m), `non_finite`, `no_owner`; NoServiceError, RequestTimeout."""
-        return self.send(Move(mover_id, motion=motion, dt=dt, tag=tag), timeout)
-
-    def send(self, move: Move, timeout: float | None = None) -> MoverState:
-        """Send one `Move` (a transition or a physics step, as `move` and `step`) and return the mover's
-        State after it. Raises as `move` and `step` do."""
-        lb = self.landblock_of(move.id)
-        reply = self._lb_request(lb, "move", {"move": move.to_wire()}, move.id, timeout)
-        return self._learn(MoverState.from_wire(reply["state"]))
-
-    def move_many(self, moves: Sequence[Move], timeout: float | None = None,
-                  publish: str | None = None) -> list[MoverState | AcphysError]:
-        """A batch: one request per landblock (all sent before any reply is read), each mover's moves in order.
-
-        `moves`: `Move`s (transitions or physics steps, mixed as wanted), at most 4096 per landblock.
-        Returns one entry per move, in order: its State, or the error for that move alone (a
-        ServiceError such as `unknown_mover` for the item; NoServiceError or RequestTimeout for every
-        move of a landblock whose request went unanswered). A failed move does not stop the others, and
-        no AcphysError is raised: look at each entry. A mover handed over meanwhile is followed.
-        `publish="batch"`: the service publishes each request's States as one message on
-        `P/states` (see `subscribe_batches`) instead of one per mover on its state key
-        (None or "each": one per mover).
-        """
-        out: list[MoverState | AcphysError] = []
-        for entry in self._move_many(moves, timeout, publish):
-            if isinstance(entry, AcphysError):
-                out.append(entry)
-                continue
-            r = item_result(entry)
-            out.append(self._learn(r) if isinstance(r, MoverState) else r)
-        return out
-
-    def move_many_maps(self, moves: Sequence[Move], timeout: float | None = None,
-                       publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
-        """`move_many` without building objects: each move's entry as the service sent it (a State map,
-        or `{"id", "tag"?, "error"}`: docs/protocol.md, Move reply), or an AcphysError when its request
-        failed. For callers that read a few fields, or pass the states on: decoding every State into a
-        MoverState costs the client more CPU than the service spends packing it. The entries are not
-        validated; the client only learns each mover's landblock from them (to route its next request)."""
-        return self._move_many(moves, timeout, publish)
-
-    def _move_many(self, moves: Sequence[Move], timeout: float | None,
-                   publish: str | None = None) -> list[dict[str, Any] | AcphysError]:
-        """Send the batch grouped by landblock, follow redirects; the raw entries in the moves' order."""
-        results: list[dict[str, Any] | AcphysError | None] = [None] * len(moves)
-        pending = list(range(len(moves)))
-        for attempt in range(_MAX_REDIRECTS + 1):
-            groups: dict[int, list[int]] = {}
-            for i in pending:
-                m = moves[i]
-                try:
-                    lb = self.landblock_of(m.id)
-                except AcphysError as e:
-                    results[i] = e
-                    continue
-                groups.setdefault(lb, []).append(i)
-            retry: list[int] = []
-            sent: list[tuple[list[int], PendingRequest]] = []
-            for lb, idx in groups.items():  # every landblock's request on its way before any reply is read
-                body: dict[str, Any] = {"moves": [moves[i].to_wire() for i in idx]}
-                if publish is not None:
-                    body["publish"] = publish
-                sent.append((idx, self.send_request(self._lb_key(lb, "move"), body, timeout)))
-            for idx, pending_request in sent:
-                try:
-                    reply = self.receive_reply(pending_request)
-                except AcphysError as e:
-                    for i in idx:
-                        results[i] = e
-                    continue
-                entries = reply.get("results")
-                if not isinstance(entries, list) or len(entries) != len(idx):
-                    err = ServiceError(ErrorKind.MALFORMED, "batch reply does not match the request")
-                    for i in idx:
-                        results[i] = err
-                    continue
-                where = self.known_landblocks
-                for i, entry in zip(idx, entries):
-                    if type(entry) is not dict:
-                        results[i] = ServiceError(ErrorKind.MALFORMED, f"unreadable entry in reply: {entry!r:.80}")
-                        continue
-                    err_map = entry.get("error")
-                    if err_map is None:
-                        mid, elb = entry.get("id"), entry.get("landblock")
-                        if type(mid) is int and type(elb) is int:
-                            where[mid] = elb
-                        results[i] = entry
-                        continue
-                    target = err_map.get("landblock") if isinstance(err_map, dict) else None
-                    if isinstance(err_map, dict) and err_map.get("kind") in _REDIRECTS and isinstance(target, int) \
-                            and attempt < _MAX_REDIRECTS:
-                        where[moves[i].id] = target
-                        retry.append(i)
-                        continue
-                    results[i] = entry
-            if not retry:
-                break
-            pending = sorted(retry)
-        return [r if r is not None else AcphysError("no result") for r in results]
-
-    def move_batch(self, ids: Any, offsets: Any = None, targets: Any = None, motions: Any = None, dt: Any = None,
-                   *, cells: Any = None, orientations: Any = None, velocities: Any = None,
-                   publish: str | None = None, timeout: float | None = None) -> BatchResults:
-        """A batch in the column form (docs/protocol.md, "Column batches"): numpy arrays in and out.
-
-        `ids` (n,) mover ids and exactly one of: `offsets` (n, 3) metres in the landblock frame;
-        `targets` (n, 3) landblock-local origins in metres, with optional `cells` (n,) cell ids (0: the
-        mover's current cell) and `orientations` (n, 4) w x y z (all zeros: the current one); `motions`
-        (n, 3) metres of own motion in each mover's frame with `dt` (n,) seconds or one number (as
-        `step`). `velocities` (n, 3) metres per second goes with offsets or targets. Each item is the
-        `move` or `step` it stands for, answered bit for bit as that would be.
-
-        One request per landblock, all sent before any reply is read (the instances serving them work
-        at the same time); a mover handed over meanwhile is followed.
-        `publish`: "each" (default), "batch" or "columns" (one columnar message on
-        `P/state_columns`). Returns a `BatchResults`: one row per move in the moves' order; a failed
-        move's row holds the missing values and its error (ServiceError, NoServiceError,
-        RequestTimeout) is in `errors` by index: no AcphysError is raised. ValueError for arguments of
-        the wrong shape or combination. Needs an instance whose Health lists "columns" in
-        `move_forms`.
-        """
-        return move_batch(self, ids, offsets, targets, motions, dt, cells=cells, orientations=orientations,
-                          velocities=velocities, publish=publish, timeout=timeout)
-
-    def push(self, moves: Sequence[Move], publish: str | None = None) -> None:
-        """Fire-and-forget: put `moves` on the bus without waiting for any answer.
-
-        States arrive on the state keys (`subscribe`; with `publish="batch"`, on `P/states`, one
-        message per request: `subscribe_batches`), errors on the error keys (`subscribe_errors`); a
-        mover's moves keep their order. One put per landblock. Raises ServiceError (`too_large`) when
-        a landblock's share is over 4 MiB, and then nothing of the push is sent; `landblock_of`'s
-        errors for a mover the client has not seen. A put nobody serves is lost without a word
-        (docs/protocol.md, "Transport")."""
-        groups: dict[int, list[dict[str, Any]]] = {}
-        for m in moves:
-            lb = self._push_route.get(m.id)
-            if lb is None:
-                lb = self._push_route[m.id] = self.landblock_of(m.id)
-            groups.setdefault(lb, []).append(m.to_wire())
-        bodies = []
-        for lb, items in groups.items():
-            body: dict[str, Any] = {"move": items[0]} if len(items) == 1 else {"moves": items}
-            if publish is not None:
-                body["publish"] = publish
-            payload = pack_request(body)
-            if len(payload) > MAX_PAYLOAD:
-                # the service would refuse it; and a put this large may be dropped on the way by Zenoh's
-                # congestion control (DROP, the default for puts) without anyone hearing of it
-                raise ServiceError(ErrorKind.TOO_LARGE, f"push of {len(payload)} bytes exceeds {MAX_PAYLOAD}; "
-                                   "send fewer moves per push")
-            bodies.append((lb, payload))
-        for lb, payload in bodies:  # all checked first: nothing of a refused push is sent
-            self.session.put(self.keys.push(lb), payload)
-
-    # -- subscriptions -------------------------------------------------------------------
-    def subscribe(self, callback: Callable[[MoverState], None], mover_id: int | None = None) -> Subscription:
-        """Call `callback` with every State published for `mover_id` (or for every mover, when None).
-
-        The service publishes a State after every resolved move (request-reply and fire-and-forget,
-        with the default `publish`) and register, in `seq` order per mover. The callback runs on a
-        Zenoh thread: keep it short, and hand the State to your own thread (a queue) for real work. A
-        subscription receives what is published after its declaration reached the service, which takes
-        a moment; a gap in a mover's `seq` means a State was missed. Returns the `Subscription`:
-        `close()` it, or use it in a `with` block. Unreadable messages are logged and skipped."""
-        key = self.keys.state(mover_id if mover_id is not None else "*")
-
-        def on_sample(sample: zenoh.Sample) -> None:
-            try:
-                st = MoverState.from_wire(unpack_message(sample.payload.to_bytes())["state"])
-            except Exception:
-                log.warning("unreadable state on %s", sample.key_expr)
-                return
-            self._learn(st)
-            callback(st)
-
-        return Subscription([self.session.declare_subscriber(key, on_sample)])
-
-    def subscribe_batches(self, callback: Callable[[list[MoverState]], None]) -> Subscription:
-        """Call `callback` with the States of every request sent with `publish="batch"`, one list per
-        request (in the request's order; failed moves have none), on a Zenoh thread. Returns the
-        `Subscription`."""
-
-        def on_sample(sample: zenoh.Sample) -> None:
-            try:
-                states = [MoverState.from_wire(m) for m in unpack_message(sample.payload.to_bytes())["states"]]
-            except Exception:
-                log.warning("unreadable states on %s", sample.key_expr)
-                return
-            for st in states:
-                self._learn(st)
-            callback(states)
-
-        return Subscription([self.session.declare_subscriber(self.keys.states, on_sample)])
-
-    def subscribe_errors(self, callback: Callable[[int | None, ServiceError], None],
-                         mover_id: int | None = None) -> Subscription:
-        """Errors of fire-and-forget moves (`push`): `callback(mover_id or None, error)` with the error as
-        a ServiceError, on a Zenoh thread. With `mover_id`, that mover's errors; without, every mover's
-        and those no mover can be named for (a push that could not be read). Returns the
-        `Subscription`."""
-
-        def on_sample(sample: zenoh.Sample) -> None:
-            try:
-                msg = unpack_message(sample.payload.to_bytes())
-                callback(msg.get("id"), ServiceError.from_wire(msg["error"]))
-            except Exception:
-                log.warning("unreadable error message on %s", sample.key_expr)
-
-        subs = [self.session.declare_subscriber(self.keys.obj_error(mover_id if mover_id is not None else "*"), on_sample)]
-        if mover_id is None:
-            subs.append(self.session.declare_subscriber(self.keys.errors, on_sample))
-        return Subscription(subs)
-
-    # -- landblocks, health, stats -------------------------------------------------------------
-    def load_landblock(self, lb: int, timeout: float | None = None) -> bool:
-        """Load landblock `lb` (0xXXYY, e.g. 0xA9B5) on the instance that owns it; True when it was loaded
-        already. Raises ServiceError: `landblock_unavailable` (its source has no such landblock),
-        `forbidden` (with accounts, for a user who is not an `--admin`); NoServiceError when no instance
-        owns it; RequestTimeout."""
-        return bool(self._request(self.keys.lb(lb, "load"), {}, timeout).get("already"))
-
-    def unload_landblock(self, lb: int, timeout: float | None = None) -> None:
-        """Unload landblock `lb` (0xXXYY) on its owner. Raises ServiceError: `landblock_in_use` while
-        movers are in it (`details["movers"]` lists them), `landblock_not_loaded`, `forbidden` (with
-        accounts, for a user who is not an `--admin`); NoServiceError, RequestTimeout. A world served
-        from a scene file cannot load it again."""
-        self._request(self.keys.lb(lb, "unload"), {}, timeout)
-
-    def landblocks(self, timeout: float | None = None) -> list[InstanceInfo]:
-        """Every instance's owned and loaded landblocks: one `InstanceInfo` per instance that answered
-        within `timeout` seconds, with `owned` (`"*"`, a list of 0xXXYY landblocks, or an x range) and
-        `loaded` (docs/protocol.md, "List"). An empty list when none answered; raises nothing of its
-        own. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
-        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
-        return self._all(self.keys.landblocks, timeout)
-
-    def health(self, timeout: float | None = None) -> list[InstanceInfo]:
-        """Every instance's Health: one `InstanceInfo` per instance that answered within `timeout`
-        seconds, with `status` ("ok", "draining", "degraded"), `protocol`, `movers`, `queue_depth`,
-        `move_forms`, `queries`, ... (docs/protocol.md, "Health"). An empty list when none answered. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
-        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
-        return self._all(self.keys.health, timeout)
-
-    def stats(self, timeout: float | None = None) -> list[InstanceInfo]:
-        """Every instance's Stats: one `InstanceInfo` per instance that answered within `timeout`
-        seconds, with `requests` and `errors` counted by kind, `moves`, `latency_ms`, `engine_ms`
-        (milliseconds), `loaded_landblocks`, ... (docs/protocol.md, "Stats"). An empty list when none
-        answered. A client younger than half a second first waits until it is that old (SETTLE_S): a new session
-        meets a cluster's other instances some 0.1 s after it connects, and would miss their answers."""
-        return self._all(self.keys.stats, timeout)
-
-    def wait_ready(self, instances: int = 1, timeout: float = 10.0) -> list[InstanceInfo]:
-        """Block until `instances` instances answer on the health key with status "ok"; their Health.
-        Raises RequestTimeout when fewer did within `timeout` seconds (asking again every 50 ms)."""
-        deadline = time.monotonic() + timeout
-        while True:  # asked at once and again: the count wanted says when every instance has been met
-            found = [h for h in self._all(self.keys.health, 1.0, settle=False) if h.get("status") == "ok"]
-            if len(found) >= instances:
-                return found
-            if time.monotonic() >= deadline:
-                raise RequestTimeout(f"{len(found)} of {instances} service instance(s) ready after {timeout} s")
-            time.sleep(0.05)
-
