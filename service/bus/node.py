@@ -34,6 +34,7 @@ from service.protocol.errors import ProtocolError
 from service import heap
 from service.protocol.frames import STATE_HEAD, pack
 from service.bus.jobqueue import JobQueue
+from service.bus.key_landblocks import KeyLandblocks
 from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
 from service.bus.publication import ZenohBus
@@ -48,14 +49,11 @@ from service.stats import ServiceStats
 from service.bus.dispatch import OPERATIONS, Operation, Work
 from service.protocol import BATCH_FIELDS, LB_OPS
 from service.queries import DEFAULT_PATH_WORK
-from service.protocol.wire import MAX_PAYLOAD, ErrorKind, Keys, lb_hex, parse_lb_hex
+from service.protocol.wire import MAX_PAYLOAD, ErrorKind, Keys, lb_hex
 
 __all__ = ["NodeOptions", "ServiceNode"]
 
 log = logging.getLogger("acphys.service")
-
-#: Most request keys kept with their landblock read (a few MB at most; past it the cache starts again).
-_LB_KEY_CACHE = 65536
 
 
 @dataclass(slots=True)
@@ -131,7 +129,8 @@ class ServiceNode:
         # held while the core runs (engine thread or a callback)
         self._engine_lock: threading.Lock = shared_with._engine_lock if shared_with is not None else threading.Lock()
         self._inline = self.options.inline and self.options.ownership.everything
-        self._key_lbs: dict[str, int | None] = {}  # request keys already checked by `_key_lb`: their landblock
+        #: the landblock of a request key, read once per key (service/bus/key_landblocks.py)
+        self._key_lb: Callable[[str, str], int | None] = KeyLandblocks(self.keys).landblock
         self.bus: ZenohBus | None = None  # what the core puts on the bus (service/bus/publication.py)
         self._last_arrival = time.monotonic()  # when a callback last took a request (shutdown waits for quiet)
 
@@ -316,33 +315,6 @@ class ServiceNode:
         if size > MAX_PAYLOAD:
             raise ProtocolError(ErrorKind.TOO_LARGE, f"payload of {size} bytes exceeds {MAX_PAYLOAD}")
         return p.to_bytes()
-
-    def _key_lb(self, key: str, op: str) -> int | None:
-        """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none.
-        A key read once is remembered: a mover's requests come on the same key again and again."""
-        try:
-            return self._key_lbs[key]
-        except KeyError:
-            pass
-        lb = self._read_key_lb(key, op)
-        if len(self._key_lbs) >= _LB_KEY_CACHE:
-            self._key_lbs.clear()
-        self._key_lbs[key] = lb
-        return lb
-
-    def _read_key_lb(self, key: str, op: str) -> int | None:
-        part = key.rsplit("/", 2)[-2]
-        if key != self.keys.lb(part, op):
-            # one request, one operation: `P/lb/XXYY/*` would reach every operation's queryable at once. And
-            # Zenoh's access control matches a query's key by inclusion, so a wildcard query is not caught by
-            # the rule on `P/lb/*/handover`: a hand-over also needs a literal landblock (below)
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: the operation must be named: {self.keys.lb('XXYY', op)}")
-        try:
-            return parse_lb_hex(part)
-        except ValueError:
-            if op not in ("load", "unload", "handover") and ("*" in part or "$" in part):
-                return None  # e.g. a `get` sent to every instance to find a mover
-            raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: {part!r} is not a landblock id (XXYY)") from None
 
     # -- per-landblock queries -----------------------------------------------------
     def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
