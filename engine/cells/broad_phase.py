@@ -26,8 +26,8 @@ cylsphere cylinders; a path sphere of radius r overlaps the shape only if its
 centre is inside that box grown by r. (The tests measure the head sphere's
 overlap with the foot sphere's radius, radsum, as the reference does: the box
 is grown by the larger of the two.) The box is kept on the mover
-(`Mover.broad_phase_bounds`) and made again whenever the mover's Position
-object (immutable) is not the one it was made for, so it follows every
+(`Mover.broad_phase_bounds`) and placed again whenever the mover's Position
+object (immutable) is not the one it was placed for, so it follows every
 change of position, including those that cast no new shadows (a turn in
 place, a move within EPSILON, a failed move's new heading).
 """
@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 from typing import Final, TYPE_CHECKING
 
-from ..geometry import Position
+from ..geometry import Frame, Position, Quat
 from ..geometry.landdefs import get_block_offset
 from ..objects.obstacle import MoverObstacle
 
@@ -58,46 +58,96 @@ SLACK: Final = 1e-6
 
 class ShapeBounds:
     """An axis-aligned box holding a mover's placed shapes, in the frame of
-    its position's landblock, for the Position it was made for."""
+    its position's landblock, for the Position it was made for.
 
-    __slots__ = ("position", "min_x", "min_y", "min_z", "max_x", "max_y", "max_z")
+    Kept as the shapes' extent about the origin (`off_*`, for one orientation)
+    plus the origin, so that a mover that only walked (the same orientation
+    object, a new origin) gets its box by six additions, in place, instead of
+    placing every shape again: in a crowd every mover's box is remade after
+    each of its moves. `block` is the landblock of the position's cell (the
+    cell loop's first look compares it)."""
+
+    __slots__ = ("position", "orientation", "block", "off_min_x", "off_min_y", "off_min_z", "off_max_x",
+                 "off_max_y", "off_max_z", "min_x", "min_y", "min_z", "max_x", "max_y", "max_z")
 
     def __init__(self, obstacle: MoverObstacle, position: Position, scale: float) -> None:
-        self.position = position
+        # (every field set here, unconditionally: compiled, reads of them then need no "is it set" check)
         frame = position.frame
-        lo_x = lo_y = lo_z = math.inf  # (float("inf") would parse the text on every call, compiled)
-        hi_x = hi_y = hi_z = -math.inf
-        for sphere in obstacle.spheres:
-            c = frame.local_to_global(sphere.center * scale)
-            r = sphere.radius * scale
-            lo_x, lo_y, lo_z = min(lo_x, c.x - r), min(lo_y, c.y - r), min(lo_z, c.z - r)
-            hi_x, hi_y, hi_z = max(hi_x, c.x + r), max(hi_y, c.y + r), max(hi_z, c.z + r)
-        for cyl in obstacle.cyl_spheres:
-            # an upright cylinder from its placed low point (CylSphere.intersects_sphere_at)
-            low = frame.local_to_global(cyl.low_point * scale)
-            r = cyl.radius * scale
-            lo_x, lo_y, lo_z = min(lo_x, low.x - r), min(lo_y, low.y - r), min(lo_z, low.z)
-            hi_x, hi_y, hi_z = max(hi_x, low.x + r), max(hi_y, low.y + r), max(hi_z, low.z + cyl.height * scale)
-        self.min_x = lo_x - MARGIN
-        self.min_y = lo_y - MARGIN
-        self.min_z = lo_z - MARGIN
-        self.max_x = hi_x + MARGIN
-        self.max_y = hi_y + MARGIN
-        self.max_z = hi_z + MARGIN
+        o = frame.origin
+        lo_x, lo_y, lo_z, hi_x, hi_y, hi_z = _extent(obstacle, frame, scale)
+        self.orientation: Quat = frame.orientation
+        self.off_min_x = lo_x
+        self.off_min_y = lo_y
+        self.off_min_z = lo_z
+        self.off_max_x = hi_x
+        self.off_max_y = hi_y
+        self.off_max_z = hi_z
+        self.position = position
+        self.block = position.cell_id >> 16
+        self.min_x = o.x + lo_x
+        self.min_y = o.y + lo_y
+        self.min_z = o.z + lo_z
+        self.max_x = o.x + hi_x
+        self.max_y = o.y + hi_y
+        self.max_z = o.z + hi_z
+
+    def place(self, obstacle: MoverObstacle, position: Position, scale: float) -> None:
+        """The box at `position`: the extent moved to its origin (measured again first if the
+        orientation is another object; rounding of the sums is far inside MARGIN)."""
+        frame = position.frame
+        if frame.orientation is not self.orientation:
+            lo_x, lo_y, lo_z, hi_x, hi_y, hi_z = _extent(obstacle, frame, scale)
+            self.orientation = frame.orientation
+            self.off_min_x = lo_x
+            self.off_min_y = lo_y
+            self.off_min_z = lo_z
+            self.off_max_x = hi_x
+            self.off_max_y = hi_y
+            self.off_max_z = hi_z
+        o = frame.origin
+        self.position = position
+        self.block = position.cell_id >> 16
+        self.min_x = o.x + self.off_min_x
+        self.min_y = o.y + self.off_min_y
+        self.min_z = o.z + self.off_min_z
+        self.max_x = o.x + self.off_max_x
+        self.max_y = o.y + self.off_max_y
+        self.max_z = o.z + self.off_max_z
+
+
+def _extent(obstacle: MoverObstacle, frame: Frame, scale: float) -> tuple[float, float, float, float, float, float]:
+    """The shapes' extent about the frame's origin at its orientation, MARGIN included:
+    (min x, min y, min z, max x, max y, max z)."""
+    lo_x = lo_y = lo_z = math.inf  # (float("inf") would parse the text on every call, compiled)
+    hi_x = hi_y = hi_z = -math.inf
+    for sphere in obstacle.spheres:
+        c = frame.local_to_global_vec(sphere.center * scale)
+        r = sphere.radius * scale
+        lo_x, lo_y, lo_z = min(lo_x, c.x - r), min(lo_y, c.y - r), min(lo_z, c.z - r)
+        hi_x, hi_y, hi_z = max(hi_x, c.x + r), max(hi_y, c.y + r), max(hi_z, c.z + r)
+    for cyl in obstacle.cyl_spheres:
+        # an upright cylinder from its placed low point (CylSphere.intersects_sphere_at)
+        low = frame.local_to_global_vec(cyl.low_point * scale)
+        r = cyl.radius * scale
+        lo_x, lo_y, lo_z = min(lo_x, low.x - r), min(lo_y, low.y - r), min(lo_z, low.z)
+        hi_x, hi_y, hi_z = max(hi_x, low.x + r), max(hi_y, low.y + r), max(hi_z, low.z + cyl.height * scale)
+    return (lo_x - MARGIN, lo_y - MARGIN, lo_z - MARGIN, hi_x + MARGIN, hi_y + MARGIN, hi_z + MARGIN)
 
 
 def mover_bounds(obstacle: MoverObstacle) -> ShapeBounds:
     """The box of the obstacle's mover where it stands now (kept on the mover).
 
-    Made again when the mover's Position object is not the one it was made
-    for. Its scale is read then too: a mover's scale is fixed for its life
-    (World.update_mover gives the object a new Mover)."""
+    Placed again, in place, when the mover's Position object is not the one
+    it was placed for. Its scale is read then too: a mover's scale is fixed
+    for its life (World.update_mover gives the object a new Mover)."""
     mover = obstacle.mover
     position: Position = mover.position
     bounds: ShapeBounds | None = mover.broad_phase_bounds
-    if bounds is None or bounds.position is not position:
+    if bounds is None:
         bounds = ShapeBounds(obstacle, position, mover.scale)
         mover.broad_phase_bounds = bounds
+    elif bounds.position is not position:
+        bounds.place(obstacle, position, mover.scale)
     return bounds
 
 

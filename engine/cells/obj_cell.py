@@ -88,17 +88,20 @@ class ObjCell:
         # first a look at a mover's box in x and y against the footprint of the path's spheres: most movers
         # of a crowd fail it, and it costs four comparisons instead of may_touch's whole test
         look, block, lo_x, hi_x, lo_y, hi_y = path_reach(path) if cull else _NO_REACH
-        for i in range(len(shadows) - 1, -1, -1):
-            obj = shadows[i]
+        for obj in reversed(shadows):  # (compiled: no index arithmetic; the tests change no shadow list)
             if obj is mover:
                 continue
             if cull and isinstance(obj, MoverObstacle):
-                if obj.mover is mover:
+                other = obj.mover
+                if other is mover:
                     continue  # the path's own shadow (its test answers OK at once)
                 if look:
-                    box = mover_bounds(obj)
+                    # (mover_bounds' check inlined: this runs for every mover of a crowded cell)
+                    box = other.broad_phase_bounds
+                    if box is None or box.position is not other.position:
+                        box = mover_bounds(obj)
                     if (box.max_x < lo_x or box.min_x > hi_x or box.max_y < lo_y or box.min_y > hi_y) \
-                            and box.position.cell_id >> 16 == block:
+                            and box.block == block:
                         continue
                 if not may_touch(obj, path):
                     continue

@@ -56,22 +56,31 @@ def _add_shadows(mover: Mover, cells: list[ObjCell | None]) -> None:
 
 
 def reshadow(mover: Mover, cell_array: CellArray) -> None:
-    """After a successful transition: shadows move to that transition's cells."""
+    """After a successful transition: shadows move to that transition's cells (SetPositionInternal:
+    every old shadow removed, then one added to each new cell, newest last).
+
+    When the cells are the ones the mover already shadows, in the same order (a mover walking within
+    its cells), that comes to moving its shadow to the end of each cell's list, cell by cell (the
+    lists are separate): done in place, without making the cell list again."""
     cells = cell_array.cells()
-    if _shadows_stay(mover, cells):
+    obstacle = mover.obstacle
+    if obstacle is not None and _same_cells(mover.shadow_cells, cells):
+        for cell in mover.shadow_cells:
+            objects = cell.shadow_objects
+            if objects and objects[len(objects) - 1] is obstacle:
+                continue  # the newest already: removing and adding it again changes nothing
+            try:
+                objects.remove(obstacle)
+            except ValueError:
+                pass
+            objects.append(obstacle)
         return
     remove_shadows(mover)
     _add_shadows(mover, cells)
 
 
-def _shadows_stay(mover: Mover, cells: list[ObjCell | None]) -> bool:
-    """Would moving the shadows into `cells` leave every list as it is? So when the mover shadows the
-    same cells in the same order and is the newest shadow in each (a mover standing or walking within
-    its cells, alone in them): removing and adding it again changes nothing."""
-    obstacle = mover.obstacle
-    if obstacle is None:
-        return False
-    shadow_cells = mover.shadow_cells
+def _same_cells(shadow_cells: list[ObjCell], cells: list[ObjCell | None]) -> bool:
+    """Are `cells`, without their Nones, `shadow_cells` in the same order?"""
     n = len(shadow_cells)
     i = 0
     for cell in cells:
@@ -79,9 +88,6 @@ def _shadows_stay(mover: Mover, cells: list[ObjCell | None]) -> bool:
             continue
         # the new list skips repeats; the old one has none, so a repeat here means a different list
         if i >= n or shadow_cells[i] is not cell:
-            return False
-        objects = cell.shadow_objects
-        if not objects or objects[len(objects) - 1] is not obstacle:
             return False
         i += 1
     return i == n
