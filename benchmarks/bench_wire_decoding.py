@@ -1,12 +1,13 @@
-"""Wire decoding: the service's home-grown schema (service/protocol/schema.py and the readers it generates) against
-msgspec Structs (benchmarks/wire_msgspec.py), on the same payloads, from the bytes to the values the service
-runs, in this process.
+"""Wire decoding: the service's move readers (msgspec Structs filled from the map msgpack.unpackb gave,
+service/protocol/move_structs.py) against the same Structs decoded straight from the bytes
+(benchmarks/wire_msgspec.py), on the same payloads, from the bytes to the values the service runs, in this
+process.
 
 Times the map form (one move; a batch of 100; the batch with one bad move) and the column form (100 moves,
-kinds offset and to), as the median µs per payload of many interleaved repetitions; and for a list of bad
-payloads, the kind and path docs/protocol.md promises, what the service gives, what msgspec says and what
-its error maps to. msgspec is not a dependency of the project: without it the candidate's half is skipped
-(with a note) and only the service's half runs.
+kinds offset and to; the service reads it from the map with numpy, service/protocol/column_request.py), as
+the median µs per payload of many interleaved repetitions; and for a list of bad payloads, the kind and path
+docs/protocol.md promises, what the service gives, what msgspec says of the bytes and what that maps to.
+The home-grown generator's move reader, which this section first weighed msgspec against, is gone.
 """
 
 from __future__ import annotations
@@ -193,8 +194,8 @@ def candidate_outcome(case: Case) -> tuple[tuple[str, str | None] | None, str]:
 
     from . import wire_msgspec as w
 
-    decoder = {"map": msgspec.msgpack.Decoder(w.MoveRequestS), "columns": msgspec.msgpack.Decoder(w.ColumnRequestS),
-               "register": msgspec.msgpack.Decoder(w.RegisterIdS)}[case.form]
+    struct: type[Any] = {"map": w.MoveRequestS, "columns": w.ColumnRequestS, "register": w.RegisterIdS}[case.form]
+    decoder = msgspec.msgpack.Decoder(struct)
     try:
         decoder.decode(case.payload)
         said = "accepted by the Structs"
@@ -271,10 +272,8 @@ def _columns_equal(a: Any, b: Any) -> bool:
 
 
 def run(quick: bool) -> dict[str, Any]:
-    try:
-        import msgspec
-    except ImportError:
-        msgspec = None
+    import msgspec
+
     reps = 41 if quick else 301
     payloads = [
         ("single", "one move `{\"v\":1,\"move\":{...}}` (offset)", single_payload()),
@@ -285,7 +284,7 @@ def run(quick: bool) -> dict[str, Any]:
         ("columns", f"a column request of {MOVES} moves, kind to (cell, origin, orientation)", column_payload(kind="to")),
     ]
     current = {"single": current_single, "batch": current_batch, "columns": current_columns}
-    candidates = _candidate_fns() if msgspec is not None else {}
+    candidates = _candidate_fns()
     rows = []
     for form, label, payload in payloads:
         fns: dict[str, Callable[[bytes], Any]] = {"service": current[form]}
@@ -296,7 +295,7 @@ def run(quick: bool) -> dict[str, Any]:
             except Exception:  # noqa: BLE001,S112 - msgspec.ValidationError
                 continue
             fns[name] = fn
-        same = _same_result(form, payload) if msgspec is not None else None
+        same = _same_result(form, payload)
         log(f"wire decoding: {label} ({len(payload)} bytes)")
         us = _interleaved(fns, payload, reps)
         rows.append({"form": form, "payload": label, "bytes": len(payload), "items": 1 if form == "single" else MOVES,
@@ -305,43 +304,30 @@ def run(quick: bool) -> dict[str, Any]:
     for case in BAD_CASES:
         row: dict[str, Any] = {"name": case.name, "form": case.form, "expected": case.expected,
                                "service": current_outcome(case)}
-        if msgspec is not None:
-            row["msgspec"], row["msgspec_said"] = candidate_outcome(case)
+        row["msgspec"], row["msgspec_said"] = candidate_outcome(case)
         errors.append(row)
-    out: dict[str, Any] = {"reps": reps, "rows": rows, "errors": errors}
-    if msgspec is None:
-        out["skipped"] = ("msgspec is not installed (the project does not depend on it): only the service's side ran. "
-                          "Install it beside the project (e.g. `pip install --target DIR msgspec` and PYTHONPATH=DIR) "
-                          "to measure both")
-    else:
-        out["msgspec_version"] = msgspec.__version__
+    out: dict[str, Any] = {"reps": reps, "rows": rows, "errors": errors, "msgspec_version": msgspec.__version__}
     out["msgpack_version"] = ".".join(str(x) for x in msgpack.version)
     return out
 
 
 # -- the report's section -----------------------------------------------------------------------------------
-def _ko(x: Any) -> str:
-    if x is None:
-        return "accepted"
-    kind, path = x
-    return f"`{kind}` at `{path}`" if path else f"`{kind}` (whole request)"
-
-
 def section(data: dict[str, Any], meta: str) -> list[str]:
     """The report's section (benchmarks/report.py); `meta` its line on how it was measured."""
-    out = ["## Wire decoding: the home-grown schema against msgspec", "", meta, ""]
-    if "skipped" in data:
+    out = ["## Wire decoding: moves read with msgspec, from the map and from the bytes", "", meta, ""]
+    if "skipped" in data:  # a stored run of before msgspec was a dependency
         return out + [f"Not compared: {data['skipped']}.", ""]
     out += [METHOD.format(reps=data["reps"], msgspec=data.get("msgspec_version", "?"),
                           msgpack=data.get("msgpack_version", "?")), "",
             "µs per payload, median of the repetitions; \"service\" is `decode_envelope` and then "
             "`parse_single_move` / `parse_moves` / `parse_column_request`, as service/bus/node.py runs them; "
-            "\"msgspec\" decodes each move of a batch on its own (`list[msgspec.Raw]`, then a `Decoder(Move)` per "
-            "item) so that a bad move fails alone, as the protocol asks; \"whole batch typed\" decodes "
-            "`list[Move]` at once and falls back to the former when a move is refused; \"Structs alone\" is "
-            "msgspec's decoding without the post-pass.", "",
-            "| payload | bytes | service (msgpack + schema) | of which msgpack.unpackb | msgspec + post-pass | "
-            "msgspec, whole batch typed | msgspec Structs alone | service / best msgspec | same values |",
+            "\"from the bytes\" decodes each move of a batch on its own (`list[msgspec.Raw]`, then a "
+            "`Decoder(MoveS)` per item) so that a bad move fails alone, as the protocol asks; \"whole batch "
+            "typed\" decodes `list[MoveS]` at once and falls back to the former when a move is refused; \"Structs "
+            "alone\" is msgspec's decoding without the post-pass.", "",
+            "| payload | bytes | service (msgpack.unpackb, then msgspec.convert + post-pass) | of which msgpack.unpackb | "
+            "msgspec from the bytes + post-pass | from the bytes, whole batch typed | Structs alone | "
+            "service / best from the bytes | same values |",
             "|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         us = r["us"]
@@ -352,8 +338,9 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
         out.append(f"| {r['payload']} | {r['bytes']} | {us['service']:.1f} | {us['msgpack_unpackb']:.1f} | "
                    f"{us['msgspec']:.1f} | {typed} | {alone} | {us['service'] / best:.2f}x{per} | "
                    f"{'yes' if r['same_result'] else 'NO'} |")
-    out += ["", "Bad payloads: the first error docs/protocol.md promises, the service's, msgspec's own message and "
-            "what it maps to (benchmarks/wire_msgspec.py `protocol_error`, reading the message's text).", "",
+    out += ["", "Bad payloads: the first error docs/protocol.md promises, the service's, msgspec's own message on "
+            "the bytes and what it maps to (service/protocol/move_structs.py `protocol_error`, reading the "
+            "message's text).", "",
             "| payload | protocol.md | service | msgspec says | mapped | mapped = protocol |", "|---|---|---|---|---|---|"]
     for e in data["errors"]:
         expected = tuple(e["expected"]) if e["expected"] else None
@@ -361,67 +348,55 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
         said = e.get("msgspec_said", "").replace("|", "\\|").replace("`", "'")
         out.append(f"| {e['name']} | {_ko(expected)} | {_ko(e['service'])} | {said} | {_ko(got)} | "
                    f"{'yes' if got == expected else 'NO'} |")
-    return out + ["", *decision(data), ""]
-
+    return out + ["", *finding(data), ""]
 
 
 METHOD = ("Both sides in this process, from the same msgpack bytes to the values the service runs (`MoveItem`s "
           "with the engine's Vec3 and Quat, a `ColumnRequest` of numpy arrays), checked equal before timing (last "
-          "column). msgspec {msgspec} Structs (benchmarks/wire_msgspec.py) state what `Meta` can: a real's bounds "
-          "±3.4028235e38 (which NaN and ±infinity fail too), uint32 bounds, id ≥ 0 (Meta takes int64 bounds only, "
-          "so \"< 2^64\" cannot be written; msgpack holds nothing larger anyway), `dt` in (0, 2], a tag's 256 "
-          "characters, the batch's 4096, vector and quaternion lengths (fixed tuples), `publish` and `kind` "
-          "(Literal), a register's id ≥ 1. A post-pass in Python does the rest, and is timed with it: exactly "
-          "one of to/offset/motion, `dt` with `motion` and no `velocity` then, the unit quaternion, the engine's "
-          "motion limit, the version, and building the engine's values; for columns, parse_column_request's "
-          "kind, length and per-item checks (the same numpy code as the service's: the `bin`s decode as "
-          "memoryviews, no copy). msgpack {msgpack}; {reps} interleaved repetitions, each a loop of ~0.2 ms.")
+          "column). The service's moves are msgspec {msgspec} Structs (service/protocol/move_structs.py, `MoveS`) "
+          "filled by `msgspec.convert` from the map msgpack.unpackb gave: `Meta` states a real's bounds "
+          "±3.4028235e38 (which NaN and ±infinity fail too), uint32 bounds, id ≥ 0, a tag's 256 characters, "
+          "vector and quaternion lengths (fixed tuples); a post-pass in Python, timed with it, does the rest "
+          "(exactly one of to/offset/motion, `dt` with `motion` and no `velocity` then, the unit quaternion, "
+          "the engine's motion limit, the 64-bit upper bounds) and builds the engine's values. \"From the bytes\" "
+          "(benchmarks/wire_msgspec.py) decodes the same Structs, in typed envelopes, straight from the payload "
+          "with the same post-pass; for columns, the envelope typed with each `bin` a memoryview (no copy), then "
+          "parse_column_request's checks (the same numpy code). msgpack {msgpack}; {reps} interleaved "
+          "repetitions, each a loop of ~0.2 ms.")
 
 
-def decision(data: dict[str, Any]) -> list[str]:
-    """The finding and the decision, from this run's figures (the issue's test: every kind and path kept,
-    and not slower on the map and the column paths)."""
+def finding(data: dict[str, Any]) -> list[str]:
+    """What this run found: whether every error kind and path is kept, and what reading the bytes instead
+    of the map would save."""
     rows = data["rows"]
     ratio = {r["payload"]: r["us"]["service"] / min(r["us"]["msgspec"], r["us"].get("msgspec_typed", math.inf))
              for r in rows}
     maps = [ratio[r["payload"]] for r in rows if r["form"] != "columns"]
     cols = [ratio[r["payload"]] for r in rows if r["form"] == "columns"]
-    kept = all((tuple(e["msgspec"]) if e["msgspec"] else None) == (tuple(e["expected"]) if e["expected"] else None)
-               for e in data["errors"])
+
+    def kept(side: str) -> bool:
+        return all((tuple(e[side]) if e.get(side) else None) == (tuple(e["expected"]) if e["expected"] else None)
+                   for e in data["errors"])
+
     same = all(r["same_result"] for r in rows)
-    slower = min(maps + cols) < 1.0
-    figures = (f"In this run msgspec's side took 1/{min(maps):.1f} to 1/{max(maps):.1f} of the service's time on the map "
-               f"form and 1/{min(cols):.2f} to 1/{max(cols):.2f} on the column form; every bad payload "
-               f"{'mapped to the kind and path docs/protocol.md promises' if kept else 'did NOT map to what docs/protocol.md promises'}"
-               f"{'' if same else ', and some good payloads did NOT decode to the same values'}.")
-    where = ("Where the time goes: msgspec's Structs alone take a fraction of either side's time "
-             "(the table's \"Structs alone\"); most of msgspec's side is the Python post-pass that builds the engine's "
-             "Vec3/Quat/MoveItem, and most of the service's is its generated readers after msgpack.unpackb. On the "
-             "column form both sides run the same numpy checks, which dominate the kind `to` (orientation lengths), "
-             "so there the two are close: msgspec saves only the generic map decoding.")
-    if not kept or slower or not same:
-        return ["**Finding.** " + figures, "", where, "",
-                "**Decision: keep the generator.** The issue's test for msgspec (every error kind and path "
-                "docs/protocol.md promises, and not slower on the map and column paths) is not met in this run: "
-                + ("an error kind or path is not kept; " if not kept else "")
-                + ("msgspec is slower on a path; " if slower else "")
-                + ("the values differ; " if not same else "") + "see the tables."]
-    return [
-        "**Finding.** " + figures, "", where, "",
-        "**Decision: use msgspec** for reading the map-form moves and mover messages, as the issue's test asks "
-        "(every kind and path kept, and not slower on either path). What it costs, and what the migration must "
-        "keep: (1) a batch is decoded as `list[msgspec.Raw]` and each move on its own, since a typed `list[Move]` "
-        "fails the whole batch at its first bad move while the protocol fails only that move (the whole-batch "
-        "decode with that fallback is faster while every move is good); (2) msgspec's errors carry no kind: the "
-        "kind is read from its English message (`Object missing required field`, `Expected ... got ...`, bounds, "
-        "lengths), which is not a documented interface, so msgspec's version is pinned and this table becomes a "
-        "test; a nil for a required field reads as a wrong type and maps to `missing_field`; (3) finiteness is "
-        "a bound that NaN and ±infinity fail with the same message as 1e39, so on that error path the value is "
-        "read again from the bytes to tell `non_finite` from `bad_value`; (4) unit quaternion, exactly one of "
-        "to/offset/motion, `dt` with motion and the engine's limits stay Python checks; (5) a payload with "
-        "several faults may name another one first (msgspec checks each field's type before the service's "
-        "one-of rule), which the protocol leaves open; (6) a `dt` sent with an offset is checked by msgspec "
-        "where the service ignores it. The column form gains little, so it moves only to keep one vocabulary. "
-        "The wire stays msgpack and independent clients still need only msgpack; the State packer "
-        "(service/protocol/packing.py) and the encoders were not measured here and stay until they are. Not the "
-        "migration: nothing in the service changed."]
+    figures = (f"Decoding from the bytes took 1/{min(maps):.2f} to 1/{max(maps):.2f} of the service's time on the map "
+               f"form and 1/{min(cols):.2f} to 1/{max(cols):.2f} on the column form. "
+               f"The service gave every bad payload {'the' if kept('service') else 'NOT the'} kind and path "
+               f"docs/protocol.md promises; msgspec's errors on the bytes mapped to "
+               f"{'them' if kept('msgspec') else 'NOT all of them'}"
+               f"{'' if same else '; some good payloads did NOT decode to the same values'}.")
+    return ["**Finding.** " + figures, "",
+            "**What is left.** service/bus/node.py decodes every request with msgpack.unpackb (`decode_envelope`) "
+            "before it knows the operation, so the service fills its Structs from that map (`msgspec.convert`) "
+            "and pays the generic decoding first (the table's \"of which msgpack.unpackb\"). Handing a move "
+            "request's bytes to msgspec instead would save the difference between the service's column and the "
+            "best \"from the bytes\" one; the column form gains the most there, since its `bin`s then decode "
+            "as memoryviews. Either way most of a map-form move's time is the Python post-pass that builds the "
+            "engine's values."]
+
+
+def _ko(x: Any) -> str:
+    if x is None:
+        return "accepted"
+    kind, path = x
+    return f"`{kind}` at `{path}`" if path else f"`{kind}` (whole request)"

@@ -1,7 +1,8 @@
 """Every map-form message of protocol 1, declared once (docs/protocol.md's tables, as code).
 
 Each declaration (service/protocol/schema.py) is what the service reads a request with (the full reader and
-the fast reader generated from it), what it writes a reply or a State with, what the client library
+the fast reader generated from it; a move, MOVE, with the msgspec Structs of service/protocol/move_structs.py
+that follow it), what it writes a reply or a State with, what the client library
 writes its requests and reads the States with, and what tests/service/protocol/test_service_schema.py checks the
 protocol document's tables against. The column form's declaration is service/protocol/columns.py.
 
@@ -205,7 +206,9 @@ class MoveItem:
     velocity: Vec3 | None = None
 
 
-#: read into a MoveItem; written from clients.types.Move (whose `to` is a Position)
+#: written from clients.types.Move (whose `to` is a Position); the service reads it with msgspec Structs that
+#: follow these fields (service/protocol/move_structs.py, MoveS; tests/service/protocol/test_move_structs.py
+#: checks the two agree), into a MoveItem
 MOVE = Map("Move", (
     Field("id", UInt(64), required=True),
     Field("tag", Tag(), omit=True, doc="int or string (≤ 256 chars)"),
@@ -217,7 +220,7 @@ MOVE = Map("Move", (
                        f"number in (0, {HUGE_QUANTUM:g}]"), required=True, with_field="motion", omit=True),
     # its speed limit is the engine's to check (World.move)
     Field("velocity", VECTOR, omit=True, excludes=("motion", "a physics step integrates its own velocity")),
-), MoveItem, one_of=("to", "offset", "motion"), label="move", with_path=True, usual=("offset", "to", "motion"))
+), one_of=("to", "offset", "motion"), label="move")
 
 #: the envelope's fields beside `v` (requests.parse_moves reads it: a batch item's error is its own)
 MOVE_REQUEST = Map("MoveRequest", (

@@ -2,7 +2,8 @@
 
 The envelope check (size, msgpack, map, version) fails the whole request;
 inside a batch each move is decoded on its own so one bad item only fails
-itself.
+itself. Moves are read with msgspec (service/protocol/move_structs.py); the
+mover messages with the readers messages.py's declarations generate.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ from service.protocol.errors import ProtocolError
 from service.protocol.messages import (
     HANDOVER,
     ID_REQUEST,
-    MOVE,
     MOVE_REQUEST,
     PUBLISH_MODES,
     REGISTER,
@@ -27,7 +27,8 @@ from service.protocol.messages import (
     Target,
 )
 from service.protocol.schema_kinds import MAX_TAG_LEN, Tag
-from service.protocol.validate import as_list, as_map, field_path
+from service.protocol.move_structs import read_move, read_moves
+from service.protocol.validate import as_list, as_map
 from service.protocol.wire import MAX_BATCH, MAX_PAYLOAD, PROTOCOL_VERSION, ErrorKind
 from engine import MoverSpec
 
@@ -110,34 +111,36 @@ def _parse_publish(msg: dict[str, Any]) -> bool:
     return _PUBLISH.read(mode, "publish") == "batch"
 
 
-#: a move read without the per-field readers (generated from MOVE): None for anything it cannot vouch for
-_plain_move = MOVE.fast_reader
-
-
 def read_move_item(value: Any, path: str) -> MoveItem:
-    """A move through the per-field readers: any shape, and the error that names the field."""
-    return MOVE.read(value, path)  # type: ignore[no-any-return]
+    """One move of a request map to its MoveItem, or the ProtocolError naming the field: msgspec's
+    Structs and the post-pass of service/protocol/move_structs.py."""
+    return read_move(value, path)
 
 
-def parse_move_item(value: Any, path: str) -> MoveItem:
-    plain = _plain_move(value, path)
-    return plain if plain is not None else MOVE.read(value, path)  # type: ignore[no-any-return]
+#: the same reader by its earlier name: the fast reader and the per-field one it stood in front of are one now
+parse_move_item = read_move_item
 
 
-def _item_or_error(value: Any, path: str) -> MoveItem | ItemError:
+def _plain_move(value: Any, path: str) -> MoveItem | None:
+    """The move, or None where it is refused (for a caller that wants no error, only the verdict)."""
     try:
-        return parse_move_item(value, path)
-    except ProtocolError as e:
-        mid = tag = None
-        if isinstance(value, dict):
-            raw_id, raw_tag = value.get("id"), value.get("tag")
-            if isinstance(raw_id, int) and not isinstance(raw_id, bool) and 0 <= raw_id < (1 << 64):
-                mid = raw_id
-            try:  # echoed only when it is a tag the protocol allows (a 3 MB string is not sent back)
-                tag = Tag().read(raw_tag, "tag") if raw_tag is not None else None
-            except ProtocolError:
-                tag = None
-        return ItemError(e, mid, tag)
+        return read_move(value, path)
+    except ProtocolError:
+        return None
+
+
+def _item_error(e: ProtocolError, value: Any) -> ItemError:
+    """A batch item's error, with its `id` and `tag` echoed when they are ones the protocol allows."""
+    mid = tag = None
+    if isinstance(value, dict):
+        raw_id, raw_tag = value.get("id"), value.get("tag")
+        if isinstance(raw_id, int) and not isinstance(raw_id, bool) and 0 <= raw_id < (1 << 64):
+            mid = raw_id
+        try:  # echoed only when it is a tag the protocol allows (a 3 MB string is not sent back)
+            tag = Tag().read(raw_tag, "tag") if raw_tag is not None else None
+        except ProtocolError:
+            tag = None
+    return ItemError(e, mid, tag)
 
 
 def parse_single_move(msg: dict[str, Any]) -> tuple[MoveItem, bool]:
@@ -145,7 +148,7 @@ def parse_single_move(msg: dict[str, Any]) -> tuple[MoveItem, bool]:
     published on P/states (`"publish": "batch"`). What `parse_moves` gives, without the batch around it."""
     _single(msg)
     batch = _parse_publish(msg)  # checked first, as in parse_moves
-    return parse_move_item(msg["move"], "move"), batch
+    return read_move(msg["move"], "move"), batch
 
 
 def _single(msg: dict[str, Any]) -> bool:
@@ -160,13 +163,16 @@ def _single(msg: dict[str, Any]) -> bool:
 
 
 def parse_moves(msg: dict[str, Any]) -> MoveBatch:
-    """`{"move": Move}` or `{"moves": [Move, ...]}`."""
+    """`{"move": Move}` or `{"moves": [Move, ...]}`; in a batch each move is read on its own (a bad one
+    fails only itself, as its ItemError)."""
     has_one = _single(msg)
     publish_batch = _parse_publish(msg)
     if has_one:
-        return MoveBatch(True, [parse_move_item(msg["move"], "move")], publish_batch)
-    items = as_list(msg["moves"], "moves", MAX_BATCH)
-    return MoveBatch(False, [_item_or_error(v, field_path("moves", i)) for i, v in enumerate(items)], publish_batch)
+        return MoveBatch(True, [read_move(msg["move"], "move")], publish_batch)
+    values = as_list(msg["moves"], "moves", MAX_BATCH)
+    read = read_moves(values, "moves")
+    return MoveBatch(False, [_item_error(r, v) if isinstance(r, ProtocolError) else r for r, v in zip(read, values, strict=True)],
+                     publish_batch)
 
 
 def parse_register(msg: dict[str, Any]) -> RegisterRequest:

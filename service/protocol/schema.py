@@ -8,7 +8,8 @@ a nested map). From that one declaration (service/protocol/messages.py holds eve
   whose kind and path name the field (`moves[3].to.origin[2]`);
 - `Map.fast`: a reader generated as Python source at import time from the same fields: it takes the
   usual shape only (floats as floats, known keys only) and returns None for anything else, so the full
-  reader decides and names the field. It runs the same checks and builds the same value;
+  reader decides and names the field. It runs the same checks and builds the same value (the State's:
+  a move request is read with msgspec instead, service/protocol/move_structs.py);
 - `Map.encode(obj)`: the msgpack-ready map of a value (generated too: one dict display per map);
 - `packing.make_packer(map, ...)`: for the per-move State, a function that writes the msgpack bytes directly
   (service/protocol/packing.py), generated from the same fields;
@@ -76,11 +77,10 @@ class Field:
 # eq=False: a map is the one declaration it is (compared and hashed by identity)
 @dataclass(eq=False, repr=False)
 class Map(Kind):
-    """A map of `fields`, read into `build(*values)` (values in field order; a list default copied; with
-    `with_path`, the map's path first).
+    """A map of `fields`, read into `build(*values)` (values in field order; a list default copied).
 
-    `one_of`: exactly one of these fields is given (checked where the first of them is read; the fast
-    reader tries them in the order of `usual`, the commonest first). `rules`:
+    `one_of`: exactly one of these fields is given (checked where the first of them is read; a map with
+    one has no fast reader). `rules`:
     checks of the built value. `checks`: further checks that raise ProtocolError themselves (engine
     limits). `label`: how an error at the top (path "") names the message. `doc`: the type the doc's
     tables give it (default `name`).
@@ -95,8 +95,6 @@ class Map(Kind):
     checks: tuple[Callable[[Any, str], None], ...] = ()
     label: str = "message"
     doc: str = ""
-    with_path: bool = False
-    usual: tuple[str, ...] = ()
     by_name: dict[str, Field] = field(init=False)
     # the generated fast reader and encoder, made on first use
     _fast: Callable[[Any, str], Any] | None = field(init=False, default=None)
@@ -144,7 +142,7 @@ class Map(Kind):
                 f.check(v, p)
         if self.build is None:
             return values
-        built = self.build(path, *values.values()) if self.with_path else self.build(*values.values())
+        built = self.build(*values.values())
         for r in self.rules:
             if not r.holds(built):
                 raise r.error(built, path)
@@ -165,8 +163,8 @@ class Map(Kind):
         return self._fast
 
     def fast(self, g: SourceGen, ind: int, x: str, path: str) -> str:
-        if self.build is None:
-            raise TypeError(f"{self.name}: a map without a build has no fast reader")
+        if self.build is None or self.one_of:
+            raise TypeError(f"{self.name}: only a map with a build and no one_of has a fast reader")
         n = g.var("n")
         g.emit(ind, f"if type({x}) is not dict: return None")
         # the keys read: the required ones counted here, the others as they come
@@ -176,10 +174,6 @@ class Map(Kind):
         for f in self.fields:
             if not f.read:  # written only: ignored when read, as the full reader does
                 g.emit(ind, f"{n} += {x}.get({f.name!r}) is not None")
-                continue
-            if f.name in self.one_of:
-                if f.name == self.one_of[0]:
-                    self._fast_one_of(g, ind, x, path, n, out)
                 continue
             fp = f"field_path({path}, {f.name!r})"
             if f.with_field is not None:  # read only when the field it belongs to was given
@@ -206,41 +200,17 @@ class Map(Kind):
             present = f"; {n} += {f.name!r} in {x}" if f.nullable else ""
             g.emit(ind, f"if {raw} is None: {v} = {default}{present}")
             g.emit(ind, "else:")
-            if f.excludes is not None:
-                g.emit(ind + 1, f"if {out[f.excludes[0]]} is not None: return None")
             g.emit(ind + 1, f"{v} = {self._fast_value(g, ind + 1, f, raw, fp)}")
             g.emit(ind + 1, f"{n} += 1")
         g.emit(ind, f"if {n} != len({x}): return None")  # an unknown key: the full reader ignores it or refuses
         built = g.var("m")
-        args = ", ".join(([path] if self.with_path else []) + [out[f.name] for f in self.fields if f.read])
+        args = ", ".join(out[f.name] for f in self.fields if f.read)
         g.emit(ind, f"{built} = {g.const(self.build, 'build')}({args})")
         for r in self.rules:
             g.emit(ind, f"if not {g.const(r.holds, 'rule')}({built}): return None")
         for c in self.checks:
             g.emit(ind, f"{g.const(c, 'check')}({built}, {path})")
         return built
-
-    def _fast_one_of(self, g: SourceGen, ind: int, x: str, path: str, n: str, out: dict[str, str]) -> None:
-        """The `one_of` fields: the first one given is read and the others not looked at; one of them given
-        as well is then a key not counted, so the key count refuses the map (and the full reader says why)."""
-        names = sorted(self.one_of, key=lambda k: self.usual.index(k) if k in self.usual else len(self.usual))
-        for k in names:
-            out[k] = g.var()
-        for depth, k in enumerate(names):
-            f = self.by_name[k]
-            at = ind + depth
-            raw = g.var("x")
-            g.emit(at, f"{raw} = {x}.get({k!r})")
-            last = depth == len(names) - 1
-            g.emit(at, f"if {raw} is {'None: return None' if last else 'not None:'}")
-            body = at if last else at + 1
-            for other in names:
-                if other != k:
-                    g.emit(body, f"{out[other]} = None")
-            g.emit(body, f"{out[k]} = {self._fast_value(g, body, f, raw, f'field_path({path}, {k!r})')}")
-            g.emit(body, f"{n} += 1")
-            if not last:
-                g.emit(at, "else:")
 
     @staticmethod
     def _fast_value(g: SourceGen, ind: int, f: Field, raw: str, fp: str) -> str:
