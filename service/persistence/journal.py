@@ -18,7 +18,10 @@ are left; a tail of zero bytes, as a power cut can leave, counts as torn
 too). A torn tail is dropped with a log line: its request was never
 answered under `always`, and it lies within the window otherwise. A frame
 that fails its checksum with records after it is corruption: reading
-refuses it (`JournalCorrupt`), never skips it.
+refuses it (`JournalCorrupt`), never skips it. A start reads a long log
+by runs of frames of one length where it can, each run's checksums checked
+at once (service/persistence/frame_runs.py), and frame by frame elsewhere
+and wherever a run does not check, which finds the damaged frame.
 
 The writer's policy (`--state-sync`) says when records reach the disk:
 
@@ -55,14 +58,16 @@ import os
 import struct
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Final
+from typing import Any, Final
+
+import numpy as np
 
 __all__ = [
     "POLICIES", "DEFAULT_POLICY", "DEFAULT_BUDGET", "Journal", "JournalCorrupt", "JournalFile",
-    "JournalScan", "journal_path", "journal_files", "read_journal", "frame",
+    "JournalScan", "FrameRun", "RunCheck", "gather", "journal_path", "journal_files", "read_journal", "frame",
 ]
 
 log = logging.getLogger("acphys.service")
@@ -182,11 +187,23 @@ class JournalScan:
     `file` holds the header's values and, once the iteration ended, what was dropped; JournalCorrupt is
     raised where the damage is (its `records` empty: the caller has the ones before it)."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, runs: RunCheck | None = None) -> None:
         self.path = path
         self.file = JournalFile(path, -1, 0)
+        #: what checks many frames of one length at once (service/persistence/frame_runs.py: check_run), if any
+        self.runs = runs
 
     def __iter__(self) -> Iterator[bytes]:
+        for item in self.items():
+            if isinstance(item, FrameRun):
+                yield from (item.payload(i) for i in range(item.count))
+            else:
+                yield item
+
+    def items(self) -> Iterator[bytes | FrameRun]:
+        """The records in order: each a payload, or (with `runs`) a FrameRun of many frames of one length
+        checked at once (a long log of single moves is mostly such runs). A run reads the mapped file: use it
+        before the next item, and keep nothing of it that refers to the file (its methods return copies)."""
         path = self.path
         with open(path, "rb") as f:
             size = os.fstat(f.fileno()).st_size
@@ -198,7 +215,7 @@ class JournalScan:
             with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
                 yield from self._records(data, size)
 
-    def _records(self, data: mmap.mmap, size: int) -> Iterator[bytes]:
+    def _records(self, data: mmap.mmap, size: int) -> Iterator[bytes | FrameRun]:
         path, out = self.path, self.file
         magic, generation, budget = _HEADER.unpack_from(data, 0)
         (crc,) = _HEADER_CRC.unpack_from(data, _HEADER.size)
@@ -210,7 +227,18 @@ class JournalScan:
         off = HEADER_BYTES
         unpack_head = _FRAME_HEAD.unpack_from
         checksum = crc32  # a local, not a global looked up for every record
+        runs = self.runs
+        length = -1  # the last frame's
+        single_until = 0  # a run was tried up to here and failed: frame by frame until then
         while off < size:
+            if (runs is not None and off >= single_until and length >= 0 and size - off >= FRAME_HEAD
+                    and unpack_head(data, off)[0] == length):  # (the next frame's length, for a start)
+                run, checked = runs(data, off, length, size)
+                if run is not None:
+                    yield run
+                    off += run.count * run.stride
+                    continue
+                single_until = off + checked
             if size - off < FRAME_HEAD:
                 _torn(out, off, f"a frame header cut off ({size - off} of {FRAME_HEAD} bytes)")
                 return
@@ -232,6 +260,51 @@ class JournalScan:
                 raise JournalCorrupt(path, off, "a record fails its checksum", [])
             yield payload
             off = end
+
+
+@dataclass(frozen=True, slots=True)
+class FrameRun:
+    """`count` whole frames of one payload `length` laid end to end from byte `offset` of a mapped log, all
+    of them checked (their headers and payloads against their checksums: service/persistence/frame_runs.py).
+    `heads` holds each frame's first bytes (its 12-byte header and the first bytes of its payload), copied
+    in one pass. Its methods copy out of the file, so nothing they return keeps the mapping open."""
+
+    data: mmap.mmap
+    offset: int
+    count: int
+    length: int
+    heads: np.ndarray[Any, np.dtype[np.uint8]]
+
+    @property
+    def stride(self) -> int:
+        return FRAME_HEAD + self.length
+
+    def payload(self, i: int) -> bytes:
+        at = self.offset + i * self.stride + FRAME_HEAD
+        return self.data[at:at + self.length]
+
+    def column(self, at: int, width: int) -> np.ndarray[Any, np.dtype[np.uint8]]:
+        """Bytes `at` to `at + width` of every payload, one row a frame (a copy)."""
+        if at < 0 or at + width > self.length:
+            raise ValueError(f"bytes {at} to {at + width} of a {self.length}-byte payload")
+        if FRAME_HEAD + at + width <= self.heads.shape[1]:
+            return self.heads[:, FRAME_HEAD + at:FRAME_HEAD + at + width].copy()
+        return gather(self.data, self.offset + FRAME_HEAD + at, self.count, self.stride, width)
+
+
+#: a check of the frames of one payload length from an offset on (data, offset, length, file size): a run of
+#: them, or None, and how many bytes need not be tried again
+RunCheck = Callable[[mmap.mmap, int, int, int], "tuple[FrameRun | None, int]"]
+
+
+def gather(data: mmap.mmap, offset: int, count: int, stride: int, width: int) -> np.ndarray[Any, np.dtype[np.uint8]]:
+    """`width` bytes from `offset` and every `stride` bytes on, `count` times, as rows (a copy: one element a
+    row, which numpy copies far faster than a row of single bytes)."""
+    view = np.ndarray((count,), np.dtype(f"V{width}"), data, offset, (stride,))
+    try:
+        return view.copy().view(np.uint8).reshape(count, width)
+    finally:
+        del view
 
 
 def _zeros(data: mmap.mmap, offset: int, size: int) -> bool:

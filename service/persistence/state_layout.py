@@ -97,6 +97,10 @@ def regroup_state(state: str, count: int, owners: Sequence[Ownership], *, user: 
     targets = layout_paths(state, count, len(owners), user)
     present = saved_files(state, user)
     others = [p for p in present if p not in targets]
+    if not others and len(targets) == 1:
+        # one file, its own: nothing to move (a mover no owner takes is its instance's to refuse), so its log
+        # is not replayed here only for the start to replay it again
+        return None
     read: dict[Path, list[SavedMover]] = {}
     generations: dict[Path, int] = {}
     hint = "use --state-discard-bad to start without that file's movers"

@@ -20,20 +20,28 @@ from __future__ import annotations
 
 import logging
 import struct
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
-from itertools import repeat
 from pathlib import Path
 from typing import Any
 
 import msgpack
+import numpy as np
 
 from engine.world.batch import MOVER_STATE_BYTES
 from engine import MoverSpec
 
 from service.protocol.codec import decode_mover_spec, encode_mover_spec, encode_vec
 from service.protocol.errors import ProtocolError
-from service.persistence.journal import DEFAULT_BUDGET, JournalCorrupt, JournalScan, journal_files
+from service.persistence.journal import (
+    DEFAULT_BUDGET,
+    FRAME_HEAD,
+    FrameRun,
+    JournalCorrupt,
+    JournalScan,
+    journal_files,
+)
+from service.persistence.frame_runs import check_run
 from service.persistence.journal_records import (
     HANDING_OVER,
     HANDOVER_FAILED,
@@ -61,6 +69,8 @@ _HINT = "use --state-discard-bad to start without it"
 _MOVE_BYTES = 16 + MOVER_STATE_BYTES
 _ONE_MOVE = RECORD_HEAD.size + _MOVE_BYTES
 _ID = struct.Struct("<Q")
+#: a moves record of this many rows or more finds its movers' last rows with numpy, not row by row
+_BULK_ROWS = 16
 
 
 @dataclass(slots=True)
@@ -82,15 +92,19 @@ class Loaded:
 
 
 class _Replay:
-    """Movers as the records leave them: the state file's (untouched), or a record's row."""
+    """Movers as the records leave them: the state file's (untouched), or a record's row. A later row of a
+    mover supersedes an earlier one whole (it holds the mover's seq and whole state), so a run of moves keeps
+    only each mover's last row: it is found for many records at once (numpy) and its bytes copied then."""
 
     def __init__(self, saved: list[SavedMover]) -> None:
         self.base: dict[int, SavedMover] = {m.handover.id: m for m in saved}
         self.alive: set[int] = set(self.base)
-        #: the latest row of a mover a record changed: (payload, n, index)
+        #: the latest row of a mover a record changed: (bytes holding it, where its seq is, where its state is)
         self.rows: dict[int, tuple[bytes, int, int]] = {}
         self.specs: dict[int, MoverSpec] = {}
         self.in_doubt: dict[int, int] = {}
+        #: the records applied (whole)
+        self.records = 0
 
     def apply(self, payload: bytes) -> None:
         kind, n = RECORD_HEAD.unpack_from(payload, 0)
@@ -99,36 +113,99 @@ class _Replay:
             (mover_id,) = _ID.unpack_from(payload, at)
             if mover_id not in self.alive:
                 raise ValueError(f"a moves record changes mover {mover_id:X}, which is not held")
-            self.rows[mover_id] = (payload, 1, 0)
+            self.rows[mover_id] = (payload, at + 8, at + 16)
             if self.in_doubt:
                 self.in_doubt.pop(mover_id, None)
+            self.records += 1
             return
+        if kind == MOVES and n >= _BULK_ROWS and len(payload) >= at + n * _MOVE_BYTES:
+            ids = np.frombuffer(payload, np.dtype("<u8"), n, at).copy()
+            self._moves(ids, n, lambda r: (payload, at + 8 * n + 8 * r, at + 16 * n + MOVER_STATE_BYTES * r))
+            return
+        self._apply(kind, n, payload)
+        self.records += 1
+
+    def apply_run(self, run: FrameRun) -> None:
+        """The records of `run` in order: its moves in bulk when all are MOVES records of one size, else one
+        by one."""
+        heads = run.column(0, RECORD_HEAD.size)
+        kinds = heads[:, 0]
+        counts = heads[:, 1:].copy().view(np.dtype("<u4")).reshape(-1)
+        n = int(counts[0])
+        at = RECORD_HEAD.size
+        if not ((kinds == MOVES).all() and (counts == n).all() and n and run.length >= at + n * _MOVE_BYTES):
+            for i in range(run.count):
+                self.apply(run.payload(i))
+            return
+        ids = run.column(at, 8 * n).view(np.dtype("<u8")).reshape(-1)
+        seqs, states = at + 8 * n, at + 16 * n
+
+        def row(r: int) -> tuple[bytes, int, int]:
+            """Row `r` of the run (frame r // n, row r % n of it): its seq and state copied out of the file."""
+            i, j = divmod(r, n)
+            base = run.offset + i * run.stride + FRAME_HEAD
+            seq = run.data[base + seqs + 8 * j:base + seqs + 8 * j + 8]
+            state = run.data[base + states + MOVER_STATE_BYTES * j:base + states + MOVER_STATE_BYTES * (j + 1)]
+            return seq + state, 0, 8
+
+        self._moves(ids, n, row)
+
+    def _moves(self, ids: np.ndarray[Any, np.dtype[np.uint64]], per: int,
+               row: Callable[[int], tuple[bytes, int, int]]) -> None:
+        """Records of `per` moves each, their ids `ids` in order: each mover's last row kept (`row` gives it by
+        its index in `ids`). Every mover must be held (no record of another kind comes between, so what is
+        held does not change): else the records before the first that is not are applied, and ValueError."""
+        last = len(ids) - 1
+        unique, first_reversed = np.unique(ids[::-1], return_index=True)
+        movers = unique.tolist()
+        if not self.alive.issuperset(movers):
+            strangers = np.array(sorted(set(movers) - self.alive), dtype=np.uint64)
+            bad = int(np.flatnonzero(np.isin(ids, strangers))[0]) // per
+            if bad:
+                self._moves(ids[:bad * per], per, row)
+            record = set(ids[bad * per:(bad + 1) * per].tolist()) - self.alive
+            raise ValueError(f"a moves record changes mover {min(record):X}, which is not held")
+        rows = self.rows
+        for mover_id, r in zip(movers, (last - first_reversed).tolist()):
+            rows[mover_id] = row(r)
+        if self.in_doubt:
+            for mover_id in movers:  # moved here after a hand-over was sent: it stayed here
+                self.in_doubt.pop(mover_id, None)
+        self.records += len(ids) // per
+
+    def _apply(self, kind: int, n: int, payload: bytes) -> None:
+        """One record of any kind, row by row."""
+        at = RECORD_HEAD.size
         ids = list(struct.unpack_from(f"<{n}Q", payload, at))
         if kind == MOVES or kind == REGISTER or kind == UPDATE or kind == HANDOVER_IN:
-            need = at + n * (16 + MOVER_STATE_BYTES)
+            need = at + n * _MOVE_BYTES
             if len(payload) < need:
                 raise ValueError(f"a {KIND_NAMES[kind]} record of {n} mover(s) is {len(payload)} bytes")
             if kind == REGISTER or kind == HANDOVER_IN:
                 held = self.alive.intersection(ids)
                 if held:
                     raise ValueError(f"a {KIND_NAMES[kind]} record adds mover {min(held):X}, which is held already")
-                self.alive.update(ids)
             elif not self.alive.issuperset(ids):
                 raise ValueError(f"a {KIND_NAMES[kind]} record changes mover "
                                  f"{min(set(ids) - self.alive):X}, which is not held")
-            self.rows.update(zip(ids, zip(repeat(payload), repeat(n), range(n))))
+            specs: list[MoverSpec] = []
+            if kind != MOVES:  # (decoded before anything changes: a record is applied whole or not at all)
+                raw = msgpack.unpackb(payload[need:], raw=False, strict_map_key=False)
+                if not isinstance(raw, list) or len(raw) != n:
+                    raise ValueError(f"a {KIND_NAMES[kind]} record's movers are not {n} maps")
+                for mover_id, spec in zip(ids, raw):
+                    try:
+                        specs.append(decode_mover_spec(spec, "mover"))
+                    except ProtocolError as e:
+                        raise ValueError(f"mover {mover_id:X}: {e.message}") from None
+            if kind == REGISTER or kind == HANDOVER_IN:
+                self.alive.update(ids)
+            self.rows.update((mover_id, (payload, at + 8 * n + 8 * i, at + 16 * n + MOVER_STATE_BYTES * i))
+                             for i, mover_id in enumerate(ids))
+            self.specs.update(zip(ids, specs))
             if self.in_doubt:
                 for mover_id in ids:  # changed here after a hand-over was sent: it stayed here
                     self.in_doubt.pop(mover_id, None)
-            if kind != MOVES:
-                specs = msgpack.unpackb(payload[need:], raw=False, strict_map_key=False)
-                if not isinstance(specs, list) or len(specs) != n:
-                    raise ValueError(f"a {KIND_NAMES[kind]} record's movers are not {n} maps")
-                for mover_id, spec in zip(ids, specs):
-                    try:
-                        self.specs[mover_id] = decode_mover_spec(spec, "mover")
-                    except ProtocolError as e:
-                        raise ValueError(f"mover {mover_id:X}: {e.message}") from None
         elif kind == HANDING_OVER or kind == HANDOVER_FAILED:
             if not self.alive.issuperset(ids):
                 raise ValueError(f"a {KIND_NAMES[kind]} record names mover {min(set(ids) - self.alive):X}, "
@@ -161,15 +238,13 @@ class _Replay:
                 assert base is not None
                 out.append(base if not jump else _with_seq(base, base.handover.seq + jump))
                 continue
-            payload, n, i = row
-            at = RECORD_HEAD.size
-            (seq,) = struct.unpack_from("<Q", payload, at + 8 * n + 8 * i)
-            start = at + 16 * n + MOVER_STATE_BYTES * i
+            buf, seq_at, state_at = row
+            (seq,) = _ID.unpack_from(buf, seq_at)
             spec = self.specs.get(mover_id)
             if spec is None:
                 assert base is not None
                 spec = base.spec
-            out.append(saved_mover(mover_id, seq + jump, spec, payload[start:start + MOVER_STATE_BYTES]))
+            out.append(saved_mover(mover_id, seq + jump, spec, buf[state_at:state_at + MOVER_STATE_BYTES]))
         return out
 
 
@@ -223,12 +298,14 @@ def load_saved(path: str | Path, discard_bad: bool = False) -> Loaded:
     for k, (_generation, p) in enumerate(todo):
         replayed.append(p)
         bad: str | None = None
-        scan = JournalScan(p)
-        done = 0
+        scan = JournalScan(p, check_run)
+        before = state.records
         try:
-            for payload in scan:
-                state.apply(payload)
-                done += 1
+            for item in scan.items():
+                if isinstance(item, FrameRun):
+                    state.apply_run(item)
+                else:
+                    state.apply(item)
             f = scan.file
             jump = max(jump, f.budget + 1 if f.budget else 0)
             if f.torn is not None:
@@ -239,8 +316,8 @@ def load_saved(path: str | Path, discard_bad: bool = False) -> Loaded:
         except OSError as e:
             bad = f"state log {p}: {e}"
         except (ValueError, struct.error) as e:
-            bad = f"state log {p}: record {done + 1} cannot be replayed: {e}"
-        records += done
+            bad = f"state log {p}: record {state.records - before + 1} cannot be replayed: {e}"
+        records += state.records - before
         if bad is None:
             continue
         if not discard_bad:
