@@ -21,8 +21,8 @@ may reach anywhere). The face, by kind:
 - the World and what it hands out: World, Mover (a World's movers, for
   annotations and state), MoveUndo (the undo a checked move returns);
 - the batch API: engine.world.batch (run_batch, BatchRows, the mover-state
-  record), the row layout it writes (engine.world.rows) and the
-  transient-state bits rows and mover states carry (engine.world.transient);
+  record), the result columns it writes (engine.world.rows) and the
+  transient-state bits results and mover states carry (engine.world.transient);
 - the formats' loaders: load_scene, world_from_scene_dict, open_dat_world
   with DatCollection and DatError (here), and the trace format
   (engine.formats.trace: reading cases and replaying their moves).

@@ -1,23 +1,25 @@
 """Running a column request on the core: moves in, result columns out.
 
 The column twin of `ServiceCore.moves` / `ServiceCore.push` (the same
-per-move steps: the engine call, `seq`, the hand-over when a move leaves
-the instance's landblocks, the publication), with the moves run by the
+per-move steps: the engine call, the hand-over when a move leaves the
+instance's landblocks, the publication), with the moves run by the
 engine's batch entry point (engine.world.batch.run_batch): one compiled
 loop writes every result into two flat lists (reals and integers) that
 become the reply's arrays in one numpy call each, and no map is built per
-move. Runs on the engine thread, with the engine lock held, as the map form.
+move. Each mover's `seq` is the engine's count (Mover.seq), written into
+the rows beside the results, so nothing here touches a mover per item
+unless it failed, is published or leaves. Runs on the engine thread, with
+the engine lock held, as the map form.
 """
 
 from __future__ import annotations
 
 import logging
-from array import array
 from itertools import repeat
 from operator import is_not
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,18 +34,10 @@ from engine.world.batch import (
     append_row,
     run_batch,
 )
-from engine.world.rows import INTS_PER_ROW, REALS_PER_ROW, TRANSIENT_MASK, Status, int_columns, real_slices
 
 from service.protocol.codec import pack_state
 from service.protocol.column_request import ColumnRequest
-from service.protocol.columns import (
-    FAILED_STATE,
-    PUBLICATION_ID,
-    REPLY_COLUMNS,
-    REQUEST_COLUMNS,
-    Flag,
-    pack_columns,
-)
+from service.protocol.columns import PUBLICATION_ID, REPLY_COLUMNS, REQUEST_COLUMNS, Flag, pack_columns
 from service.engine_errors import to_protocol_error
 from service.protocol.errors import ProtocolError
 from service.protocol.frames import pack
@@ -51,16 +45,12 @@ from service.protocol.requests import ItemError
 from service.protocol.wire import ErrorKind
 
 if TYPE_CHECKING:
-    from service.core import MoverRecord, ServiceCore
+    from service.core import ServiceCore
 
 __all__ = ["ColumnResults", "run_columns", "push_columns", "reply_message", "publication_message"]
 
 log = logging.getLogger("acphys.service")
 
-#: where each reply column's values sit in the engine's rows (engine.world.rows): the reals' runs by name,
-#: the ints by index
-_REALS = real_slices()
-_INTS = int_columns()
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _GONE = bytes(MOVER_STATE_BYTES)
 _LE_U64 = np.dtype("<u8")
@@ -73,8 +63,6 @@ class ColumnResults:
 
     n: int
     rows: BatchRows = field(default_factory=BatchRows)
-    #: `seq` of every row (0 for items that did not resolve)
-    seqs: list[int] = field(default_factory=list)
     #: the wire ids of the movers each row collided with, in row order, and how many a row has (None:
     #: no row collided with anything)
     collide_ids: list[int] = field(default_factory=list)
@@ -83,7 +71,7 @@ class ColumnResults:
     errors: list[tuple[int, int, ProtocolError]] = field(default_factory=list)
     #: items forwarded to another instance's push key (fire-and-forget only); they have no row values
     forwarded: int = 0
-    #: items before this index have their seq, error or forward settled
+    #: items before this index have their error, forward or publication settled
     settled: int = 0
     #: States to publish as they settle: one put each ("each"), or gathered into `packed` ("batch")
     publish_each: bool = False
@@ -93,16 +81,12 @@ class ColumnResults:
     journaled: int = 0
 
 
-def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> tuple[list[Mover | None],
-                                                                                       list[MoverRecord | None]]:
-    """Each item's engine mover and record (None for a refused item or an id not held here)."""
-    world_movers = core.world.movers
-    held = core.movers
-    recs: list[MoverRecord | None] = [held.get(mid) for mid in ids]
-    movers: list[Mover | None] = [None if rec is None else world_movers[rec.engine_id] for rec in recs]
+def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> list[Mover | None]:
+    """Each item's engine mover (None for a refused item or an id not held here)."""
+    movers: list[Mover | None] = list(map(core.engine_movers.get, ids))
     for i in bad:
-        movers[i] = recs[i] = None
-    return movers, recs
+        movers[i] = None
+    return movers
 
 
 def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
@@ -114,7 +98,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     bus = core.bus
     arrays = req.arrays
     ids: list[int] = arrays["id"].tolist()
-    movers, recs = _movers(core, ids, req.bad)
+    movers = _movers(core, ids, req.bad)
     out = ColumnResults(req.n)
     out.publish_each = req.publish == "each" and bus.states_watched()
     out.gather = req.publish == "batch" and bus.batch_watched()
@@ -137,9 +121,9 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
         i = run_batch(landscape, movers, kind, vectors, rows, start=i, cells=cells, orientations=orientations,
                       velocities=velocities, dts=dts, stop_if=stop_if)
         if i < req.n:  # item i left this instance's landblocks
-            _leave(core, req, out, movers, recs, ids, i, forward)
+            _leave(core, req, out, movers, ids, i, forward)
             i += 1
-    _settle(core, req, out, recs, ids, forward, req.n)
+    _settle(core, req, out, ids, forward, req.n)
     if core.log is not None:
         _journal(core, req, out, req.n)
         core.commit()
@@ -154,10 +138,10 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     return out, out.packed
 
 
-def _published(core: ServiceCore, out: ColumnResults, mover_id: int, seq: int, r: MoveResult) -> None:
+def _published(core: ServiceCore, out: ColumnResults, mover_id: int, r: MoveResult) -> None:
     """The State of a settled result, put (or gathered) in item order: before anything forwarded after it."""
     if out.publish_each or out.gather:
-        state = pack_state(mover_id, seq, r, core.collide_ids(r))
+        state = pack_state(mover_id, r.seq, r, core.collide_ids(r))
         if out.publish_each:
             core.publish_state(mover_id, state)
         else:
@@ -165,101 +149,85 @@ def _published(core: ServiceCore, out: ColumnResults, mover_id: int, seq: int, r
 
 
 def _leave(core: ServiceCore, req: ColumnRequest, out: ColumnResults, movers: list[Mover | None],
-           recs: list[MoverRecord | None], ids: list[int], i: int, forward: bool) -> None:
+           ids: list[int], i: int, forward: bool) -> None:
     """Item i's move ended outside this instance: hand the mover over (its row is then the result), or
     take the move back and fail the item. After a hand-over, later items of that mover are not run here."""
-    _settle(core, req, out, recs, ids, forward, i)  # the hand-over carries the mover's seq so far
-    rec = recs[i]
+    _settle(core, req, out, ids, forward, i)
+    rec = core.movers.get(ids[i])
     result = out.rows.results[i]
     assert rec is not None and result is not None
-    prev, prev_seq = rec.last, rec.seq
-    rec.seq, rec.last = prev_seq + 1, result
     lb = (result.position.cell_id >> 16) & 0xFFFF
     # published "each": by the new owner, whose next States follow it on the same session
-    state = pack_state(rec.id, rec.seq, result, core.collide_ids(result)) if out.publish_each else None
+    state = pack_state(rec.id, result.seq, result, core.collide_ids(result)) if out.publish_each else None
     undo = out.rows.undo
-    assert undo is not None  # run_batch keeps it for the item it stopped at
+    assert undo is not None  # run_batch keeps it for the item it stopped at (the move counted: undo uncounts)
     if core.log is not None:
         _journal(core, req, out, i)  # the moves before this one, then (in _hand_over) the hand-over
     try:
-        core.hand_over(rec, prev, prev_seq, lb, state, undo)
+        core.hand_over(rec, lb, state, undo)
     except ProtocolError as e:
         out.rows.results[i] = None
         out.errors.append((i, rec.id, e))
-        out.seqs.append(0)
         append_missing(out.rows)
     else:
         append_row(out.rows, result)
         if out.rows.states is not None:
             out.rows.states.write(_GONE)  # the mover went with the hand-over: not this instance's to log
-        out.seqs.append(rec.seq)
         if out.gather:
-            out.packed.append(pack_state(rec.id, rec.seq, result, core.collide_ids(result)))
+            out.packed.append(pack_state(rec.id, result.seq, result, core.collide_ids(result)))
     out.settled = i + 1
     out.journaled = i + 1
     if core.movers.get(rec.id) is None:  # handed over: later items of that mover are not run here
         for j in range(i + 1, len(ids)):
-            if recs[j] is rec:
-                recs[j] = movers[j] = None
+            if movers[j] is rec.mover:
+                movers[j] = None
 
 
 def _journal(core: ServiceCore, req: ColumnRequest, out: ColumnResults, upto: int) -> None:
     """Items `out.journaled` .. `upto - 1` that resolved go to the state log as one MOVES record: their ids,
-    seqs and the states the engine wrote beside their rows."""
+    seqs (the rows' own) and the states the engine wrote beside their rows."""
     lo = out.journaled
     if upto <= lo:
         return
     out.journaled = upto
-    log, states = core.log, out.rows.states
+    log, rows = core.log, out.rows
+    states = rows.states
     assert log is not None and states is not None
-    seqs = out.seqs[lo:upto]
+    seqs = np.frombuffer(rows.seq.getvalue(), dtype="<u8")[lo:upto]
     ids = req.arrays["id"][lo:upto]
     raw = states.getvalue()
     if lo or len(raw) != upto * MOVER_STATE_BYTES:
         raw = raw[lo * MOVER_STATE_BYTES:upto * MOVER_STATE_BYTES]
-    # (all(): a truth test per seq, cheaper than `0 in seqs`'s comparisons)
-    if not all(seqs):  # some did not resolve (a resolved move's seq is at least 1): their rows are left out
-        seq_array = np.array(seqs, dtype="<u8")
-        resolved = seq_array != 0
+    if not seqs.all():  # some did not resolve (a resolved move's seq is at least 1): their rows are left out
+        resolved = seqs != 0
         raw = np.frombuffer(raw, dtype=f"V{MOVER_STATE_BYTES}")[resolved].tobytes()
-        log.moved_rows(np.ascontiguousarray(ids[resolved], "<u8").tobytes(), seq_array[resolved].tobytes(), raw,
+        log.moved_rows(np.ascontiguousarray(ids[resolved], "<u8").tobytes(), seqs[resolved].tobytes(), raw,
                        int(resolved.sum()))
     else:
         # a request's id column is little-endian uint64 already (parse_column_request), its slices contiguous
         id_bytes = ids.tobytes() if ids.dtype == _LE_U64 else np.ascontiguousarray(ids, "<u8").tobytes()
-        log.moved_rows(id_bytes, array("Q", seqs).tobytes(), raw, len(seqs))
+        log.moved_rows(id_bytes, seqs.tobytes(), raw, len(seqs))
 
 
-def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, recs: list[MoverRecord | None],
-            ids: list[int], forward: bool, upto: int) -> None:
-    """Items `out.settled` .. `upto - 1` in order: the records' seq and last result, the errors of items
-    that did not run (refused values, ids not held here, engine refusals), forwarding after a hand-over."""
-    results, seqs = out.rows.results, out.seqs
+def _settle(core: ServiceCore, req: ColumnRequest, out: ColumnResults, ids: list[int], forward: bool,
+            upto: int) -> None:
+    """Items `out.settled` .. `upto - 1` in order: the errors of items that did not run (refused values,
+    ids not held here, engine refusals), forwarding after a hand-over, and the States to publish."""
+    results = out.rows.results
     publishing = out.publish_each or out.gather
     first = out.settled
     out.settled = upto
-    # (`is not`, not `None in`: that would call MoveResult's dataclass __eq__ once per item)
+    # the usual run, every item resolved and nothing to publish, has nothing to settle (`is not`, not
+    # `None in`: that would call MoveResult's __eq__ once per item)
     if not publishing and all(map(is_not, results[first:upto], repeat(None))):
-        # the usual run: every item resolved and nothing to publish; a mover's seq counts its resolved moves
-        for held, resolved in zip(recs[first:upto], cast("list[MoveResult]", results[first:upto])):
-            assert held is not None
-            held.seq += 1
-            held.last = resolved
-            seqs.append(held.seq)
         return
     engine_errors: dict[int, Exception] | None = None
     for i in range(first, upto):
         r = results[i]
         if r is not None:
-            rec = recs[i]
-            assert rec is not None
-            seq = rec.seq = rec.seq + 1
-            rec.last = r
-            seqs.append(seq)
             if publishing:
-                _published(core, out, ids[i], seq, r)
+                _published(core, out, ids[i], r)
             continue
-        seqs.append(0)
         if engine_errors is None:
             engine_errors = dict(out.rows.errors)
         _unresolved(core, req, out, ids[i], i, engine_errors, forward)
@@ -316,28 +284,13 @@ def _one_row_message(req: ColumnRequest, i: int) -> bytes:
     return pack({"kind": req.kind, "columns": cols, "publish": req.publish})
 
 
-def _arrays(out: ColumnResults) -> dict[str, np.ndarray[Any, Any]]:
-    """The reply's columns from the engine's rows (rows of failed items hold the missing values). The row's
-    status bits are the wire's flags and its transient bits sit above them (service/columns.Flag); its
-    transition-state index is the wire's code."""
-    rows = out.rows
-    n = rows.count
-    reals = np.frombuffer(rows.reals_le(), dtype="<f8").reshape(n, REALS_PER_ROW)
-    ints = np.frombuffer(rows.ints_le(), dtype="<i8").reshape(n, INTS_PER_ROW)
-    status = ints[:, _INTS["status"]]
-    resolved = (status & Status.RESOLVED) != 0
-    columns: dict[str, np.ndarray[Any, Any]] = {name: reals[:, first:end] for name, (first, end) in _REALS.items()}
-    columns.update({
-        "seq": np.array(out.seqs, dtype=np.uint64), "cell": ints[:, _INTS["cell"]],
-        "flags": status | ((ints[:, _INTS["transient"]] & TRANSIENT_MASK) << Flag.TRANSIENT_SHIFT),
-        "transition_state": np.where(resolved, ints[:, _INTS["transition_state"]], FAILED_STATE),
-        "frames_stationary_fall": np.where((status & Status.HAS_FRAMES_STATIONARY_FALL) != 0,
-                                           ints[:, _INTS["frames_stationary_fall"]], 255),
-        "contact_plane_cell": ints[:, _INTS["contact_plane_cell"]],
-        "collide_count": (ints[:, _INTS["collide_count"]] if out.collide_counts is None
-                          else np.array(out.collide_counts, dtype=np.int64)),
-    })
-    return columns
+def _reply_columns(out: ColumnResults) -> dict[str, bytes]:
+    """The reply's columns as the engine wrote them (its result columns are the wire's, engine.world.rows),
+    with the collided movers' counts of wire ids when a row collided with anything."""
+    cols = out.rows.columns()
+    if out.collide_counts is not None:
+        cols["collide_count"] = np.array(out.collide_counts, dtype="<u4").tobytes()
+    return cols
 
 
 def _collide_bytes(ids: list[int]) -> bytes:
@@ -350,14 +303,17 @@ def _error_entries(out: ColumnResults) -> list[dict[str, Any]]:
 
 def reply_message(out: ColumnResults) -> bytes:
     """`{"v": 1, "n", "columns", "errors"}`: the reply to a column query."""
-    cols = pack_columns(REPLY_COLUMNS, _arrays(out))
+    cols = _reply_columns(out)
     cols["collide_ids"] = _collide_bytes(out.collide_ids)
     return pack({"n": out.n, "columns": cols, "errors": _error_entries(out)})
 
 
 def publication_message(out: ColumnResults, req: ColumnRequest) -> bytes:
     """`{"v": 1, "n", "columns"}` on P/state_columns: the rows of the items that resolved, with `id`."""
-    arrays = _arrays(out)
+    n = out.rows.count
+    raw = _reply_columns(out)
+    arrays = {c.name: np.frombuffer(raw[c.name], dtype=c.np_dtype).reshape((n, c.width) if c.width > 1 else n)
+              for c in REPLY_COLUMNS}
     keep = (arrays["flags"] & Flag.RESOLVED) != 0
     cols = {PUBLICATION_ID.name: np.ascontiguousarray(req.arrays["id"][keep], dtype="<u8").tobytes()}
     cols.update(pack_columns(REPLY_COLUMNS, {k: a[keep] for k, a in arrays.items()}))

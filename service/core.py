@@ -17,7 +17,7 @@ from typing import Any, Protocol
 import msgpack
 
 from engine.geometry import Plane, Position, Vec3
-from engine import MoverSpec, MoveResult, MoveUndo
+from engine import Mover, MoverSpec, MoveResult, MoveUndo
 
 from service.protocol.codec import encode_mover_spec, encode_state, encode_vec, pack_state
 from service.engine_errors import to_protocol_error
@@ -99,11 +99,23 @@ class BusPort(Protocol):
 
 @dataclass(slots=True)
 class MoverRecord:
+    """A mover this instance holds. Its seq and last result are the engine's own (Mover.seq, Mover.last),
+    counted by every move however it runs (one, a map batch, a column batch) and taken back with it."""
+
     id: int  # the id on the wire
     engine_id: int  # the World's id (changes on re-add)
-    spec: MoverSpec
-    seq: int
-    last: MoveResult
+    spec: MoverSpec  # as registered or updated
+    mover: Mover  # the engine's (a new one after an update)
+
+    @property
+    def seq(self) -> int:
+        return self.mover.seq
+
+    @property
+    def last(self) -> MoveResult:
+        last = self.mover.last
+        assert last is not None  # set when the mover is added
+        return last
 
 
 def spec_with_contact(spec: MoverSpec, r: MoveResult) -> MoverSpec:
@@ -124,6 +136,9 @@ class ServiceCore:
         self.instance = instance
         self.stats = stats
         self.movers: dict[int, MoverRecord] = {}
+        #: each held mover's engine Mover by wire id (its record's `mover`): what a column batch hands the
+        #: engine, looked up a whole id column at a time
+        self.engine_movers: dict[int, Mover] = {}
         self._by_engine: dict[int, int] = {}
         self._forwarded: dict[int, int] = {}
         # assigned ids sit above 2^32 so they never collide with AC guids a client may choose
@@ -220,11 +235,14 @@ class ServiceCore:
             eid = self.world.add_mover(
                 spec, position, plane, plane_cell, sliding_normal=sliding_normal, water_contact=water_contact
             )
-            last = self.world.mover_state(eid)
         except Exception as e:
             raise to_protocol_error(e, "position", fields=_REGISTER_FIELDS) from None
-        rec = MoverRecord(mover_id, eid, spec, seq, last)
+        mover = self.world.mover(eid)
+        mover.seq = seq
+        mover.last = self.world.mover_state(eid)
+        rec = MoverRecord(mover_id, eid, spec, mover)
         self.movers[mover_id] = rec
+        self.engine_movers[mover_id] = mover
         self._by_engine[eid] = mover_id
         self._forwarded.pop(mover_id, None)
         return rec
@@ -232,6 +250,7 @@ class ServiceCore:
     def _drop(self, rec: MoverRecord) -> None:
         self.world.remove_mover(rec.engine_id)
         self.movers.pop(rec.id, None)
+        self.engine_movers.pop(rec.id, None)
         self._by_engine.pop(rec.engine_id, None)
 
     def _check_owner(self, lb: int, what: str) -> None:
@@ -259,7 +278,7 @@ class ServiceCore:
         state = self._state(rec)
         self.refresh()  # a dat world loads the start landblock on demand
         if self.log is not None:
-            self.log.movers(REGISTER, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(rec.spec))
+            self.log.movers(REGISTER, rec.id, rec.seq, rec.mover, encode_mover_spec(rec.spec))
             self.commit()
         self.bus.publish_state(rec.id, self._packer.pack(state))
         return {"state": state}
@@ -268,12 +287,13 @@ class ServiceCore:
         rec = self._record(mover_id, "id")
         try:
             self.world.update_mover(rec.engine_id, spec)
-            rec.last = self.world.mover_state(rec.engine_id)
+            rec.mover = self.engine_movers[rec.id] = self.world.mover(rec.engine_id)
+            rec.mover.last = self.world.mover_state(rec.engine_id)
         except Exception as e:
             raise to_protocol_error(e, "mover", fields=_UPDATE_FIELDS) from None
         rec.spec = spec
         if self.log is not None:
-            self.log.movers(UPDATE, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(spec))
+            self.log.movers(UPDATE, rec.id, rec.seq, rec.mover, encode_mover_spec(spec))
             self.commit()
         return {"state": self._state(rec)}
 
@@ -315,21 +335,19 @@ class ServiceCore:
             rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
         # an instance owning only some landblocks may have to refuse a move after it ended (no owner takes
         # the mover): kept so that the move can be taken back
-        undo = None if self.ownership.everything else MoveUndo(self.world.movers[rec.engine_id])
+        undo = None if self.ownership.everything else MoveUndo(rec.mover)
         t0 = perf_counter()
-        result = self._apply(rec, item)
+        result = self._apply(rec, item)  # the engine counted it: result.seq is the mover's new seq
         engine = perf_counter() - t0
-        prev, prev_seq = rec.last, rec.seq
-        rec.last, rec.seq = result, rec.seq + 1
-        packed = pack_state(rec.id, rec.seq, result, self._collide_ids(result), item.tag)
+        packed = pack_state(rec.id, result.seq, result, self._collide_ids(result), item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
         if not self.ownership.owns(lb):
             assert undo is not None
             # the new owner publishes this State: its next ones follow it on the same session
-            self._hand_over(rec, prev, prev_seq, lb, packed if publish else None, undo)
+            self._hand_over(rec, lb, packed if publish else None, undo)
             return packed, engine
         if self.log is not None:
-            self.log.moved(rec.id, rec.seq, self.world.movers[rec.engine_id])
+            self.log.moved(rec.id, result.seq, rec.mover)
         if publish:
             self.publish_state(rec.id, packed)
         return packed, engine
@@ -431,9 +449,8 @@ class ServiceCore:
     def collide_ids(self, r: MoveResult) -> list[int]:
         return self._collide_ids(r)
 
-    def hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None,
-                  undo: MoveUndo) -> None:
-        self._hand_over(rec, prev, prev_seq, lb, state, undo)
+    def hand_over(self, rec: MoverRecord, lb: int, state: bytes | None, undo: MoveUndo) -> None:
+        self._hand_over(rec, lb, state, undo)
 
     def moves_done(self, latency: list[float], engine: list[float]) -> None:
         self._done(latency, engine)
@@ -447,11 +464,10 @@ class ServiceCore:
             rec.id, rec.seq, spec_with_contact(rec.spec, r), r.position, r.contact_plane, r.contact_plane_cell,
             r.sliding_normal, r.water_contact, self.instance, state))
 
-    def _hand_over(self, rec: MoverRecord, prev: MoveResult, prev_seq: int, lb: int, state: bytes | None,
-                   undo: MoveUndo) -> None:
+    def _hand_over(self, rec: MoverRecord, lb: int, state: bytes | None, undo: MoveUndo) -> None:
         """Pass the mover to `lb`'s owner (which publishes `state`, the crossing move's State, when given),
-        or take the move back (`undo`, taken before it: the mover, its velocity, its time held over and its
-        shadows exactly as they were; its record's last result and seq too) and refuse it."""
+        or take the move back (`undo`, taken before it: the mover, its velocity, its time held over, its
+        shadows, its seq and last result exactly as they were) and refuse it."""
         if self.log is not None:
             self.log.handing_over(rec.id, lb)
         try:
@@ -461,7 +477,6 @@ class ServiceCore:
             if self.log is not None:
                 self.log.handover_failed(rec.id)
             undo.restore()
-            rec.last, rec.seq = prev, prev_seq
             raise ProtocolError(
                 ErrorKind.NO_OWNER,
                 f"the move ends in landblock {lb_hex(lb)} and no instance took the mover ({e.kind}: {e.message}); "
@@ -489,7 +504,7 @@ class ServiceCore:
         log.info("took mover %X from %s in %s", req.id, req.source, lb_hex(lb))
         if self.log is not None:
             # on disk before the sender hears that it was taken (and forgets it), whatever the policy
-            self.log.movers(HANDOVER_IN, rec.id, rec.seq, self.world.movers[rec.engine_id], encode_mover_spec(rec.spec))
+            self.log.movers(HANDOVER_IN, rec.id, rec.seq, rec.mover, encode_mover_spec(rec.spec))
             self.log.commit(durable=True)
         if req.state is not None and self.bus.states_watched():
             self.bus.publish_state(req.id, req.state)
@@ -502,7 +517,7 @@ class ServiceCore:
         out = []
         for rec in self.movers.values():
             entry = self._handover_payload(rec)
-            mover = self.world.mover(rec.engine_id)
+            mover = rec.mover
             entry["registered_mover"] = encode_mover_spec(rec.spec)
             entry["velocity"] = encode_vec(mover.velocity)
             entry["engine_state"] = mover_state_bytes(mover)
@@ -522,10 +537,10 @@ class ServiceCore:
         rec = self._add(req.id, req.spec, req.position, req.contact_plane, req.contact_plane_cell, req.seq,
                         req.sliding_normal, req.water_contact)
         rec.spec = spec
-        mover = self.world.mover(rec.engine_id)
+        mover = rec.mover
         if engine_state is not None:
             apply_state(mover, decode_state(engine_state))
-            rec.last = self.world.mover_state(rec.engine_id)
+            mover.last = self.world.mover_state(rec.engine_id)
         elif velocity is not None:
             mover.set_velocity(velocity)
         self.refresh()

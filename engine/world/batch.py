@@ -8,28 +8,18 @@ World.move / World.step call it stands for (engine.world.moves), in order,
 so a mover named twice moves twice, the second time from where the first
 left it; the answers are the same bit for bit.
 
-The results come back as rows of two packed buffers (struct of arrays),
-little-endian and written as each move ends, so that a caller turns a whole
-batch into arrays with one call each (`np.frombuffer(rows.reals_le(), "<f8")`)
-and no per-move object is read in interpreted code. The buffers are
-librt.strings BytesWriters: compiled, a value goes into the buffer straight
-from the result's unboxed double, with no Python float or list made for it.
+The results come back a column at a time (struct of arrays): one
+little-endian buffer per column of engine.world.rows.RESULT_COLUMNS, each in
+its column's own type and written as each move ends, so that a caller hands
+them on as they are (the service's column replies are these buffers) or
+reads each with one `np.frombuffer`, and no per-move object is read in
+interpreted code. The buffers are librt.strings BytesWriters: compiled, a
+value goes into its buffer straight from the result's unboxed double, with
+no Python float or list made for it.
 
-- `reals`, REALS_PER_ROW float64s a row: origin (3), orientation w x y z (4),
-  contact plane normal and d (4), collision normal (3), sliding normal (3);
-  NaN where the result has no such value;
-- `ints`, INTS_PER_ROW int64s a row: cell id, Status bits, the
-  transient-state bits (engine.world.transient.TS), the transition state's
-  index in TRANSITION_STATES, frames_stationary_fall, contact_plane_cell,
-  how many collided-object ids the row adds to `collide_ids`, and the
-  result's seq (the mover's move count after the move, Mover.seq), so that
-  a reader has every row's seq as one column.
-
-The layout is engine.world.rows's (ROW_REALS, ROW_INTS, Status), a leaf that
-readers of the rows import without this module's machinery.
-
-A row whose item did not run (no mover given, the mover refused the move)
-holds NaN and zeros (seq 0 among them) with Status.RESOLVED clear.
+An item that did not run (no mover given, the mover refused the move) holds
+NaN in its reals, 255 (rows.NO_CODE) in its codes and zeros elsewhere, seq 0
+among them, with Status.RESOLVED clear.
 """
 
 from __future__ import annotations
@@ -40,14 +30,14 @@ from collections.abc import Callable
 from time import perf_counter
 from typing import Final
 
-from librt.strings import BytesWriter, write_f64_le, write_i64_le
+from librt.strings import BytesWriter, write_f64_le, write_i32_le, write_i64_le
 
 from ..cells.landscape import Landscape
 from ..geometry import Position, Quat, Vec3
 from .mover import Mover
 from .moves import move_checked, step_checked
 from .rollback import MoveUndo
-from .rows import INTS_PER_ROW, REALS_PER_ROW, TRANSITION_STATES, Status
+from .rows import NO_CODE, RESULT_COLUMNS, TRANSIENT_SHIFT, TRANSITION_STATES, Status
 from .transient import NAMED_BITS
 from .types import MoveResult
 
@@ -55,8 +45,7 @@ __all__ = [
     "OFFSET",
     "TO",
     "MOTION",
-    "REALS_PER_ROW",
-    "INTS_PER_ROW",
+    "RESULT_COLUMNS",
     "TRANSITION_STATES",
     "Status",
     "BatchRows",
@@ -75,11 +64,15 @@ MOTION: Final = 2  # a physics step of dt seconds with the mover's own motion (W
 
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 
-# The runs written for missing values, packed once
+# The values written for missing ones, packed once
 _NO_VECTOR: Final = struct.pack("<3d", *[math.nan] * 3)
 _NO_PLANE: Final = struct.pack("<4d", *[math.nan] * 4)
-_NO_REALS: Final = struct.pack(f"<{REALS_PER_ROW}d", *[math.nan] * REALS_PER_ROW)
-_NO_INTS: Final = bytes(8 * INTS_PER_ROW)
+_NO_QUAT: Final = _NO_PLANE
+_NO_U64: Final = bytes(8)
+_NO_U32: Final = bytes(4)
+_NO_CODE: Final = bytes([NO_CODE])
+#: each u8 value as one byte (a code is written without making a bytes object per move)
+_BYTE: Final = tuple(bytes((i,)) for i in range(256))
 
 #: A mover's whole state as `write_mover_state` writes it: little-endian, four int64s then 24 float64s
 #: (vectors as x y z, the orientation as w x y z). `flags`: 1 missile, 2 colliding with the environment.
@@ -94,14 +87,24 @@ _NO_STATE: Final = bytes(MOVER_STATE_BYTES)
 
 
 class BatchRows:
-    """The rows of a batch so far, and what each item left behind."""
+    """The results of a batch so far, a column each (engine.world.rows.RESULT_COLUMNS), and what each item
+    left behind."""
 
     def __init__(self) -> None:
-        #: REALS_PER_ROW little-endian float64s a row (see the module's docstring)
-        self.reals = BytesWriter()
-        #: INTS_PER_ROW little-endian int64s a row
-        self.ints = BytesWriter()
-        #: rows written so far
+        # one writer per result column, in RESULT_COLUMNS' order and types
+        self.seq = BytesWriter()
+        self.cell = BytesWriter()
+        self.origin = BytesWriter()
+        self.orientation = BytesWriter()
+        self.flags = BytesWriter()
+        self.transition_state = BytesWriter()
+        self.frames_stationary_fall = BytesWriter()
+        self.contact_plane = BytesWriter()
+        self.contact_plane_cell = BytesWriter()
+        self.collision_normal = BytesWriter()
+        self.sliding_normal = BytesWriter()
+        self.collide_count = BytesWriter()
+        #: items written so far (each column holds this many)
         self.count = 0
         self.collide_ids: list[int] = []
         #: each item's MoveResult, None for items that did not run (in item order)
@@ -114,25 +117,35 @@ class BatchRows:
         #: when `run_batch` stopped at an item (`stop_if`): what puts that item's mover back as it was
         #: before the item (MoveUndo.restore), should its move be refused after all
         self.undo: MoveUndo | None = None
-        #: set by a caller that keeps each row's mover whole (write_mover_state after each row; zeros for a
-        #: missing row); None: not kept
+        #: set by a caller that keeps each item's mover whole (write_mover_state after each item; zeros for
+        #: one that did not run); None: not kept
         self.states: BytesWriter | None = None
 
-    def reals_le(self) -> bytes:
-        """The real rows so far, `count` x REALS_PER_ROW float64s, little-endian."""
-        return self.reals.getvalue()
+    def columns(self) -> dict[str, bytes]:
+        """Every result column so far, by name in RESULT_COLUMNS' order: `count` values each, little-endian."""
+        return {
+            "seq": self.seq.getvalue(),
+            "cell": self.cell.getvalue(),
+            "origin": self.origin.getvalue(),
+            "orientation": self.orientation.getvalue(),
+            "flags": self.flags.getvalue(),
+            "transition_state": self.transition_state.getvalue(),
+            "frames_stationary_fall": self.frames_stationary_fall.getvalue(),
+            "contact_plane": self.contact_plane.getvalue(),
+            "contact_plane_cell": self.contact_plane_cell.getvalue(),
+            "collision_normal": self.collision_normal.getvalue(),
+            "sliding_normal": self.sliding_normal.getvalue(),
+            "collide_count": self.collide_count.getvalue(),
+        }
 
-    def ints_le(self) -> bytes:
-        """The integer rows so far, `count` x INTS_PER_ROW int64s, little-endian."""
-        return self.ints.getvalue()
+
+assert tuple(BatchRows().columns()) == tuple(name for name, _type, _width in RESULT_COLUMNS)
 
 
 def append_row(rows: BatchRows, r: MoveResult) -> None:
-    """Add `r` as the next row."""
+    """Add `r` as the next item's values."""
     pos = r.position
     frame = pos.frame
-    o = frame.origin
-    q = frame.orientation
     status = Status.RESOLVED
     if r.ok:
         status |= Status.OK
@@ -142,54 +155,59 @@ def append_row(rows: BatchRows, r: MoveResult) -> None:
         status |= Status.ON_WALKABLE
     if r.water_contact:
         status |= Status.WATER_CONTACT
-    reals = rows.reals
-    _write_vector(reals, o)
-    write_f64_le(reals, q.w)
-    write_f64_le(reals, q.x)
-    write_f64_le(reals, q.y)
-    write_f64_le(reals, q.z)
+    write_i64_le(rows.seq, r.seq)  # a count: far below 2^63, so its u64 bytes
+    _write_u32(rows.cell, pos.cell_id)
+    _write_vector(rows.origin, frame.origin)
+    q = frame.orientation
+    out = rows.orientation
+    write_f64_le(out, q.w)
+    write_f64_le(out, q.x)
+    write_f64_le(out, q.y)
+    write_f64_le(out, q.z)
     cp = r.contact_plane
     if cp is None:
-        reals.write(_NO_PLANE)
+        rows.contact_plane.write(_NO_PLANE)
     else:
         status |= Status.HAS_CONTACT_PLANE
-        _write_vector(reals, cp.normal)
-        write_f64_le(reals, cp.d)
+        _write_vector(rows.contact_plane, cp.normal)
+        write_f64_le(rows.contact_plane, cp.d)
     cn = r.collision_normal
     if cn is None:
-        reals.write(_NO_VECTOR)
+        rows.collision_normal.write(_NO_VECTOR)
     else:
         status |= Status.HAS_COLLISION_NORMAL
-        _write_vector(reals, cn)
+        _write_vector(rows.collision_normal, cn)
     sn = r.sliding_normal
     if sn is None:
-        reals.write(_NO_VECTOR)
+        rows.sliding_normal.write(_NO_VECTOR)
     else:
         status |= Status.HAS_SLIDING_NORMAL
-        _write_vector(reals, sn)
+        _write_vector(rows.sliding_normal, sn)
     cpc = r.contact_plane_cell
-    plane_cell = 0
-    if cpc is not None:
+    if cpc is None:
+        rows.contact_plane_cell.write(_NO_U32)
+    else:
         status |= Status.HAS_CONTACT_PLANE_CELL
-        plane_cell = cpc
+        _write_u32(rows.contact_plane_cell, cpc)
     fsf = r.frames_stationary_fall
-    stationary_fall = 0
-    if fsf is not None:
+    if fsf is None:
+        rows.frames_stationary_fall.write(_NO_CODE)
+    else:
         status |= Status.HAS_FRAMES_STATIONARY_FALL
-        stationary_fall = fsf
+        rows.frames_stationary_fall.write(_BYTE[fsf & 0xFF])
+    _write_u32(rows.flags, status | (_transient_bits(r.transient_state) << TRANSIENT_SHIFT))
+    rows.transition_state.write(_BYTE[_STATE_INDEX[r.transition_state]])
     collide = r.collide_objects
-    ints = rows.ints
-    write_i64_le(ints, pos.cell_id)
-    write_i64_le(ints, status)
-    write_i64_le(ints, _transient_bits(r.transient_state))
-    write_i64_le(ints, _STATE_INDEX[r.transition_state])
-    write_i64_le(ints, stationary_fall)
-    write_i64_le(ints, plane_cell)
-    write_i64_le(ints, len(collide))
-    write_i64_le(ints, r.seq)
+    _write_u32(rows.collide_count, len(collide))
     rows.count += 1
     if collide:
         rows.collide_ids.extend(collide)
+
+
+def _write_u32(out: BytesWriter, value: int) -> None:
+    """`value` (0 <= value < 2^32) as a little-endian u32: the same four bytes as the i32 it wraps to
+    (librt's typed writers that mypyc knows are the signed ones)."""
+    write_i32_le(out, value - 0x1_0000_0000 if value >= 0x8000_0000 else value)
 
 
 def _write_vector(reals: BytesWriter, v: Vec3) -> None:
@@ -199,9 +217,19 @@ def _write_vector(reals: BytesWriter, v: Vec3) -> None:
 
 
 def append_missing(rows: BatchRows) -> None:
-    """Add an empty row (an item that did not run)."""
-    rows.reals.write(_NO_REALS)
-    rows.ints.write(_NO_INTS)
+    """Add an item that did not run: NaN reals, NO_CODE codes, zeros elsewhere (engine.world.rows)."""
+    rows.seq.write(_NO_U64)
+    rows.cell.write(_NO_U32)
+    rows.origin.write(_NO_VECTOR)
+    rows.orientation.write(_NO_QUAT)
+    rows.flags.write(_NO_U32)
+    rows.transition_state.write(_NO_CODE)
+    rows.frames_stationary_fall.write(_NO_CODE)
+    rows.contact_plane.write(_NO_PLANE)
+    rows.contact_plane_cell.write(_NO_U32)
+    rows.collision_normal.write(_NO_VECTOR)
+    rows.sliding_normal.write(_NO_VECTOR)
+    rows.collide_count.write(_NO_U32)
     states = rows.states
     if states is not None:
         states.write(_NO_STATE)

@@ -1,40 +1,54 @@
-"""The row layout of the engine's batch results (engine.world.batch): what each row holds, where, and
-what its status bits mean.
+"""The layout of the engine's batch results (engine.world.batch): which columns a batch writes, in what
+types, and what the flags mean.
 
-A leaf, so that whoever reads rows (the service's column replies, a client unpacking them) knows the
-layout without loading the machinery that writes them. Each row is REALS_PER_ROW little-endian float64s
-and INTS_PER_ROW little-endian int64s; ROW_REALS and ROW_INTS name the runs in order.
+A batch writes its results a column at a time (struct of arrays): one little-endian buffer per column,
+each value written as its move ends, in the column's own type. These are exactly the reply columns of
+the service's column form (docs/protocol.md, "Columns"), so a reader hands the buffers on as they are
+and reads them with one `np.frombuffer` each; nothing is converted per move in interpreted code.
+
+A leaf, so that whoever reads the columns knows the layout without loading the machinery that writes
+them.
 """
 
 from __future__ import annotations
 
 from typing import Final
 
-__all__ = ["ROW_REALS", "ROW_INTS", "REALS_PER_ROW", "INTS_PER_ROW", "TRANSITION_STATES", "TRANSIENT_MASK", "Status",
-           "real_slices", "int_columns"]
+__all__ = ["RESULT_COLUMNS", "TRANSITION_STATES", "TRANSIENT_SHIFT", "TRANSIENT_MASK", "NO_CODE", "Status"]
 
-#: (name, width) of each run of a row's reals, in order: NaN where the result has no such value
-ROW_REALS: Final = (("origin", 3), ("orientation", 4), ("contact_plane", 4), ("collision_normal", 3),
-                    ("sliding_normal", 3))
-#: a row's ints, in order: the cell id, the Status bits, the transient-state bits (engine.world.transient.TS,
-#: the named ones: TRANSIENT_MASK), the transition state's index in TRANSITION_STATES,
-#: frames_stationary_fall, contact_plane_cell, how many collided-object ids the row adds, and the result's
-#: seq (MoveResult.seq: the mover's move count after this move, at least 1; 0 in a row whose item did not run)
-ROW_INTS: Final = ("cell", "status", "transient", "transition_state", "frames_stationary_fall",
-                   "contact_plane_cell", "collide_count", "seq")
-REALS_PER_ROW: Final = 17
-INTS_PER_ROW: Final = 8
+#: (name, type, values per item) of each result column, in order. Types: u64, u32, u8 (unsigned integers)
+#: and f64 (IEEE doubles), all little-endian. An item that did not run holds NaN in its reals, NO_CODE in
+#: its u8 codes and 0 elsewhere (seq 0 among them), with Status.RESOLVED clear in `flags`.
+RESULT_COLUMNS: Final = (
+    ("seq", "u64", 1),  # the mover's move count after this move (MoveResult.seq): at least 1
+    ("cell", "u32", 1),
+    ("origin", "f64", 3),
+    ("orientation", "f64", 4),  # w x y z
+    ("flags", "u32", 1),  # Status bits, and the transient-state bits from TRANSIENT_SHIFT up
+    ("transition_state", "u8", 1),  # the index in TRANSITION_STATES
+    ("frames_stationary_fall", "u8", 1),  # NO_CODE when the move ran no transition
+    ("contact_plane", "f64", 4),  # normal x y z, then d; NaN without one
+    ("contact_plane_cell", "u32", 1),
+    ("collision_normal", "f64", 3),
+    ("sliding_normal", "f64", 3),
+    ("collide_count", "u32", 1),  # how many ids the item adds to the batch's collided-object ids
+)
 
-#: MoveResult.transition_state values; a row holds the index.
+#: MoveResult.transition_state values; the column holds the index.
 TRANSITION_STATES: Final = ("OK", "Collided", "Adjusted", "Slid", "Invalid", "NoTransition")
-#: the transient-state bits a row can hold: the seven a State names (engine.world.transient.NAMED_BITS)
+#: a u8 code's value where the item has none (no transition state: it did not run; no frames count)
+NO_CODE: Final = 255
+#: where the transient-state bits (engine.world.transient.TS, the seven a State names) start in `flags`
+TRANSIENT_SHIFT: Final = 16
+#: the transient-state bits `flags` can hold, before the shift: the seven a State names
+#: (engine.world.transient.NAMED_BITS)
 TRANSIENT_MASK: Final = 0x7F
 
 
 class Status:
-    """Bits of a row's status integer."""
+    """The low bits of the `flags` column."""
 
-    RESOLVED: Final = 1 << 0  # the item ran and the row holds its result
+    RESOLVED: Final = 1 << 0  # the item ran and its columns hold its result
     OK: Final = 1 << 1
     CONTACT: Final = 1 << 2
     ON_WALKABLE: Final = 1 << 3
@@ -44,18 +58,3 @@ class Status:
     HAS_COLLISION_NORMAL: Final = 1 << 7
     HAS_SLIDING_NORMAL: Final = 1 << 8
     HAS_FRAMES_STATIONARY_FALL: Final = 1 << 9
-
-
-def real_slices() -> dict[str, tuple[int, int]]:
-    """name -> (first, end) of each run of a row's reals."""
-    out: dict[str, tuple[int, int]] = {}
-    at = 0
-    for name, width in ROW_REALS:
-        out[name] = (at, at + width)
-        at += width
-    return out
-
-
-def int_columns() -> dict[str, int]:
-    """name -> index of each of a row's ints."""
-    return {name: i for i, name in enumerate(ROW_INTS)}

@@ -20,7 +20,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from engine.world.rows import TRANSITION_STATES, Status
+from engine.world.rows import NO_CODE, RESULT_COLUMNS, TRANSIENT_SHIFT, TRANSITION_STATES, Status
 from engine.world.transient import NAMED_BITS
 
 __all__ = [
@@ -119,12 +119,10 @@ def reply_columns(*columns: tuple[str, str, int]) -> tuple[Column, ...]:
     return tuple(Column(name, dtype, width, missing=MISSING_BY_DTYPE[dtype]) for name, dtype, width in columns)
 
 
-REPLY_COLUMNS: Final = reply_columns(
-    ("seq", "u64", 1), ("cell", "u32", 1), ("origin", "f64", 3), ("orientation", "f64", 4),  # where it is
-    ("flags", "u32", 1), ("transition_state", "u8", 1), ("frames_stationary_fall", "u8", 1),  # how it went
-    ("contact_plane", "f64", 4), ("contact_plane_cell", "u32", 1),  # what it stands on
-    ("collision_normal", "f64", 3), ("sliding_normal", "f64", 3), ("collide_count", "u32", 1),  # what it hit
-)
+#: The reply's columns: the engine's batch result columns themselves (engine.world.rows.RESULT_COLUMNS:
+#: where it is, how it went, what it stands on, what it hit), so that a reply hands on the buffers the
+#: engine wrote.
+REPLY_COLUMNS: Final = reply_columns(*RESULT_COLUMNS)
 
 #: The columnar publication's extra column (first): whose row it is.
 PUBLICATION_ID: Final = Column("id", "u64", 1, missing=MISSING_BY_DTYPE["u64"])
@@ -150,7 +148,7 @@ class Flag:
     HAS_FRAMES_STATIONARY_FALL: Final = Status.HAS_FRAMES_STATIONARY_FALL
     #: bits 16..22: the State's `transient_state` names, one bit each (TRANSIENT_FLAGS): the engine's
     #: transient-state bits (engine.world.transient.NAMED_BITS, 0x1 .. 0x40) shifted up
-    TRANSIENT_SHIFT: Final = 16
+    TRANSIENT_SHIFT: Final = TRANSIENT_SHIFT
 
 
 #: `transient_state` names in bit order from Flag.TRANSIENT_SHIFT (the State lists them in this order too).
@@ -159,7 +157,7 @@ TRANSIENT_FLAGS: Final = tuple(name for name, _bit in NAMED_BITS)
 #: `transition_state` codes: the index in this tuple (the engine's rows hold the same index).
 TRANSITION_CODE: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
 #: `transition_state` of a failed item.
-FAILED_STATE: Final = 255
+FAILED_STATE: Final = NO_CODE
 
 #: A column request's `publish` values.
 COLUMN_PUBLISH_MODES: Final = ("each", "batch", "columns")

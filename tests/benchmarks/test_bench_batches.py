@@ -16,7 +16,7 @@ def test_the_bound_replies_with_as_many_bytes_as_the_service() -> None:
         rows = BatchRows()
         for _ in range(n):
             append_missing(rows)
-        out = ColumnResults(n, rows, seqs=[0] * n)
+        out = ColumnResults(n, rows)
         assert _column_reply_size(n) == len(reply_message(out)), n
 
 

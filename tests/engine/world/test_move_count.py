@@ -18,7 +18,7 @@ from engine import MoverSpec, Plane, Position, SphereSpec, Vec3
 from engine.errors import EngineError, NonFiniteError
 from engine.world.batch import MOTION, OFFSET, BatchRows, run_batch
 from engine.world.rollback import MoveUndo
-from engine.world.rows import INTS_PER_ROW, ROW_INTS, int_columns
+from engine.world.rows import RESULT_COLUMNS
 
 HEIGHTS = [float(i) * 0.5 for i in range(256)]
 #: a person-sized sphere standing on the ground
@@ -48,13 +48,12 @@ def _moved(world: engine.World, mover_id: int, dx: float, dy: float) -> Position
 
 
 def _row_seqs(rows: BatchRows) -> list[int]:
-    ints = rows.ints_le()
-    values = struct.unpack(f"<{len(ints) // 8}q", ints)
-    return list(values[int_columns()["seq"]::INTS_PER_ROW])
+    seqs = rows.columns()["seq"]
+    return list(struct.unpack(f"<{len(seqs) // 8}Q", seqs))
 
 
-def test_the_row_layout_ends_with_the_seq_column() -> None:
-    assert ROW_INTS[-1] == "seq" and int_columns()["seq"] == 7 and INTS_PER_ROW == 8
+def test_the_result_columns_begin_with_the_seq_column() -> None:
+    assert RESULT_COLUMNS[0] == ("seq", "u64", 1)
 
 
 def test_a_new_mover_has_made_no_move_and_asking_its_state_counts_none() -> None:

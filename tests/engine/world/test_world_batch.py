@@ -2,7 +2,7 @@
 
 Every check runs the same moves twice on two identical worlds, once item by
 item through World.move / World.step and once as one batch, and compares the
-rows with the MoveResults bit for bit.
+result columns with the MoveResults bit for bit.
 """
 
 from __future__ import annotations
@@ -16,16 +16,21 @@ from engine import MoverSpec, Plane, Position, Vec3
 from engine.errors import NonFiniteError, UnknownCellError
 from benchmarks.scenes import PLAYER
 from engine.world.batch import (
-    INTS_PER_ROW,
     MOTION,
     OFFSET,
-    REALS_PER_ROW,
     TO,
     TRANSITION_STATES,
     BatchRows,
     Status,
     run_batch,
 )
+
+#: the result columns as engine/world/rows.py documents them: name, struct code of one value, values an item
+COLUMNS = (("seq", "Q", 1), ("cell", "I", 1), ("origin", "d", 3), ("orientation", "d", 4), ("flags", "I", 1),
+           ("transition_state", "B", 1), ("frames_stationary_fall", "B", 1), ("contact_plane", "d", 4),
+           ("contact_plane_cell", "I", 1), ("collision_normal", "d", 3), ("sliding_normal", "d", 3),
+           ("collide_count", "I", 1))
+REALS = ("origin", "orientation", "contact_plane", "collision_normal", "sliding_normal")
 
 HEIGHTS = [float(i) * 0.5 for i in range(256)]
 #: a creature's shape without IsPlayer: players pass through each other, not through it
@@ -56,7 +61,8 @@ def _bits(x: float) -> bytes:
 
 
 def _expected_row(r: Any) -> tuple[list[float], list[int]]:
-    """A MoveResult as the row the batch documents (an independent reading of the layout)."""
+    """A MoveResult as the values the batch documents (an independent reading of the layout): the reals in
+    column order, then the integers in column order."""
     o, q = r.position.frame.origin, r.position.frame.orientation
     nan3 = [math.nan] * 3
     plane = [math.nan] * 4 if r.contact_plane is None else [*r.contact_plane.normal.as_tuple(), r.contact_plane.d]
@@ -75,26 +81,34 @@ def _expected_row(r: Any) -> tuple[list[float], list[int]]:
     bits = {"Contact": 1, "OnWalkable": 2, "Sliding": 4, "WaterContact": 8, "StationaryFall": 16,
             "StationaryStop": 32, "StationaryStuck": 64}
     transient = sum(bits[name] for name in r.transient_state)
-    ints = [r.position.cell_id, status, transient, TRANSITION_STATES.index(r.transition_state),
-            r.frames_stationary_fall or 0, r.contact_plane_cell or 0, len(r.collide_objects), r.seq]
+    fsf = 255 if r.frames_stationary_fall is None else r.frames_stationary_fall
+    ints = [r.seq, r.position.cell_id, status | (transient << 16), TRANSITION_STATES.index(r.transition_state), fsf,
+            r.contact_plane_cell or 0, len(r.collide_objects)]
     return [o.x, o.y, o.z, q.w, q.x, q.y, q.z, *plane, *cn, *sn], ints
 
 
-def _unpacked(rows: BatchRows) -> tuple[list[float], list[int]]:
-    """The rows' buffers read back as little-endian float64s and int64s."""
-    reals, ints = rows.reals_le(), rows.ints_le()
-    return list(struct.unpack(f"<{len(reals) // 8}d", reals)), list(struct.unpack(f"<{len(ints) // 8}q", ints))
+def _item_values(rows: BatchRows, k: int) -> tuple[list[float], list[int]]:
+    """Item k's values read back from the column buffers: its reals, then its integers, in column order."""
+    columns = rows.columns()
+    assert list(columns) == [name for name, _code, _width in COLUMNS]
+    reals: list[float] = []
+    ints: list[int] = []
+    for name, code, width in COLUMNS:
+        data = columns[name]
+        size = struct.calcsize("<" + code) * width
+        assert len(data) == size * rows.count, name
+        values = struct.unpack(f"<{width}{code}", data[k * size:(k + 1) * size])
+        (reals if name in REALS else ints).extend(values)
+    return reals, ints
 
 
 def _assert_rows_equal(rows: BatchRows, expected: list[Any]) -> None:
-    all_reals, all_ints = _unpacked(rows)
     assert rows.count == len(expected)
-    assert len(all_ints) == INTS_PER_ROW * len(expected) and len(all_reals) == REALS_PER_ROW * len(expected)
     for k, r in enumerate(expected):
-        reals = all_reals[k * REALS_PER_ROW:(k + 1) * REALS_PER_ROW]
-        ints = all_ints[k * INTS_PER_ROW:(k + 1) * INTS_PER_ROW]
+        reals, ints = _item_values(rows, k)
         if r is None:
-            assert all(math.isnan(x) for x in reals) and ints == [0] * INTS_PER_ROW, k
+            # NaN reals; seq, cell and flags 0; both u8 codes 255; the plane's cell and the count 0
+            assert all(math.isnan(x) for x in reals) and ints == [0, 0, 0, 255, 255, 0, 0], k
             continue
         want_reals, want_ints = _expected_row(r)
         assert [_bits(x) for x in reals] == [_bits(x) for x in want_reals], k
@@ -194,7 +208,7 @@ def test_stop_if_stops_after_the_item_that_leaves_and_goes_on_from_the_next() ->
     assert stopped == 3  # mover 2 walks from x = 190 to 193 m: into AAB4
     result = rows.results[3]
     assert result is not None and result.position.cell_id >> 16 == 0xAAB4
-    assert rows.count == 3 and len(rows.ints_le()) == 8 * 3 * INTS_PER_ROW  # the leaving item: a result, no row yet
+    assert rows.count == 3 and len(rows.columns()["seq"]) == 8 * 3  # the leaving item: a result, no row yet
     assert run_batch(world.landscape, movers, OFFSET, vectors, rows, start=4, stop_if=leaves) == 6
     assert len(rows.results) == 7
     assert run_batch(world.landscape, movers, OFFSET, vectors, rows, start=7, stop_if=leaves) == 8
@@ -204,4 +218,4 @@ def test_an_empty_batch_runs_nothing() -> None:
     world = _world()
     rows = BatchRows()
     assert run_batch(world.landscape, [], OFFSET, [], rows) == 0
-    assert rows.reals_le() == b"" and rows.ints_le() == b"" and rows.count == 0 and rows.results == []
+    assert set(rows.columns().values()) == {b""} and rows.count == 0 and rows.results == []
