@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from ..cells.cell_array import CellArray
 from ..cells.find_cell_list import find_cell_list
 from ..geometry import Sphere
-from ..objects.obstacle import MoverObstacle
+from ..objects.obstacle import MoverObstacle, Obstacle
 
 if TYPE_CHECKING:
     from ..cells.obj_cell import ObjCell
@@ -37,11 +37,18 @@ def remove_shadows(mover: Mover) -> None:
     if obstacle is None:
         return
     for cell in mover.shadow_cells:
-        try:
-            cell.shadow_objects.remove(obstacle)
-        except ValueError:
-            pass
+        _remove_from(cell.shadow_objects, obstacle)
     mover.shadow_cells = []
+
+
+def _remove_from(objects: list[Obstacle], obstacle: Obstacle) -> None:
+    """objects.remove(obstacle), if it is there, by identity: what list.remove does for obstacles
+    (they compare by identity), without its rich comparison of every object before it (in a crowded
+    cell, dozens of standing movers ahead of a walker's shadow)."""
+    for i in range(len(objects)):
+        if objects[i] is obstacle:
+            del objects[i]
+            return
 
 
 def _add_shadows(mover: Mover, cells: list[ObjCell | None]) -> None:
@@ -69,10 +76,7 @@ def reshadow(mover: Mover, cell_array: CellArray) -> None:
             objects = cell.shadow_objects
             if objects and objects[len(objects) - 1] is obstacle:
                 continue  # the newest already: removing and adding it again changes nothing
-            try:
-                objects.remove(obstacle)
-            except ValueError:
-                pass
+            _remove_from(objects, obstacle)
             objects.append(obstacle)
         return
     remove_shadows(mover)
