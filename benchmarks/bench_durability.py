@@ -585,6 +585,11 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
                   "default), so it holds at most that long's moves unless the interval is 0."]
     rs = data.get("restarts", [])
     if rs:
+        rm = data.get("restarts_meta")
+        if rm:  # measured again on their own, after the rest of this section
+            lines += ["", f"The restarts below were measured on their own by `{rm['command']}` at {rm['started']} on "
+                      f"commit {rm['commit']} ({rm['engine']}; load average at start {rm['loadavg_at_start'][0]:.2f}); "
+                      f"took {rm['seconds']:.0f} s."]
         lines += ["", "| log | size | framing and checksums (s) | replay alone (s) | `acphys serve` start until it "
                   "answers (s) | start without state (s) | load average |", "|---|---|---|---|---|---|---|"]
         for r in rs:
