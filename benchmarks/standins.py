@@ -15,6 +15,9 @@ class _Payload:
     def __init__(self, data: bytes) -> None:
         self.data = data
 
+    def __len__(self) -> int:  # a zenoh.ZBytes' length: the service refuses an oversized payload by it
+        return len(self.data)
+
     def to_bytes(self) -> bytes:
         return self.data
 
