@@ -183,7 +183,9 @@ def test_instances_in_two_namespaces_behind_a_router(network: Network, tmp_path:
                    "acphys router ready"), \
          NsProcess(network.ns("west"), service("A9B4,A9B5", member), "acphys service ready") as west, \
          NsProcess(network.ns("east"), service("AAB4,AAB5", member), "acphys service ready") as east:
-        code = (f"import json, sys; sys.path.insert(0, {str(TESTS)!r}); from test_service_netns import client_main; "
+        # the client runs this file's client_main, found beside it, with tests/ for its `support` imports
+        code = (f"import json, sys; sys.path[:0] = [{str(Path(__file__).parent)!r}, {str(TESTS)!r}]; "
+                "from test_service_netns import client_main; "
                 f"print('RESULT ' + json.dumps(client_main({ROUTER_ENDPOINT!r})))")
         r = subprocess.run(["ip", "netns", "exec", network.ns("client"), sys.executable, "-c", code], cwd=ROOT,
                            env=child_env(), capture_output=True, text=True, timeout=180)
