@@ -177,12 +177,6 @@ def test_item_level_errors_name_column_index_and_component() -> None:
 
 # -- against a running service ----------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
-@pytest.fixture(scope="module")
 def client(service: ServiceProcess) -> Iterator[Client]:
     with Client([service.endpoint], timeout=20.0) as c:
         c.wait_ready()

@@ -17,22 +17,9 @@ from clients import Client, ServiceError
 from clients.demo.world import global_to_cell
 from engine.geometry import Position, Vec3
 from service.protocol.codec import encode_mover_spec
-from support.service_harness import ServiceProcess, comparable, human, raw_query, raw_session, wait_until
+from support.service_harness import ServiceProcess, comparable, human, raw_query, wait_until
 
 P = "acphys"
-
-
-@pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
-@pytest.fixture(scope="module")
-def session(service: ServiceProcess) -> Iterator[zenoh.Session]:
-    s = raw_session(service.endpoint)
-    yield s
-    s.close()
 
 
 @pytest.fixture(scope="module")

@@ -17,12 +17,6 @@ from engine.geometry import Position, Quat, Vec3
 from support.service_harness import ServiceProcess, comparable, demo_world, human, prime_states, start_on_ground, wait_until
 
 
-@pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
 @pytest.fixture()
 def client(service: ServiceProcess) -> Iterator[Client]:
     with Client([service.endpoint], timeout=10.0) as c:

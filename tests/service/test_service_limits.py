@@ -11,7 +11,6 @@ answers for the same walk with no hostile client at all.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from typing import Any
 
 import msgpack
@@ -23,7 +22,7 @@ from engine import World
 from engine.constants import HUGE_QUANTUM
 from engine.geometry import Plane, Position, Vec3
 from service.protocol.codec import encode_mover_spec
-from support.service_harness import ServiceProcess, comparable, demo_world, human, raw_query, raw_session, start_on_ground
+from support.service_harness import comparable, demo_world, human, raw_query, start_on_ground
 
 P = "acphys"
 NEIGHBOUR, VICTIM = 0x51001, 0x51002
@@ -86,19 +85,6 @@ HOSTILE: list[tuple[str, str, bytes, str, str]] = [
 ]
 #: the neighbour's walk: one move between two hostile requests
 WALK = [(0.4, 0.0, 0.0), (0.0, 0.4, 0.0), (-0.3, -0.3, 0.0), (0.2, 0.1, 0.0)] * 5
-
-
-@pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
-@pytest.fixture(scope="module")
-def session(service: ServiceProcess) -> Iterator[zenoh.Session]:
-    s = raw_session(service.endpoint)
-    yield s
-    s.close()
 
 
 def _get(session: zenoh.Session, mover_id: int) -> dict[str, Any]:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Iterator
 from typing import Any
 
 import msgpack
@@ -26,19 +25,6 @@ STRIDE, TOLERANCE = 3.0, 0.25  # the guarantee's numbers, as protocol.md states 
 def outdoor_cell(lb: int, x: float, y: float) -> int:
     """An outdoor cell id from landblock-local metres (protocol.md, Position: 8 x 8 cells of 24 m)."""
     return (lb << 16) | (int(x // 24) * 8 + int(y // 24) + 1)
-
-
-@pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
-@pytest.fixture(scope="module")
-def session(service: ServiceProcess) -> Iterator[zenoh.Session]:
-    s = raw_session(service.endpoint)
-    yield s
-    s.close()
 
 
 def ask(session: zenoh.Session, key: str, content: dict[str, Any]) -> tuple[bool, Any]:

@@ -38,12 +38,6 @@ def same(a: object, b: object) -> bool:
     return repr(a) == repr(b)
 
 
-@pytest.fixture(scope="module")
-def service() -> Iterator[ServiceProcess]:
-    with ServiceProcess() as svc:
-        yield svc
-
-
 @pytest.fixture()
 def client(service: ServiceProcess) -> Iterator[Client]:
     with Client([service.endpoint], timeout=10.0) as c:
