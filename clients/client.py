@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import zenoh
@@ -39,7 +39,8 @@ from service.bus.zconfig import DEFAULT_ENDPOINT, make_config
 from clients.instances import InstanceCalls
 from clients.moves import MAX_REDIRECTS, REDIRECTS, MoveCalls
 from clients.paths import PathQueries
-from clients.request_channel import PendingRequest, pack_request, read_reply, send_query, unpack_message
+from clients.request_channel import (PendingRequest, pack_request, read_reply, read_state_reply, send_payload,
+                                     send_query, unpack_message)
 from clients.spatial import SpatialQueries
 from clients.subscriptions import Subscription, SubscriptionCalls
 from clients.errors import NoServiceError, ServiceError
@@ -236,14 +237,20 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
 
     def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
         """One request to the instance serving `key`: its reply map, or an exception."""
+        return self._ask(key, pack_request(content), timeout, self.receive_reply)  # type: ignore[no-any-return]
+
+    def _ask(self, key: str | zenoh.KeyExpr, payload: bytes, timeout: float | None,
+             read: Callable[[PendingRequest], Any]) -> Any:
+        """One packed request to the instance serving `key`: its reply as `read` reads it, or an exception."""
+        seconds = self.timeout if timeout is None else timeout
         try:
-            return self.receive_reply(self.send_request(key, content, timeout))
+            return read(send_payload(self.session, key, payload, seconds))
         except NoServiceError:
             # nobody had it (so sending again repeats nothing); a young session may not have met the instance
             # serving `key` yet (SETTLE_S): once it has, ask again
             if not self._settle():
                 raise
-            return self.receive_reply(self.send_request(key, content, timeout))
+            return read(send_payload(self.session, key, payload, seconds))
 
     def _settle(self) -> bool:
         """Wait until the session is SETTLE_S old (it has met every instance); whether it had to wait."""
@@ -256,9 +263,15 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
     def _lb_request(self, lb: int, op: str, content: dict[str, Any], mover_id: int | None = None,
                     timeout: float | None = None) -> dict[str, Any]:
         """A per-landblock request, following `moved` / `wrong_landblock` redirects."""
+        return self._lb_ask(lb, op, pack_request(content), mover_id, timeout,  # type: ignore[no-any-return]
+                            self.receive_reply)
+
+    def _lb_ask(self, lb: int, op: str, payload: bytes, mover_id: int | None, timeout: float | None,
+                read: Callable[[PendingRequest], Any]) -> Any:
+        """`_lb_request` of a packed request, its reply read by `read`."""
         for _ in range(MAX_REDIRECTS):
             try:
-                return self._request(self._lb_key(lb, op), content, timeout)
+                return self._ask(self._lb_key(lb, op), payload, timeout, read)
             except ServiceError as e:
                 target = e.details.get("landblock")
                 if e.kind not in REDIRECTS or not isinstance(target, int) or target == lb:
@@ -266,7 +279,12 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
                 lb = target
                 if mover_id is not None:
                     self.known_landblocks[mover_id] = lb
-        return self._request(self.keys.lb(lb, op), content, timeout)
+        return self._ask(self.keys.lb(lb, op), payload, timeout, read)
+
+    def _read_state(self, pending: PendingRequest) -> MoverState | dict[str, Any]:
+        """`receive_reply` for a State reply: the MoverState, or the reply map when it is not in the
+        service's usual shape (clients/request_channel.py, read_state_reply)."""
+        return read_state_reply(pending, self._tried, self.user is not None)
 
     # -- movers -----------------------------------------------------------------------
     def register(

@@ -20,7 +20,7 @@ from service.protocol.wire import MAX_PAYLOAD, ErrorKind, Keys
 
 from clients.batch import BatchResults, move_batch
 from clients.errors import AcphysError, ServiceError
-from clients.request_channel import PendingRequest, pack_request
+from clients.request_channel import PendingRequest, pack_move_request, pack_request
 from clients.types import Move, MoverState, item_result
 
 __all__ = ["MoveCalls", "REDIRECTS", "MAX_REDIRECTS"]
@@ -42,6 +42,8 @@ class MoveCalls:
     _learn: Callable[[MoverState], MoverState]
     _lb_key: Callable[[int, str], zenoh.KeyExpr]
     _lb_request: Callable[..., dict[str, Any]]
+    _lb_ask: Callable[..., Any]
+    _read_state: Callable[[PendingRequest], MoverState | dict[str, Any]]
     landblock_of: Callable[[int], int]
     send_request: Callable[..., PendingRequest]
     receive_reply: Callable[[PendingRequest], dict[str, Any]]
@@ -93,8 +95,9 @@ class MoveCalls:
         """Send one `Move` (a transition or a physics step, as `move` and `step`) and return the mover's
         State after it. Raises as `move` and `step` do."""
         lb = self.landblock_of(move.id)
-        reply = self._lb_request(lb, "move", {"move": move.to_wire()}, move.id, timeout)
-        return self._learn(MoverState.from_wire(reply["state"]))
+        payload = pack_move_request(move.to_wire())
+        got = self._lb_ask(lb, "move", payload, move.id, timeout, self._read_state)
+        return self._learn(got if type(got) is MoverState else MoverState.from_wire(got["state"]))
 
     def move_many(self, moves: Sequence[Move], timeout: float | None = None,
                   publish: str | None = None) -> list[MoverState | AcphysError]:

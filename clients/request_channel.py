@@ -11,8 +11,9 @@ for its reply map or raises what the reply says. `RequestChannel` is what a batc
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import msgpack
 import zenoh
@@ -20,13 +21,31 @@ import zenoh
 from service.protocol.wire import PROTOCOL_VERSION, ErrorKind, Keys
 
 from clients.errors import NoServiceError, RequestTimeout, ServiceError
+from clients.state_reply import decode_state_reply
 
-__all__ = ["PendingRequest", "RequestChannel", "pack_request", "unpack_message", "send_query", "read_reply"]
+if TYPE_CHECKING:
+    from clients.types import MoverState
+
+__all__ = ["PendingRequest", "RequestChannel", "pack_request", "pack_move_request", "unpack_message",
+           "send_query", "send_payload", "read_reply", "read_state_reply"]
 
 
 def pack_request(content: dict[str, Any]) -> bytes:
     """A request's payload: `content` with the protocol version, in msgpack."""
     return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
+
+
+#: each thread's msgpack.Packer, kept: `packb` makes a new one (and its buffer) on every call
+_packers = threading.local()
+
+
+def pack_move_request(move_map: dict[str, Any]) -> bytes:
+    """`pack_request({"move": move_map})`'s bytes, by a Packer kept for the thread (the same library and
+    options, so the same bytes and the same errors)."""
+    packer = getattr(_packers, "packer", None)
+    if packer is None:
+        packer = _packers.packer = msgpack.Packer(use_bin_type=True)
+    return packer.pack({"v": PROTOCOL_VERSION, "move": move_map})  # type: ignore[no-any-return]
 
 
 def unpack_message(data: bytes) -> Any:
@@ -48,15 +67,38 @@ def send_query(session: zenoh.Session, key: str | zenoh.KeyExpr, content: dict[s
                timeout: float) -> PendingRequest:
     """Put one request to the instance serving `key` on the bus and return at once (Zenoh gathers its
     reply meanwhile)."""
-    return PendingRequest(key, session.get(key, payload=pack_request(content), timeout=timeout), timeout)
+    return send_payload(session, key, pack_request(content), timeout)
+
+
+def send_payload(session: zenoh.Session, key: str | zenoh.KeyExpr, payload: bytes, timeout: float) -> PendingRequest:
+    """`send_query` of a request already packed."""
+    return PendingRequest(key, session.get(key, payload=payload, timeout=timeout), timeout)
 
 
 def read_reply(pending: PendingRequest, tried: str, logged_in: bool) -> dict[str, Any]:
     """The reply map of `pending` (waiting for it), or the exception it says: NoServiceError when nobody
     answered (naming `tried`, where the client looked, and the login a service with accounts needs unless
     `logged_in`), RequestTimeout, or the service's ServiceError."""
-    key, timeout = pending.key, pending.timeout
+    return _reply_map(pending, list(pending.replies), tried, logged_in)
+
+
+def read_state_reply(pending: PendingRequest, tried: str, logged_in: bool) -> MoverState | dict[str, Any]:
+    """`read_reply` for a request answered with a State (a move, a step): the MoverState when the reply
+    is one in the shape the service writes (clients/state_reply.py), else what `read_reply` returns or
+    raises (the caller reads the map's State itself, as before)."""
     replies = list(pending.replies)
+    if replies:
+        ok = replies[0].ok
+        if ok is not None:
+            st = decode_state_reply(ok.payload.to_bytes())
+            if st is not None:
+                return st
+    return _reply_map(pending, replies, tried, logged_in)
+
+
+def _reply_map(pending: PendingRequest, replies: list[Any], tried: str, logged_in: bool) -> dict[str, Any]:
+    """`read_reply` of the replies already gathered."""
+    key, timeout = pending.key, pending.timeout
     if not replies:
         hint = "" if logged_in else "; a service run with accounts also needs user= and password="
         raise NoServiceError(f"no service answers on {key} ({tried}{hint})")

@@ -1,0 +1,115 @@
+"""A move's reply read straight from its bytes: `{"v", "state": State}` (docs/protocol.md, "State") decoded by
+msgspec into typed Structs, then into the MoverState the client returns.
+
+Why: `Client.move` and `Client.step` read one such reply per call. msgpack would build a dict of
+every field (each key a new string, hashed and interned) and the State's generated reader
+(service/protocol/messages.py, STATE) would then test each value's type in Python; msgspec checks the
+same types and bounds in C without building the dict.
+
+Only the shape the service writes is read here: every field STATE declares, with the types and bounds
+its fast reader accepts, and no other key. Anything else (a reply that is not a State, an error, a
+field out of bounds, an unknown key) gives None, and the caller reads the reply the usual way
+(request_channel.read_reply, then MoverState.from_wire), which answers or raises as it always did:
+this module can make a reply cheaper to read, never read it differently.
+"""
+
+from __future__ import annotations
+
+from math import isfinite, sqrt
+from collections.abc import Callable
+from typing import Annotated
+
+import msgspec
+
+from engine.geometry import Plane, Position, Quat, Vec3
+from engine.limits import FLOAT32_MAX
+from service.protocol.codec import StateTuple
+from service.protocol.messages import PLANE, STATE
+
+from clients.types import MoverState
+
+__all__ = ["decode_state_reply"]
+
+#: a real as STATE's vectors take it: within float32's range (NaN and ±infinity fail the bounds too)
+_Real = Annotated[float, msgspec.Meta(ge=-FLOAT32_MAX, le=FLOAT32_MAX)]
+_Vector = tuple[_Real, _Real, _Real]
+_U32 = Annotated[int, msgspec.Meta(ge=0, le=0xFFFFFFFF)]
+#: msgpack holds no integer of 2**64 or more, so "not negative" is the whole of UInt(64) here
+_U64 = Annotated[int, msgspec.Meta(ge=0)]
+_MAX_TAG_CHARS = 256
+
+
+class _PositionS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
+    cell: _U32
+    origin: _Vector
+    #: the service always writes it; a State without it is left to the usual reader (its default)
+    orientation: tuple[float, float, float, float]
+
+
+class _PlaneS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
+    normal: _Vector
+    d: _Real
+
+
+class _StateS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
+    id: _U64
+    seq: _U64
+    ok: bool
+    position: _PositionS
+    transition_state: str
+    contact: bool
+    on_walkable: bool
+    #: Tag's range: msgpack's integers are all within it
+    tag: int | Annotated[str, msgspec.Meta(max_length=_MAX_TAG_CHARS)] | None = None
+    #: written for readers that do not decode the cell; not read (as STATE declares it)
+    landblock: int | None = None
+    contact_plane: _PlaneS | None = None
+    contact_plane_cell: _U32 | None = None
+    collision_normal: _Vector | None = None
+    sliding_normal: _Vector | None = None
+    water_contact: bool = False
+    frames_stationary_fall: int | None = None
+    transient_state: list[str] = []
+    collide_objects: list[_U64] = []
+
+
+class _StateReplyS(msgspec.Struct, gc=False):
+    """The reply envelope: its other keys (`v`) are not read, as the usual path does not read them."""
+
+    state: _StateS
+
+
+_decode = msgspec.msgpack.Decoder(_StateReplyS).decode
+#: STATE's own build and rules: the values become the same objects the usual reader makes
+_build_state: Callable[..., StateTuple] = STATE.build  # type: ignore[assignment]
+_plane_rules = tuple(r.holds for r in PLANE.rules)
+
+
+def decode_state_reply(payload: bytes) -> MoverState | None:
+    """The MoverState of a State reply in the shape the service writes; None for anything else (the
+    caller then reads the reply the usual way, and gets its answer or error from there)."""
+    try:
+        s = _decode(payload).state
+    except (msgspec.DecodeError, msgspec.ValidationError):
+        return None
+    p = s.position
+    w, x, y, z = p.orientation
+    n2 = w * w + x * x + y * y + z * z
+    if not (isfinite(n2) and abs(sqrt(n2) - 1.0) <= 1e-3):  # STATE's unit quaternion, within 1e-3
+        return None
+    ox, oy, oz = p.origin
+    position = Position.at(p.cell, Vec3(ox, oy, oz), Quat(w, x, y, z))
+    plane = None
+    if s.contact_plane is not None:
+        (a, b, c), d = s.contact_plane.normal, s.contact_plane.d
+        plane = Plane(Vec3(a, b, c), d)
+        for holds in _plane_rules:
+            if not holds(plane):
+                return None
+    cn = None if s.collision_normal is None else Vec3(*s.collision_normal)
+    sn = None if s.sliding_normal is None else Vec3(*s.sliding_normal)
+    mover_id, seq, tag, result = _build_state(
+        s.id, s.seq, s.tag, s.ok, position, s.transition_state, s.contact, s.on_walkable, plane,
+        s.contact_plane_cell, cn, sn, s.water_contact, s.frames_stationary_fall, s.transient_state,
+        s.collide_objects)
+    return MoverState(mover_id, seq, tag, result)
