@@ -22,6 +22,7 @@ health, stats: clients/instances.py), the spatial queries (clients/spatial.py) a
 
 from __future__ import annotations
 
+import functools
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -151,6 +152,11 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
         self._lock = threading.Lock()
         # per-landblock request keys as parsed key expressions: Zenoh parses a string key on every get
         self._lb_keys: dict[tuple[int, str], zenoh.KeyExpr] = {}
+        #: `receive_reply` for a State reply (a move's): the MoverState, or the reply map when it is not in the
+        #: service's usual shape (clients/request_channel.py, read_state_reply); a partial, not a method: no
+        #: Python call of its own
+        self._read_state: Callable[[PendingRequest], MoverState | dict[str, Any]] = functools.partial(
+            read_state_reply, tried=self._tried, logged_in=user is not None)
 
     # -- lifecycle ------------------------------------------------------------------
     def close(self) -> None:
@@ -243,8 +249,8 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
              read: Callable[[PendingRequest], Any]) -> Any:
         """One packed request to the instance serving `key`: its reply as `read` reads it, or an exception."""
         seconds = self.timeout if timeout is None else timeout
-        try:
-            return read(send_payload(self.session, key, payload, seconds))
+        try:  # send_payload, written out: one call fewer on every move
+            return read(PendingRequest(key, self.session.get(key, payload=payload, timeout=seconds), seconds))
         except NoServiceError:
             # nobody had it (so sending again repeats nothing); a young session may not have met the instance
             # serving `key` yet (SETTLE_S): once it has, ask again
@@ -270,8 +276,9 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
                 read: Callable[[PendingRequest], Any]) -> Any:
         """`_lb_request` of a packed request, its reply read by `read`."""
         for _ in range(MAX_REDIRECTS):
+            key = self._lb_keys.get((lb, op))  # `_lb_key`'s cache read here: one call fewer on every move
             try:
-                return self._ask(self._lb_key(lb, op), payload, timeout, read)
+                return self._ask(self._lb_key(lb, op) if key is None else key, payload, timeout, read)
             except ServiceError as e:
                 target = e.details.get("landblock")
                 if e.kind not in REDIRECTS or not isinstance(target, int) or target == lb:
@@ -280,11 +287,6 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
                 if mover_id is not None:
                     self.known_landblocks[mover_id] = lb
         return self._ask(self.keys.lb(lb, op), payload, timeout, read)
-
-    def _read_state(self, pending: PendingRequest) -> MoverState | dict[str, Any]:
-        """`receive_reply` for a State reply: the MoverState, or the reply map when it is not in the
-        service's usual shape (clients/request_channel.py, read_state_reply)."""
-        return read_state_reply(pending, self._tried, self.user is not None)
 
     # -- movers -----------------------------------------------------------------------
     def register(

@@ -97,7 +97,9 @@ class MoveCalls:
         lb = self.landblock_of(move.id)
         payload = pack_move_request(move.to_wire())
         got = self._lb_ask(lb, "move", payload, move.id, timeout, self._read_state)
-        return self._learn(got if type(got) is MoverState else MoverState.from_wire(got["state"]))
+        st = got if type(got) is MoverState else MoverState.from_wire(got["state"])
+        self.known_landblocks[st.id] = (st.result.position.cell_id >> 16) & 0xFFFF  # `_learn`, written out
+        return st
 
     def move_many(self, moves: Sequence[Move], timeout: float | None = None,
                   publish: str | None = None) -> list[MoverState | AcphysError]:
