@@ -11,11 +11,11 @@ for its reply map or raises what the reply says. `RequestChannel` is what a batc
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
 import msgpack
+import msgspec
 import zenoh
 
 from service.protocol.wire import PROTOCOL_VERSION, ErrorKind, Keys
@@ -35,17 +35,26 @@ def pack_request(content: dict[str, Any]) -> bytes:
     return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
 
 
-#: each thread's msgpack.Packer, kept: `packb` makes a new one (and its buffer) on every call
-_packers = threading.local()
+_encode = msgspec.msgpack.Encoder().encode
+#: the types of a Move map's own values (`id`, `tag`, `dt`) that msgspec and msgpack pack alike; its
+#: vectors are floats (Move.to_wire's, or the engine's Vec3 and Quat)
+_PLAIN_IDS = frozenset((int,))
+_PLAIN_TAGS = frozenset((type(None), int, str))
+_PLAIN_DTS = frozenset((type(None), int, float))
 
 
 def pack_move_request(move_map: dict[str, Any]) -> bytes:
-    """`pack_request({"move": move_map})`'s bytes, by a Packer kept for the thread (the same library and
-    options, so the same bytes and the same errors)."""
-    packer = getattr(_packers, "packer", None)
-    if packer is None:
-        packer = _packers.packer = msgpack.Packer(use_bin_type=True)
-    return packer.pack({"v": PROTOCOL_VERSION, "move": move_map})  # type: ignore[no-any-return]
+    """`pack_request({"move": move_map})`'s bytes, by msgspec when the map's own values are plain ones
+    (the bytes of both libraries then agree, tests/clients/test_client_move_path.py); else, or when
+    msgspec refuses a value (a subclass of int or str), by msgpack as any request, with its errors.
+    msgspec packs the map in about half msgpack's time, as it builds no Packer."""
+    get = move_map.get
+    if type(get("id")) in _PLAIN_IDS and type(get("tag")) in _PLAIN_TAGS and type(get("dt")) in _PLAIN_DTS:
+        try:
+            return _encode({"v": PROTOCOL_VERSION, "move": move_map})
+        except (TypeError, OverflowError):
+            pass
+    return pack_request({"move": move_map})
 
 
 def unpack_message(data: bytes) -> Any:
