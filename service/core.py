@@ -133,6 +133,7 @@ class ServiceCore:
         self.world = world
         self.bus = bus
         self.ownership = ownership
+        self._owns_all = ownership.everything  # frozen: read once, not per move
         self.instance = instance
         self.stats = stats
         self.movers: dict[int, MoverRecord] = {}
@@ -314,7 +315,7 @@ class ServiceCore:
 
     # -- moves ----------------------------------------------------------------
     def _apply(self, rec: MoverRecord, item: MoveItem) -> MoveResult:
-        pos = rec.last.position
+        pos = rec.mover.last.position  # type: ignore[union-attr]  # rec.last without its property: set at add
         try:
             if item.to is not None:
                 return self.world.move(rec.engine_id, item.to.resolve(pos), item.velocity)
@@ -335,13 +336,13 @@ class ServiceCore:
             rec = self._record(item.id, f"{item.path}.id" if item.path else "id")
         # an instance owning only some landblocks may have to refuse a move after it ended (no owner takes
         # the mover): kept so that the move can be taken back
-        undo = None if self.ownership.everything else MoveUndo(rec.mover)
+        undo = None if self._owns_all else MoveUndo(rec.mover)
         t0 = perf_counter()
         result = self._apply(rec, item)  # the engine counted it: result.seq is the mover's new seq
         engine = perf_counter() - t0
-        packed = pack_state(rec.id, result.seq, result, self._collide_ids(result), item.tag)
+        packed = pack_state(rec.id, result.seq, result, self._collide_ids(result) if result.collide_objects else [], item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
-        if not self.ownership.owns(lb):
+        if not self._owns_all and not self.ownership.owns(lb):
             assert undo is not None
             # the new owner publishes this State: its next ones follow it on the same session
             self._hand_over(rec, lb, packed if publish else None, undo)

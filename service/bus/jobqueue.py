@@ -32,8 +32,11 @@ class JobQueue:
         self._turn = 0  # the lane `get` looks at first
         self._priority: deque[Job] = deque()
         self._cond = threading.Condition()
-        self._closed = False
-        self._unfinished = 0  # jobs queued and not yet done (see `task_done`)
+        #: refusing new requests (`close`); a plain attribute, read by every request without the lock
+        self.closed = False
+        #: jobs queued and not yet done (see `task_done`); read without the lock by the node's one-move
+        #: path (an int read is atomic): 0 is `idle`
+        self.unfinished = 0
 
     def __len__(self) -> int:
         with self._cond:
@@ -54,49 +57,45 @@ class JobQueue:
         """Queue a request in `lane`; False (nothing queued) when that lane is full or the queue closed."""
         with self._cond:
             queue = self._lanes[lane]
-            if self._closed or len(queue) >= self.capacity:
+            if self.closed or len(queue) >= self.capacity:
                 return False
             queue.append(job)
-            self._unfinished += 1
+            self.unfinished += 1
             self._cond.notify()
             return True
 
     def put_priority(self, job: Job) -> None:
         with self._cond:
             self._priority.append(job)
-            self._unfinished += 1
+            self.unfinished += 1
             self._cond.notify()
 
     def offer_priority(self, job: Job) -> bool:
         """Queue a job on the priority lane unless closed (a request from another instance: once closed,
         the engine thread may already be gone, so it is refused rather than left unanswered)."""
         with self._cond:
-            if self._closed:
+            if self.closed:
                 return False
             self._priority.append(job)
-            self._unfinished += 1
+            self.unfinished += 1
             self._cond.notify()
             return True
 
     def close(self) -> None:
         """Refuse new requests; what is queued is still handed out."""
         with self._cond:
-            self._closed = True
+            self.closed = True
             self._cond.notify_all()
-
-    @property
-    def closed(self) -> bool:
-        return self._closed
 
     def task_done(self) -> None:
         """A job handed out by `get`/`get_priority` has finished."""
         with self._cond:
-            self._unfinished -= 1
+            self.unfinished -= 1
 
     @property
     def idle(self) -> bool:
         """Every job ever queued has finished (so work done now cannot overtake a queued job)."""
-        return self._unfinished == 0
+        return not self.unfinished
 
     def get(self, timeout: float | None = None) -> Job | None:
         """Next job, priority lane first; None on timeout or when closed and empty."""
@@ -115,7 +114,7 @@ class JobQueue:
                         if lanes[i]:
                             self._turn = (i + 1) % len(lanes)
                             return lanes[i].popleft()
-                if self._closed:
+                if self.closed:
                     return None
                 remaining = None if deadline is None else deadline - time.monotonic()
                 if remaining is not None and remaining <= 0:

@@ -32,13 +32,15 @@ from service.capabilities import capabilities
 from service.core import ServiceCore
 from service.protocol.errors import ProtocolError
 from service import heap
-from service.protocol.frames import STATE_HEAD, pack
+from service.protocol.frames import pack
 from service.bus.jobqueue import JobQueue
 from service.bus.key_landblocks import KeyLandblocks
 from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
 from service.bus.publication import ZenohBus
 from service.bus.request_log import ERRORS, LoggedQuery, log_request, requests_logged
+from service.bus.single_move import submit_single
+from service.protocol.move_structs import plain_single_move
 from service.protocol.requests import (
     ItemError,
     decode_envelope,
@@ -321,6 +323,7 @@ class ServiceNode:
         operation = OPERATIONS[op]  # looked up once per handler, not per request
         world_op = operation.changes_world
         forbidden = world_op and not self.options.world_admin
+        moves = op == "move"
 
         def handler(query: zenoh.Query) -> None:
             received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
@@ -334,14 +337,21 @@ class ServiceNode:
                 if forbidden:
                     raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
                                         "the service's --admin users may send it")
-                msg = decode_envelope(self._payload(query), allow_empty=world_op)
+                payload = self._payload(query)
+                if moves:  # one move as clients send it, read straight from the bytes (else None: the map's path)
+                    plain = plain_single_move(payload) if payload else None
+                    if plain is not None:
+                        if logged is not None:
+                            logged.items = 1
+                        submit_single(self, query, plain[0], plain[1], received)
+                        return
+                msg = decode_envelope(payload, allow_empty=world_op)
                 if logged is not None:
                     logged.items = _item_count(operation, msg)
-                if op == "move" and "move" in msg and "moves" not in msg and not is_column_request(msg):
-                    # one move (the common request): run straight to its reply, without `_work`'s closures
-                    single = self._single_move_job(query, msg, received)
-                    if not self._submit(single, True):
-                        self._refuse(query)
+                if moves and "move" in msg and "moves" not in msg and not is_column_request(msg):
+                    # one move with more in its map (or a fault to name): run straight to its reply
+                    item, batch_mode = parse_single_move(msg)
+                    submit_single(self, query, item, batch_mode, received)
                     return
                 work, small = self._prepare(operation, lb, msg, received)
             except ProtocolError as e:
@@ -374,30 +384,6 @@ class ServiceNode:
                 self._refuse(query)
 
         return handler
-
-    def _single_move_job(self, query: zenoh.Query, msg: dict[str, Any], received: float) -> Callable[[], None]:
-        """`{"move": Move}` decoded (ProtocolError here, on the callback thread); the job that runs it and
-        answers: the same decoding, engine call and reply as `_work`'s, with one closure instead of three."""
-        core = self.core
-        assert core is not None
-        item, batch_mode = parse_single_move(msg)
-
-        def job() -> None:
-            try:
-                packed = core.move_one(item, received, batch_mode=batch_mode)
-            except ProtocolError as e:
-                self._reply_err(query, e)
-                return
-            except Exception as e:
-                log.exception("move failed")
-                self._reply_err(query, ProtocolError(ErrorKind.INTERNAL, f"internal error (a fault in the service, logged there): {str(e) or 'no message'}"))
-                return
-            try:
-                query.reply(query.key_expr, STATE_HEAD + packed)  # frames.state_message, inlined
-            finally:
-                query.drop()
-
-        return job
 
     def _prepare(self, operation: Operation, lb: int | None, msg: dict[str, Any],
                  received: float) -> tuple[Work, bool]:

@@ -21,6 +21,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import msgpack
@@ -36,9 +37,9 @@ ERROR_LINES_PER_WINDOW = 10
 ERROR_WINDOW_S = 1.0
 
 
-def requests_logged() -> bool:
-    """Whether the per-request DEBUG lines are on (the logger's own cached level check)."""
-    return log.isEnabledFor(logging.DEBUG)
+#: `requests_logged()`: whether the per-request DEBUG lines are on (the logger's own cached level check,
+#: called without a function of ours around it: it is asked once per request)
+requests_logged: Callable[[], bool] = partial(log.isEnabledFor, logging.DEBUG)
 
 
 @dataclass(slots=True)

@@ -38,9 +38,10 @@ from service.protocol.errors import ProtocolError
 from service.protocol.messages import MOVE, MoveItem, Target, engine_check
 from service.protocol.schema_kinds import MAX_TAG_LEN, Tag
 from service.protocol.validate import as_float, as_uint
-from service.protocol.wire import ErrorKind
+from service.protocol.wire import PROTOCOL_VERSION, ErrorKind
 
-__all__ = ["MoveS", "TargetS", "Vector", "Real", "read_move", "read_moves", "move_item", "protocol_error"]
+__all__ = ["MoveS", "TargetS", "Vector", "Real", "read_move", "read_moves", "move_item", "protocol_error",
+           "plain_single_move"]
 
 # -- the declarations ---------------------------------------------------------------------------------
 #: a real: within float32's range, which NaN and ±infinity fail too (told apart by protocol_error)
@@ -171,6 +172,54 @@ def read_move(value: Any, path: str) -> MoveItem:
     except msgspec.ValidationError as e:
         raise _rules_first(value, path, protocol_error(e, value, path)) from None
     return move_item(m, path, value)
+
+
+# -- a plain single move straight from the payload's bytes ------------------------------------------------
+class _ExactTarget(TargetS, forbid_unknown_fields=True):
+    """TargetS with no field it does not name (see `plain_single_move`)."""
+
+
+class _ExactMove(MoveS, forbid_unknown_fields=True):
+    """MoveS with no field it does not name (see `plain_single_move`)."""
+
+    to: _ExactTarget | None = None
+
+
+class _SingleMoveRequest(msgspec.Struct, gc=False, forbid_unknown_fields=True):
+    """`{"v", "move", "publish"?}` and nothing else: the one-move request as clients send it."""
+
+    v: int
+    move: _ExactMove
+    publish: str | None = None
+
+
+_decode_single = msgspec.msgpack.Decoder(_SingleMoveRequest).decode
+
+
+def plain_single_move(payload: bytes) -> tuple[MoveItem, bool] | None:
+    """A one-move request's MoveItem and whether its State goes to P/states (`"publish": "batch"`), read
+    straight from the payload's bytes; None for anything else: another message, a field no Struct names
+    (a batch's `moves`, a column request's `columns`, an unknown one), or a fault of any kind. The caller
+    then takes the request map's path (requests.decode_envelope, parse_single_move), which says what is
+    wrong in the protocol's words: only a request that path accepts as it is gets here an answer of its
+    own, and the same MoveItem (these Structs check what MoveS checks, and the post-pass is the same)."""
+    try:
+        req = _decode_single(payload)
+    except msgspec.DecodeError:  # ValidationError is one too
+        return None
+    if req.v != PROTOCOL_VERSION:
+        return None
+    publish = req.publish
+    if publish is None or publish == "each":
+        batch = False
+    elif publish == "batch":
+        batch = True
+    else:
+        return None
+    try:
+        return move_item(req.move, "move"), batch
+    except ProtocolError:
+        return None
 
 
 _FIELD = re.compile(r"\.(\w+)")

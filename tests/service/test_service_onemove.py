@@ -155,7 +155,7 @@ def test_states_are_published_while_someone_subscribes(node: ServiceNode) -> Non
         assert wait_until(lambda: not bus.states_watched(), timeout=10.0)
         published: list[int] = []
         real_publish = bus.publish_state
-        bus.publish_state = lambda mover_id, packed: published.append(mover_id)  # type: ignore[method-assign]
+        bus.publish_state = lambda mover_id, packed: published.append(mover_id)  # type: ignore[method-assign, assignment]
         try:
             assert _ask(node, {"move": {"id": mid, "offset": [0.2, 0.0, 0.0]}}).ok[0]["state"]["seq"] == 2
         finally:
@@ -176,3 +176,21 @@ def test_no_state_is_published_when_publication_is_off() -> None:
             n2.shutdown(timeout=5.0)
     finally:
         n.shutdown(timeout=5.0)
+
+
+def test_a_single_move_is_answered_alike_whichever_reader_takes_it(node: ServiceNode) -> None:
+    """A plain `{"v", "move"}` is read from its bytes; one with a field the protocol ignores takes the
+    request map's path: both are answered with their State and counted once, and a bad one is refused
+    with the map path's error on either."""
+    mid = _register(node)
+    before = node.stats.snapshot()
+    plain = _ask(node, {"move": {"id": mid, "offset": [0.5, 0.0, 0.0], "tag": 4}})
+    extra = _ask(node, {"move": {"id": mid, "offset": [-0.5, 0.0, 0.0], "tag": 5, "note": "x"}, "note": 1})
+    [a], [b] = plain.ok, extra.ok
+    assert (a["state"]["seq"], a["state"]["tag"], b["state"]["seq"], b["state"]["tag"]) == (1, 4, 2, 5)
+    assert set(a["state"]) == set(b["state"])
+    bad = _ask(node, {"move": {"id": mid, "offset": [0.5, 0.0]}})
+    assert (bad.err[0]["error"]["kind"], bad.err[0]["error"]["path"]) == (ErrorKind.BAD_VALUE, "move.offset")
+    after = node.stats.snapshot()
+    assert after["moves"] == before["moves"] + 2
+    assert after["requests"]["move"] == before["requests"]["move"] + 3
