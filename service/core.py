@@ -39,8 +39,6 @@ _encode_handover = HANDOVER.encode_fn()
 FORWARD_MEMORY = 100_000
 _TRANSIENT = ("Contact", "OnWalkable")
 
-
-
 #: the engine's argument names (engine.errors.EngineError.field) as request paths
 _REGISTER_FIELDS = {"position": "position", "spec": "mover", "contact_plane": "contact_plane", "sliding_normal": "sliding_normal"}
 _UPDATE_FIELDS = {"spec": "mover"}
@@ -314,20 +312,12 @@ class ServiceCore:
         return {"state": self._state(rec), "mover": encode_mover_spec(rec.spec)}
 
     # -- moves ----------------------------------------------------------------
-    def _apply(self, rec: MoverRecord, item: MoveItem) -> MoveResult:
-        pos = rec.mover.last.position  # type: ignore[union-attr]  # rec.last without its property: set at add
-        try:
-            if item.to is not None:
-                return self.world.move(rec.engine_id, item.to.resolve(pos), item.velocity)
-            if item.offset is not None:
-                return self.world.move(rec.engine_id, pos.moved(item.offset), item.velocity)
-            assert item.motion is not None and item.dt is not None
-            return self.world.step(rec.engine_id, item.motion, item.dt)
-        except Exception as e:
-            err = to_protocol_error(e, item.path or None, fields=_move_fields(item))
-            if err.kind == ErrorKind.INTERNAL:
-                log.exception("engine failed on move of %X", rec.id)
-            raise err from None
+    def _engine_error(self, e: Exception, rec: MoverRecord, item: MoveItem) -> ProtocolError:
+        """The engine's refusal of a move as the protocol's error (called in `except`: a fault is logged)."""
+        err = to_protocol_error(e, item.path or None, fields=_move_fields(item))
+        if err.kind == ErrorKind.INTERNAL:
+            log.exception("engine failed on move of %X", rec.id)
+        return err
 
     def _move(self, item: MoveItem, publish: bool) -> tuple[bytes, float]:
         """Apply one move and, when `publish`, publish its State: the State packed, and the engine's time."""
@@ -338,7 +328,17 @@ class ServiceCore:
         # the mover): kept so that the move can be taken back
         undo = None if self._owns_all else MoveUndo(rec.mover)
         t0 = perf_counter()
-        result = self._apply(rec, item)  # the engine counted it: result.seq is the mover's new seq
+        try:  # the engine counts the move: result.seq is the mover's new seq
+            pos = rec.mover.last.position  # type: ignore[union-attr]  # rec.last without its property: set at add
+            if item.offset is not None:
+                result = self.world.move(rec.engine_id, pos.moved(item.offset), item.velocity)
+            elif item.to is not None:
+                result = self.world.move(rec.engine_id, item.to.resolve(pos), item.velocity)
+            else:
+                assert item.motion is not None and item.dt is not None
+                result = self.world.step(rec.engine_id, item.motion, item.dt)
+        except Exception as e:
+            raise self._engine_error(e, rec, item) from None
         engine = perf_counter() - t0
         packed = pack_state(rec.id, result.seq, result, self._collide_ids(result) if result.collide_objects else [], item.tag)
         lb = (result.position.cell_id >> 16) & 0xFFFF
