@@ -333,7 +333,8 @@ class ServiceNode:
                 logged = LoggedQuery(query, op, received)
                 query = cast(zenoh.Query, logged)
             try:
-                lb = self._key_lb(str(query.key_expr), op)
+                key_expr = query.key_expr  # read once: Zenoh makes a new KeyExpr at each read
+                lb = self._key_lb(str(key_expr), op)
                 if forbidden:
                     raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
                                         "the service's --admin users may send it")
@@ -343,7 +344,7 @@ class ServiceNode:
                     if plain is not None:
                         if logged is not None:
                             logged.items = 1
-                        submit_single(self, query, plain[0], plain[1], received)
+                        submit_single(self, query, key_expr, plain[0], plain[1], received)
                         return
                 msg = decode_envelope(payload, allow_empty=world_op)
                 if logged is not None:
@@ -351,7 +352,7 @@ class ServiceNode:
                 if moves and "move" in msg and "moves" not in msg and not is_column_request(msg):
                     # one move with more in its map (or a fault to name): run straight to its reply
                     item, batch_mode = parse_single_move(msg)
-                    submit_single(self, query, item, batch_mode, received)
+                    submit_single(self, query, key_expr, item, batch_mode, received)
                     return
                 work, small = self._prepare(operation, lb, msg, received)
             except ProtocolError as e:

@@ -29,7 +29,8 @@ __all__ = ["submit_single", "run_single"]
 log = logging.getLogger("acphys.service")
 
 
-def submit_single(node: ServiceNode, query: zenoh.Query, item: MoveItem, batch_mode: bool, received: float) -> None:
+def submit_single(node: ServiceNode, query: zenoh.Query, key_expr: zenoh.KeyExpr, item: MoveItem, batch_mode: bool,
+                  received: float) -> None:
     """Run the move now when the engine is idle and nothing is queued (the engine lock held), else queue
     it; `busy` or `shutting_down` when the queue refuses it. `ServiceNode._submit` for this one job, with
     its checks read as plain attributes and no closure when it runs at once."""
@@ -38,19 +39,21 @@ def submit_single(node: ServiceNode, query: zenoh.Query, item: MoveItem, batch_m
         try:
             if not queue.unfinished:  # nothing was queued meanwhile: nothing to overtake
                 try:
-                    run_single(node, query, item, batch_mode, received)
+                    run_single(node, query, key_expr, item, batch_mode, received)
                 except Exception:  # never let it reach zenoh's thread
                     log.exception("engine job failed")
                     node.stats.error(ErrorKind.INTERNAL)
                 return
         finally:
             lock.release()
-    if not queue.offer(partial(run_single, node, query, item, batch_mode, received), node._lane):
+    if not queue.offer(partial(run_single, node, query, key_expr, item, batch_mode, received), node._lane):
         node._refuse(query)
 
 
-def run_single(node: ServiceNode, query: zenoh.Query, item: MoveItem, batch_mode: bool, received: float) -> None:
-    """The move applied (the engine lock held) and answered: its State, or its error."""
+def run_single(node: ServiceNode, query: zenoh.Query, key_expr: zenoh.KeyExpr, item: MoveItem, batch_mode: bool,
+               received: float) -> None:
+    """The move applied (the engine lock held) and answered on `key_expr` (the query's, read once by the
+    caller): its State, or its error."""
     core = node.core
     assert core is not None
     try:
@@ -64,6 +67,6 @@ def run_single(node: ServiceNode, query: zenoh.Query, item: MoveItem, batch_mode
                                             f"there): {str(e) or 'no message'}"))
         return
     try:
-        query.reply(query.key_expr, STATE_HEAD + packed)  # frames.state_message, inlined
+        query.reply(key_expr, STATE_HEAD + packed)  # frames.state_message, inlined
     finally:
         query.drop()
