@@ -16,12 +16,14 @@ import msgpack
 import pytest
 import zenoh
 
+from benchmarks.standins import SilentBus
 from clients.demo.world import global_to_cell
 from engine import load_scene
 from engine.geometry import Position, Vec3
 from service.protocol.codec import encode_mover_spec, encode_position
 from service.protocol.errors import ProtocolError
 from service.bus.node import NodeOptions, ServiceNode
+from service.core import ServiceCore
 from service.protocol.requests import parse_register
 from service.protocol.wire import ErrorKind
 from service.bus.zconfig import make_config
@@ -194,3 +196,27 @@ def test_a_single_move_is_answered_alike_whichever_reader_takes_it(node: Service
     after = node.stats.snapshot()
     assert after["moves"] == before["moves"] + 2
     assert after["requests"]["move"] == before["requests"]["move"] + 3
+
+
+def test_a_single_move_waits_behind_queued_work_and_is_refused_once_closed() -> None:
+    """Run in the callback only while nothing is queued (a move never overtakes a queued request); queued
+    otherwise, and answered `shutting_down` once the queue is closed. No session: the engine thread's
+    part is played here."""
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), zenoh.Config(), NodeOptions())
+    n.core = ServiceCore(n.world, SilentBus(), ownership=n.options.ownership, instance="t", stats=n.stats)
+    mid = _register(n)
+    order: list[str] = []
+    assert n.queue.offer(lambda: order.append("queued first"))
+    q = StandInQuery(MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.1, 0.0, 0.0]}})
+    n._query_handler("move")(q)  # type: ignore[arg-type]
+    assert not q.ok and not q.err and n.queue.unfinished == 2  # queued behind the first job, not run
+    for _ in range(2):
+        job = n.queue.get(timeout=1.0)
+        assert job is not None
+        n._run_job(job)
+        order.append(f"answered {len(q.ok)}")
+    assert order == ["queued first", "answered 0", "answered 1"] and q.ok[0]["state"]["seq"] == 1
+    n.queue.close()
+    closed = StandInQuery(MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.1, 0.0, 0.0]}})
+    n._query_handler("move")(closed)  # type: ignore[arg-type]
+    assert closed.err[0]["error"]["kind"] == ErrorKind.SHUTTING_DOWN and closed.dropped == 1
