@@ -3,10 +3,9 @@ what they cannot say, and msgspec's errors as the protocol's kinds and paths.
 
 Why msgspec: docs/performance.md ("Wire decoding") measured these Structs, with this post-pass and
 this error mapping, faster than the readers service/protocol/schema.py generated for MOVE, with every
-error kind and path docs/protocol.md promises kept. The service reads the request map msgpack gave
-(service/bus/node.py decodes a request before it knows the operation), so the Structs are filled by
-`msgspec.convert` from those values: as fast as the generated reader on one move, faster on a batch;
-decoding them straight from the bytes (benchmarks/wire_msgspec.py) is where most of the gain lies.
+error kind and path docs/protocol.md promises kept. A one-move request as clients send it is decoded
+straight from its bytes (`plain_single_move`, for service/bus/node.py); every other request, and any
+fault, is read from the request map msgpack gave, the Structs filled by `msgspec.convert` from its values.
 
 What the Structs say (`msgspec.Meta`): a real within float32's range (NaN and ±infinity fail that bound
 too), a cell's 32 bits, an id that is not negative, a tag's 256 characters, vectors of 3 and quaternions
