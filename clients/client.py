@@ -22,7 +22,6 @@ health, stats: clients/instances.py), the spatial queries (clients/spatial.py) a
 
 from __future__ import annotations
 
-import functools
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -40,8 +39,8 @@ from service.bus.zconfig import DEFAULT_ENDPOINT, make_config
 from clients.instances import InstanceCalls
 from clients.moves import MAX_REDIRECTS, REDIRECTS, MoveCalls
 from clients.paths import PathQueries
-from clients.request_channel import (PendingRequest, pack_request, read_reply, read_state_reply, send_payload,
-                                     send_query, unpack_message)
+from clients.request_channel import (PendingRequest, ask_state, pack_request, read_reply, send_payload, send_query,
+                                     unpack_message)
 from clients.spatial import SpatialQueries
 from clients.subscriptions import Subscription, SubscriptionCalls
 from clients.errors import NoServiceError, ServiceError
@@ -152,11 +151,6 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
         self._lock = threading.Lock()
         # per-landblock request keys as parsed key expressions: Zenoh parses a string key on every get
         self._lb_keys: dict[tuple[int, str], zenoh.KeyExpr] = {}
-        #: `receive_reply` for a State reply (a move's): the MoverState, or the reply map when it is not in the
-        #: service's usual shape (clients/request_channel.py, read_state_reply); a partial, not a method: no
-        #: Python call of its own
-        self._read_state: Callable[[PendingRequest], MoverState | dict[str, Any]] = functools.partial(
-            read_state_reply, tried=self._tried, logged_in=user is not None)
 
     # -- lifecycle ------------------------------------------------------------------
     def close(self) -> None:
@@ -243,20 +237,30 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
 
     def _request(self, key: str | zenoh.KeyExpr, content: dict[str, Any], timeout: float | None = None) -> dict[str, Any]:
         """One request to the instance serving `key`: its reply map, or an exception."""
-        return self._ask(key, pack_request(content), timeout, self.receive_reply)  # type: ignore[no-any-return]
+        return self._ask(key, pack_request(content), timeout, self._get_reply)  # type: ignore[no-any-return]
 
     def _ask(self, key: str | zenoh.KeyExpr, payload: bytes, timeout: float | None,
-             read: Callable[[PendingRequest], Any]) -> Any:
-        """One packed request to the instance serving `key`: its reply as `read` reads it, or an exception."""
+             get: Callable[[str | zenoh.KeyExpr, bytes, float], Any]) -> Any:
+        """One packed request to the instance serving `key`, sent and its reply read by `get`
+        (`_get_reply` or `_get_state`): what `get` returns, or an exception."""
         seconds = self.timeout if timeout is None else timeout
-        try:  # send_payload, written out: one call fewer on every move
-            return read(PendingRequest(key, self.session.get(key, payload=payload, timeout=seconds), seconds))
+        try:
+            return get(key, payload, seconds)
         except NoServiceError:
             # nobody had it (so sending again repeats nothing); a young session may not have met the instance
             # serving `key` yet (SETTLE_S): once it has, ask again
             if not self._settle():
                 raise
-            return read(send_payload(self.session, key, payload, seconds))
+            return get(key, payload, seconds)
+
+    def _get_reply(self, key: str | zenoh.KeyExpr, payload: bytes, seconds: float) -> dict[str, Any]:
+        """A `get` for `_ask`: the reply map (`send_request`, then `receive_reply`, of a packed request)."""
+        return self.receive_reply(send_payload(self.session, key, payload, seconds))
+
+    def _get_state(self, key: str | zenoh.KeyExpr, payload: bytes, seconds: float) -> MoverState | dict[str, Any]:
+        """A `get` for `_ask` of a request answered with a State: the MoverState, or the reply map when it
+        is not in the service's usual shape (clients/request_channel.py, ask_state)."""
+        return ask_state(self.session, key, payload, seconds, self._tried, self.user is not None)
 
     def _settle(self) -> bool:
         """Wait until the session is SETTLE_S old (it has met every instance); whether it had to wait."""
@@ -270,15 +274,15 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
                     timeout: float | None = None) -> dict[str, Any]:
         """A per-landblock request, following `moved` / `wrong_landblock` redirects."""
         return self._lb_ask(lb, op, pack_request(content), mover_id, timeout,  # type: ignore[no-any-return]
-                            self.receive_reply)
+                            self._get_reply)
 
     def _lb_ask(self, lb: int, op: str, payload: bytes, mover_id: int | None, timeout: float | None,
-                read: Callable[[PendingRequest], Any]) -> Any:
-        """`_lb_request` of a packed request, its reply read by `read`."""
+                get: Callable[[str | zenoh.KeyExpr, bytes, float], Any]) -> Any:
+        """`_lb_request` of a packed request, sent and its reply read by `get` (as `_ask`)."""
         for _ in range(MAX_REDIRECTS):
             key = self._lb_keys.get((lb, op))  # `_lb_key`'s cache read here: one call fewer on every move
             try:
-                return self._ask(self._lb_key(lb, op) if key is None else key, payload, timeout, read)
+                return self._ask(self._lb_key(lb, op) if key is None else key, payload, timeout, get)
             except ServiceError as e:
                 target = e.details.get("landblock")
                 if e.kind not in REDIRECTS or not isinstance(target, int) or target == lb:
@@ -286,7 +290,7 @@ class Client(MoveCalls, SubscriptionCalls, InstanceCalls, SpatialQueries, PathQu
                 lb = target
                 if mover_id is not None:
                     self.known_landblocks[mover_id] = lb
-        return self._ask(self.keys.lb(lb, op), payload, timeout, read)
+        return self._ask(self.keys.lb(lb, op), payload, timeout, get)
 
     # -- movers -----------------------------------------------------------------------
     def register(

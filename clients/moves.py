@@ -43,7 +43,7 @@ class MoveCalls:
     _lb_key: Callable[[int, str], zenoh.KeyExpr]
     _lb_request: Callable[..., dict[str, Any]]
     _lb_ask: Callable[..., Any]
-    _read_state: Callable[[PendingRequest], MoverState | dict[str, Any]]
+    _get_state: Callable[..., MoverState | dict[str, Any]]
     landblock_of: Callable[[int], int]
     send_request: Callable[..., PendingRequest]
     receive_reply: Callable[[PendingRequest], dict[str, Any]]
@@ -97,7 +97,7 @@ class MoveCalls:
         State after it. Raises as `move` and `step` do."""
         lb = self.landblock_of(move.id)
         payload = pack_move_request(move.to_wire())
-        got = self._lb_ask(lb, "move", payload, move.id, timeout, self._read_state)
+        got = self._lb_ask(lb, "move", payload, move.id, timeout, self._get_state)
         st = got if type(got) is MoverState else MoverState.from_wire(got["state"])
         self.known_landblocks[st.id] = (st.result.position.cell_id >> 16) & 0xFFFF  # `_learn`, written out
         return st

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from clients.types import MoverState
 
 __all__ = ["PendingRequest", "RequestChannel", "pack_request", "pack_move_request", "unpack_message",
-           "send_query", "send_payload", "read_reply", "read_state_reply"]
+           "send_query", "send_payload", "read_reply", "reply_map", "ask_state"]
 
 
 def pack_request(content: dict[str, Any]) -> bytes:
@@ -88,26 +88,27 @@ def read_reply(pending: PendingRequest, tried: str, logged_in: bool) -> dict[str
     """The reply map of `pending` (waiting for it), or the exception it says: NoServiceError when nobody
     answered (naming `tried`, where the client looked, and the login a service with accounts needs unless
     `logged_in`), RequestTimeout, or the service's ServiceError."""
-    return _reply_map(pending, list(pending.replies), tried, logged_in)
+    return reply_map(list(pending.replies), pending.key, pending.timeout, tried, logged_in)
 
 
-def read_state_reply(pending: PendingRequest, tried: str, logged_in: bool) -> MoverState | dict[str, Any]:
-    """`read_reply` for a request answered with a State (a move, a step): the MoverState when the reply
-    is one in the shape the service writes (clients/state_reply.py), else what `read_reply` returns or
-    raises (the caller reads the map's State itself, as before)."""
-    replies = list(pending.replies)
+def ask_state(session: zenoh.Session, key: str | zenoh.KeyExpr, payload: bytes, timeout: float, tried: str,
+              logged_in: bool) -> MoverState | dict[str, Any]:
+    """One request answered with a State (a move, a step), sent and its reply read: the MoverState when the
+    reply is one in the shape the service writes (clients/state_reply.py), else what `read_reply` returns
+    or raises (the caller reads the map's State itself, as before)."""
+    replies = list(session.get(key, payload=payload, timeout=timeout))
     if replies:
         ok = replies[0].ok
         if ok is not None:
             st = decode_state_reply(ok.payload.to_bytes())
             if st is not None:
                 return st
-    return _reply_map(pending, replies, tried, logged_in)
+    return reply_map(replies, key, timeout, tried, logged_in)
 
 
-def _reply_map(pending: PendingRequest, replies: list[Any], tried: str, logged_in: bool) -> dict[str, Any]:
-    """`read_reply` of the replies already gathered."""
-    key, timeout = pending.key, pending.timeout
+def reply_map(replies: list[Any], key: str | zenoh.KeyExpr, timeout: float, tried: str,
+              logged_in: bool) -> dict[str, Any]:
+    """`read_reply` of the replies already gathered for the request to `key`."""
     if not replies:
         hint = "" if logged_in else "; a service run with accounts also needs user= and password="
         raise NoServiceError(f"no service answers on {key} ({tried}{hint})")
