@@ -103,9 +103,16 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
     for root, counted_path in zip(roots, column_path):
         log(f"instructions: the batch workload's column path ({root.name}) {counted_path['per_move']:9.0f} per move, "
             f"run_batch {counted_path['run_batch_per_move']:9.0f}, the rest {counted_path['rest_per_move']:9.0f}")
+    from .instructions_single_move import count_single_move
+
+    single_move = [count_single_move(_python_of(root), root) for root in roots]
+    for root, counted_move in zip(roots, single_move):
+        log(f"instructions: one move request handled ({root.name}) {counted_move['per_move']:9.0f} per move, "
+            f"the service's own {counted_move['service_per_move']:9.0f}, the engine's {counted_move['engine_per_move']:9.0f}")
     return {"rows": rows, "against": str(against) if against is not None else None,
             "against_commit": common.short_commit(roots[1]) if against is not None else None,
-            "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None, "column_path": column_path}
+            "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None, "column_path": column_path,
+            "single_move": single_move}
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
@@ -129,7 +136,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     else:
         out += ["| trace | engine calls | instructions per call |", "|---|---:|---:|"]
         out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} |" for r in data["rows"]]
-    return out + _column_path_lines(data.get("column_path"), data.get("against_commit"))
+    return (out + _column_path_lines(data.get("column_path"), data.get("against_commit"))
+            + _single_move_lines(data.get("single_move"), data.get("against_commit")))
 
 
 def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
@@ -147,4 +155,21 @@ def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str 
     names = ["this checkout", f"commit {against_commit}"]
     for name, c in zip(names, counts):
         out.append(f"| {name} | {c['per_move']:,.0f} | {c['run_batch_per_move']:,.0f} | {c['rest_per_move']:,.0f} |")
+    return out + [""]
+
+
+def _single_move_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
+    """One move request in the service's query callback (benchmarks/instructions_single_move.py)."""
+    if not counts:
+        return []
+    moves = counts[0]["moves"]
+    out = [("One move request handled, instructions per move (benchmarks/instructions_single_move.py): the "
+            "service's move callback called with stand-in queries on the service benchmark's scene, one mover, "
+            "nobody subscribed (Zenoh's receive, reply and matching status are not counted), as the difference "
+            f"of a {moves[0]}-move and a {moves[1]}-move run; once with the engine replaced by a stand-in that "
+            "answers the mover's current state (the service's own work) and once with the engine."), "",
+           "| build | whole callback | the service's own | the engine's |", "|---|---:|---:|---:|"]
+    names = ["this checkout", f"commit {against_commit}"]
+    for name, c in zip(names, counts):
+        out.append(f"| {name} | {c['per_move']:,.0f} | {c['service_per_move']:,.0f} | {c['engine_per_move']:,.0f} |")
     return out + [""]

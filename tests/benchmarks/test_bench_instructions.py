@@ -65,3 +65,28 @@ def test_the_column_path_count_is_the_engine_and_more() -> None:
     c = count_column_path(bi._python_of(common.ROOT))
     assert 0 < c["run_batch_per_move"] < c["per_move"]
     assert c["rest_per_move"] == c["per_move"] - c["run_batch_per_move"]
+
+
+def test_the_section_gives_one_move_request_beside_the_column_path() -> None:
+    data = {"rows": [{"name": "flat", "calls": 10, "instructions": 1000, "per_call": 100.0}],
+            "single_move": [{"per_move": 90_000.0, "service_per_move": 55_000.0, "engine_per_move": 35_000.0,
+                             "moves": [200, 1200]}]}
+    lines = bi.section(data, "Measured by ...")
+    assert "| this checkout | 90,000 | 55,000 | 35,000 |" in lines
+    assert any("a 200-move and a 1200-move run" in line for line in lines)
+
+
+def test_one_move_per_move_is_the_difference_of_the_two_runs_over_their_moves() -> None:
+    from benchmarks.instructions_single_move import per_move
+
+    # 200 and 1,200 moves: the 1,000 moves between them took 70,000,000 - 20,000,000 instructions
+    assert per_move(20_000_000, 70_000_000, (200, 1200)) == 50_000.0
+
+
+@pytest.mark.skipif(bi.unavailable() is not None, reason=str(bi.unavailable()))
+def test_one_move_request_count_is_the_service_and_the_engine() -> None:
+    from benchmarks.instructions_single_move import count_single_move
+
+    c = count_single_move(bi._python_of(common.ROOT))  # raises unless every move was answered
+    assert 0 < c["service_per_move"] < c["per_move"]
+    assert c["engine_per_move"] == c["per_move"] - c["service_per_move"] > 0
