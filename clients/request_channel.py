@@ -7,6 +7,10 @@ for its reply map or raises what the reply says. `RequestChannel` is what a batc
 (`Client` is one): the keys, the landblock each mover was last seen in, and those two halves.
 `send_query` and `read_reply` are the halves themselves, on a Zenoh session; `pack_request` and
 `unpack_message` the msgpack form of every message (docs/protocol.md, "Messages").
+
+A single move (`Client.move`, `Client.step`) takes a shorter way, as it runs once per call and its
+reply is always a State: `pack_move_request` packs it, `ask_state` sends it and reads the State
+straight into a MoverState (clients/state_reply.py), with the same bytes, answers and errors.
 """
 
 from __future__ import annotations
@@ -35,10 +39,11 @@ def pack_request(content: dict[str, Any]) -> bytes:
     return msgpack.packb({"v": PROTOCOL_VERSION, **content}, use_bin_type=True)
 
 
+#: shared by threads: msgspec encodes holding the GIL throughout (no hook of ours runs)
 _encode = msgspec.msgpack.Encoder().encode
-#: the types of a Move map's own values (`id`, `tag`, `dt`) that msgspec and msgpack pack alike; its
-#: vectors are floats (Move.to_wire's, or the engine's Vec3 and Quat)
-_PLAIN_IDS = frozenset((int,))
+#: the types of a Move map's own values (`tag`, `dt`; `id` an int) that msgspec and msgpack pack alike (msgspec
+#: would also pack a set, a Decimal or a UUID, which msgpack refuses); its vectors are floats (Move.to_wire's,
+#: or the engine's Vec3 and Quat)
 _PLAIN_TAGS = frozenset((type(None), int, str))
 _PLAIN_DTS = frozenset((type(None), int, float))
 
@@ -49,7 +54,7 @@ def pack_move_request(move_map: dict[str, Any]) -> bytes:
     msgspec refuses a value (a subclass of int or str), by msgpack as any request, with its errors.
     msgspec packs the map in about half msgpack's time, as it builds no Packer."""
     get = move_map.get
-    if type(get("id")) in _PLAIN_IDS and type(get("tag")) in _PLAIN_TAGS and type(get("dt")) in _PLAIN_DTS:
+    if type(get("id")) is int and type(get("tag")) in _PLAIN_TAGS and type(get("dt")) in _PLAIN_DTS:
         try:
             return _encode({"v": PROTOCOL_VERSION, "move": move_map})
         except (TypeError, OverflowError):
