@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 from itertools import repeat
-from operator import is_not
+from operator import is_not, itemgetter
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
 from typing import TYPE_CHECKING, Any
@@ -36,8 +36,9 @@ from engine.world.batch import (
 )
 
 from service.protocol.codec import pack_state
+from service.protocol.column_frames import REPLY_NAMES, rows_message
 from service.protocol.column_request import ColumnRequest
-from service.protocol.columns import PUBLICATION_ID, REPLY_COLUMNS, REQUEST_COLUMNS, Flag, pack_columns
+from service.protocol.columns import REPLY_COLUMNS, REQUEST_COLUMNS, Flag, pack_columns
 from service.engine_errors import to_protocol_error
 from service.protocol.errors import ProtocolError
 from service.protocol.frames import pack
@@ -55,6 +56,8 @@ _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _GONE = bytes(MOVER_STATE_BYTES)
 _LE_U64 = np.dtype("<u8")
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
+_COLLIDE_COUNT_AT = REPLY_NAMES.index("collide_count")
+_FLAGS_AT = REPLY_NAMES.index("flags")
 
 
 @dataclass(slots=True)
@@ -83,7 +86,13 @@ class ColumnResults:
 
 def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> list[Mover | None]:
     """Each item's engine mover (None for a refused item or an id not held here)."""
-    movers: list[Mover | None] = list(map(core.engine_movers.get, ids))
+    held = core.engine_movers
+    movers: list[Mover | None]
+    try:
+        # every id held, the usual case: one C call looks them all up (a map of `get` calls one method per id)
+        movers = list(itemgetter(*ids)(held)) if len(ids) > 1 else [held[i] for i in ids]
+    except KeyError:
+        movers = list(map(held.get, ids))
     for i in bad:
         movers[i] = None
     return movers
@@ -116,14 +125,17 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     stop_if = None if ownership.everything else (lambda lb: not ownership.owns(lb))
     landscape = core.world.landscape
     started, since = perf_counter(), monotonic() - received
-    i = 0
-    while i < req.n:
-        i = run_batch(landscape, movers, kind, vectors, rows, start=i, cells=cells, orientations=orientations,
-                      velocities=velocities, dts=dts, stop_if=stop_if)
-        if i < req.n:  # item i left this instance's landblocks
+    n = req.n
+    i = run_batch(landscape, movers, kind, vectors, rows, cells=cells, orientations=orientations,
+                  velocities=velocities, dts=dts, stop_if=stop_if)
+    if i == n and len(rows.finished_at) == n and not (out.publish_each or out.gather):
+        out.settled = n  # the usual run: every item ran in one go and resolved, and nothing is published
+    else:
+        while i < n:  # item i left this instance's landblocks
             _leave(core, req, out, movers, ids, i, forward)
-            i += 1
-    _settle(core, req, out, ids, forward, req.n)
+            i = run_batch(landscape, movers, kind, vectors, rows, start=i + 1, cells=cells,
+                          orientations=orientations, velocities=velocities, dts=dts, stop_if=stop_if)
+        _settle(core, req, out, ids, forward, n)
     if core.log is not None:
         _journal(core, req, out, req.n)
         core.commit()
@@ -131,8 +143,11 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
         out.errors.sort(key=lambda e: e[0])
     if rows.collide_ids:  # a row collided: its engine ids become wire ids
         _translate_collisions(core, out)
-    # each move's latency: from the request's arrival to its result (a C loop, not a comprehension)
-    core.moves_done(list(map((since - started).__add__, rows.finished_at)), rows.engine_seconds)
+    # each move's latency, from the request's arrival to its result, is its finishing time shifted by
+    # `since - started`: the stats keep the engine's list and the shift, and add them up when asked
+    core.stats.batch_done(since - started, rows.finished_at, rows.engine_seconds)
+    if monotonic() - core._cache_read_at > 1.0:  # as ServiceCore.moves_done
+        core.refresh()
     if req.publish == "columns" and len(out.errors) + out.forwarded < req.n and core.bus.columns_watched():
         core.bus.publish_columns(publication_message(out, req))
     return out, out.packed
@@ -284,17 +299,15 @@ def _one_row_message(req: ColumnRequest, i: int) -> bytes:
     return pack({"kind": req.kind, "columns": cols, "publish": req.publish})
 
 
-def _reply_columns(out: ColumnResults) -> dict[str, bytes]:
-    """The reply's columns as the engine wrote them (its result columns are the wire's, engine.world.rows),
-    with the collided movers' counts of wire ids when a row collided with anything."""
-    cols = out.rows.columns()
+def _reply_columns(out: ColumnResults) -> list[bytes]:
+    """The reply's columns (REPLY_NAMES) as the engine wrote them (its result columns are the wire's,
+    engine.world.rows), with the collided movers' counts of wire ids when a row collided with anything,
+    and their wire ids."""
+    cols = list(out.rows.columns().values())
     if out.collide_counts is not None:
-        cols["collide_count"] = np.array(out.collide_counts, dtype="<u4").tobytes()
+        cols[_COLLIDE_COUNT_AT] = np.array(out.collide_counts, dtype="<u4").tobytes()
+    cols.append(np.array(out.collide_ids, dtype="<u8").tobytes() if out.collide_ids else b"")
     return cols
-
-
-def _collide_bytes(ids: list[int]) -> bytes:
-    return np.array(ids, dtype="<u8").tobytes()
 
 
 def _error_entries(out: ColumnResults) -> list[dict[str, Any]]:
@@ -303,22 +316,21 @@ def _error_entries(out: ColumnResults) -> list[dict[str, Any]]:
 
 def reply_message(out: ColumnResults) -> bytes:
     """`{"v": 1, "n", "columns", "errors"}`: the reply to a column query."""
-    cols = _reply_columns(out)
-    cols["collide_ids"] = _collide_bytes(out.collide_ids)
-    return pack({"n": out.n, "columns": cols, "errors": _error_entries(out)})
+    return rows_message(out.n, out.rows.count, _reply_columns(out), _error_entries(out))
 
 
 def publication_message(out: ColumnResults, req: ColumnRequest) -> bytes:
     """`{"v": 1, "n", "columns"}` on P/state_columns: the rows of the items that resolved, with `id`."""
     n = out.rows.count
     raw = _reply_columns(out)
-    arrays = {c.name: np.frombuffer(raw[c.name], dtype=c.np_dtype).reshape((n, c.width) if c.width > 1 else n)
-              for c in REPLY_COLUMNS}
-    keep = (arrays["flags"] & Flag.RESOLVED) != 0
-    cols = {PUBLICATION_ID.name: np.ascontiguousarray(req.arrays["id"][keep], dtype="<u8").tobytes()}
-    cols.update(pack_columns(REPLY_COLUMNS, {k: a[keep] for k, a in arrays.items()}))
-    cols["collide_ids"] = _collide_bytes(out.collide_ids)
-    return pack({"n": int(keep.sum()), "columns": cols})
+    arrays = [np.frombuffer(data, dtype=c.np_dtype).reshape((n, c.width) if c.width > 1 else n)
+              for c, data in zip(REPLY_COLUMNS, raw)]
+    keep = (arrays[_FLAGS_AT] & Flag.RESOLVED) != 0
+    kept = [np.ascontiguousarray(req.arrays["id"][keep], dtype="<u8").tobytes()]
+    kept += (np.ascontiguousarray(a[keep], dtype=c.np_dtype).tobytes() for c, a in zip(REPLY_COLUMNS, arrays))
+    kept.append(raw[-1])
+    count = int(keep.sum())
+    return rows_message(count, count, kept, publication=True)
 
 
 def push_columns(core: ServiceCore, req: ColumnRequest, received: float) -> None:

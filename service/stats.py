@@ -14,23 +14,68 @@ from service.protocol.wire import ErrorKind
 __all__ = ["LatencyWindow", "ServiceStats", "REQUEST_OPS"]
 
 
+#: At most this many single samples share a chunk (so that a window of single moves drops old ones
+#: a chunk at a time without keeping more than this many beyond its size).
+_SINGLES_PER_CHUNK = 1024
+
+
 class LatencyWindow:
-    """The most recent `size` samples (seconds); percentiles are over those."""
+    """The most recent `size` samples (seconds); percentiles are over those.
+
+    Samples are kept in chunks, each a list and a shift to add to every value of it: a column batch
+    hands over the engine's list of its moves' finishing times with the shift that makes them
+    latencies, so that recording a batch costs the same whatever its length, and the values are
+    worked out only when a summary is asked for. Single samples gather in a chunk of their own
+    (shift 0). The oldest chunks are dropped once the newer ones hold `size` samples."""
 
     def __init__(self, size: int = 20000) -> None:
-        self._samples: deque[float] = deque(maxlen=size)
+        self.size = size
+        self._chunks: deque[tuple[float, list[float]]] = deque()
+        self._kept = 0  # samples in _chunks
+        self._singles: list[float] | None = None  # the last chunk, while single samples go into it
         self.count = 0
 
     def add(self, seconds: float) -> None:
-        self._samples.append(seconds)
+        singles = self._singles
+        if singles is None or len(singles) >= _SINGLES_PER_CHUNK:
+            singles = self._singles = []
+            self._chunks.append((0.0, singles))
+        singles.append(seconds)
+        self._kept += 1
         self.count += 1
+        if self._kept - len(self._chunks[0][1]) >= self.size:
+            self._drop_oldest()
 
     def extend(self, seconds: list[float]) -> None:
-        self._samples.extend(seconds)
-        self.count += len(seconds)
+        self.extend_shifted(0.0, list(seconds))
+
+    def extend_shifted(self, shift: float, values: list[float]) -> None:
+        """Samples `shift + v` for each v of `values`; the list is kept as it is (the caller must not
+        change it afterwards)."""
+        chunks = self._chunks
+        chunks.append((shift, values))
+        self._singles = None
+        self._kept += len(values)
+        self.count += len(values)
+        if self._kept - len(chunks[0][1]) >= self.size:
+            self._drop_oldest()
+
+    def _drop_oldest(self) -> None:
+        """Drop the oldest chunks while the others still hold `size` samples."""
+        chunks = self._chunks
+        while len(chunks) > 1 and self._kept - len(chunks[0][1]) >= self.size:
+            _shift, oldest = chunks.popleft()
+            self._kept -= len(oldest)
+
+    def samples(self) -> list[float]:
+        """The latest `size` samples, oldest first."""
+        out: list[float] = []
+        for shift, values in self._chunks:
+            out.extend(values if shift == 0.0 else [shift + v for v in values])
+        return out[-self.size:] if len(out) > self.size else out
 
     def summary_ms(self) -> dict[str, float | int]:
-        data = sorted(self._samples)
+        data = sorted(self.samples())
         out: dict[str, float | int] = {"count": self.count, "window": len(data)}
         if not data:
             return out | {"p50": 0.0, "p90": 0.0, "p99": 0.0, "max": 0.0, "mean": 0.0}
@@ -75,10 +120,8 @@ class ServiceStats:
         """One move resolved (a single-move request's path: no lists built for one sample)."""
         with self._lock:
             self.moves += 1
-            self.latency._samples.append(latency)  # LatencyWindow.add, written out (once per move)
-            self.latency.count += 1
-            self.engine_time._samples.append(engine)
-            self.engine_time.count += 1
+            self.latency.add(latency)
+            self.engine_time.add(engine)
 
     def moves_done(self, latency: list[float], engine: list[float]) -> None:
         """Moves resolved: each one's latency and time in the engine (one lock for a whole batch)."""
@@ -87,10 +130,18 @@ class ServiceStats:
             self.latency.extend(latency)
             self.engine_time.extend(engine)
 
+    def batch_done(self, shift: float, finished_at: list[float], engine: list[float]) -> None:
+        """A column batch's moves resolved: each one's latency is `shift` plus its finishing time, and its
+        time in the engine. The lists are kept as they are (service/column_moves.py hands them over)."""
+        with self._lock:
+            self.moves += len(engine)
+            self.latency.extend_shifted(shift, finished_at)
+            self.engine_time.extend_shifted(0.0, engine)
+
     def samples(self) -> dict[str, list[float]]:
         """The latency and engine-time samples kept (seconds), copied: for a parent merging workers' stats."""
         with self._lock:
-            return {"latency_s": list(self.latency._samples), "engine_s": list(self.engine_time._samples)}
+            return {"latency_s": self.latency.samples(), "engine_s": self.engine_time.samples()}
 
     def bump(self, counter: str, key: str) -> None:
         with self._lock:

@@ -27,6 +27,21 @@ __all__ = ["ColumnRequest", "is_column_request", "column_count", "parse_column_r
 #: How far a given orientation's length may be from 1 (as the map form's `as_quat`).
 _UNIT_TOLERANCE = 1e-3
 
+#: A real column's values are all finite and within float32's range when the sum of their squares (one
+#: numpy call, `np.vdot`) is below this: a value beyond FLOAT32_MAX squares to more than 1.15e77, NaN
+#: or infinity make the sum NaN or infinite. A sum at or above it (values near the limit, or many large
+#: ones) only means the values are looked at one by one.
+_SQUARES_IN_RANGE = 1e76
+_vdot = np.vdot
+
+#: per move kind, the columns it must give and the columns it may give
+_REQUIRED = {kind: frozenset(c.name for c in REQUEST_COLUMNS if kind in c.required) for kind in KINDS}
+_ALLOWED = {kind: frozenset(c.name for c in REQUEST_COLUMNS if c.allowed(kind)) for kind in KINDS}
+_ITEM_BYTES = {c.name: c.item_bytes for c in REQUEST_COLUMNS}
+_SHAPED = {c.name: (c.np_dtype, c.width) for c in REQUEST_COLUMNS}
+_KNOWN = frozenset(REQUEST_BY_NAME)
+_ID_BYTES = REQUEST_BY_NAME["id"].item_bytes
+
 
 @dataclass(slots=True)
 class ColumnRequest:
@@ -108,12 +123,12 @@ def refuse_bad_reals(columns: tuple[Column, ...], arrays: dict[str, np.ndarray[A
     naming the column, the item and the component; an item's first bad value (in column order) wins.
     Shared with the queries' column form (service/protocol/query_columns.py)."""
     for col in columns:
+        if not col.real:
+            continue
         a = arrays.get(col.name)
-        if a is None or not col.real or n == 0:
+        if a is None or n == 0 or _vdot(a, a) < _SQUARES_IN_RANGE:  # every value finite and in range
             continue
         grid = a.reshape(n, col.width)
-        if np.abs(grid).max() <= FLOAT32_MAX:  # every value finite and in range (NaN compares False)
-            continue
         non_finite = ~np.isfinite(grid)
         too_big = np.abs(np.where(non_finite, 0.0, grid)) > FLOAT32_MAX
         for kind, mask in ((ErrorKind.NON_FINITE, non_finite), (ErrorKind.BAD_VALUE, too_big)):
@@ -156,6 +171,65 @@ def _bad_ranges(req: ColumnRequest) -> None:
                                            "current orientation)", path)
 
 
+def _refuse_names(cols: dict[Any, Any]) -> None:
+    """Refuses the first column name the form does not know."""
+    for name in cols:
+        if name not in REQUEST_BY_NAME:
+            # refused, not ignored: a misspelt optional column (`velocty`) would otherwise run every item
+            # without it. The same rule and message as the query column forms' (service/protocol/query_columns.py)
+            path = f"columns.{str(name)[:40]}"
+            raise ProtocolError(ErrorKind.BAD_VALUE,
+                                f"{path}: not a column of move (columns: {', '.join(sorted(REQUEST_BY_NAME))})", path)
+
+
+def _columns_one_by_one(cols: dict[str, Any], kind: str) -> tuple[dict[str, bytes], int]:
+    """The given columns and the item count, each column checked in REQUEST_COLUMNS' order, so that the
+    first thing wrong is the one refused: a column missing, not of `kind`, not binary or not whole
+    items, then too many items, then a column not as long as `id`. A column given as nil is not given."""
+    given: dict[str, bytes] = {}
+    for col in REQUEST_COLUMNS:
+        raw = _column_bytes(cols, col, kind)
+        if raw is not None:
+            given[col.name] = raw
+    n = len(given["id"]) // _ID_BYTES
+    if n > MAX_BATCH:
+        raise ProtocolError(ErrorKind.TOO_LARGE, f"columns.id: {n} items, at most {MAX_BATCH} allowed", "columns.id")
+    for name, raw in given.items():
+        count = len(raw) // _ITEM_BYTES[name]
+        if count != n:
+            path = f"columns.{name}"
+            raise ProtocolError(ErrorKind.BAD_VALUE,
+                                f"{path}: {count} items, but columns.id has {n} (every column holds one entry per "
+                                "item)", path)
+    return given, n
+
+
+def _checked_columns(cols: dict[str, Any], kind: str) -> tuple[dict[str, bytes], int]:
+    """The given columns and the item count. The usual request (every column binary, of `kind`, as long
+    as `id`) is told apart with a few set operations and a length per column; anything else goes through
+    `_columns_one_by_one`, which finds what is wrong."""
+    ids = cols.get("id")
+    names = cols.keys()
+    if isinstance(ids, bytes) and _REQUIRED[kind] <= names <= _ALLOWED[kind]:
+        n = len(ids) // _ID_BYTES
+        item_bytes = _ITEM_BYTES
+        for name, raw in cols.items():
+            if not isinstance(raw, bytes) or len(raw) != n * item_bytes[name]:
+                break
+        else:
+            if n > MAX_BATCH:
+                raise ProtocolError(ErrorKind.TOO_LARGE, f"columns.id: {n} items, at most {MAX_BATCH} allowed",
+                                    "columns.id")
+            return cols, n
+    return _columns_one_by_one(cols, kind)
+
+
+def _as_array(raw: bytes, name: str, n: int) -> np.ndarray[Any, Any]:
+    dtype, width = _SHAPED[name]
+    a = np.frombuffer(raw, dtype)
+    return a if width == 1 else a.reshape(n, width)
+
+
 def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
     """`{"v": 1, "kind": ..., "columns": {...}, "publish"?}` to a ColumnRequest; ProtocolError for
     anything that concerns the whole request."""
@@ -164,34 +238,11 @@ def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
     cols = msg.get("columns")
     if not isinstance(cols, dict):
         raise ProtocolError(ErrorKind.WRONG_TYPE, f"columns: expected a map, got {_type_name(cols)}", "columns")
-    for name in cols:
-        if name not in REQUEST_BY_NAME:
-            # refused, not ignored: a misspelt optional column (`velocty`) would otherwise run every item
-            # without it. The same rule and message as the query column forms' (service/protocol/query_columns.py)
-            path = f"columns.{str(name)[:40]}"
-            raise ProtocolError(ErrorKind.BAD_VALUE,
-                                f"{path}: not a column of move (columns: {', '.join(sorted(REQUEST_BY_NAME))})", path)
+    if not cols.keys() <= _KNOWN:
+        _refuse_names(cols)
     kind = _parse_kind(msg)
     publish = _parse_publish(msg)
-    given: dict[str, bytes] = {}
-    for col in REQUEST_COLUMNS:
-        raw = _column_bytes(cols, col, kind)
-        if raw is not None:
-            given[col.name] = raw
-    id_col = REQUEST_BY_NAME["id"]
-    n = len(given["id"]) // id_col.item_bytes
-    if n > MAX_BATCH:
-        raise ProtocolError(ErrorKind.TOO_LARGE, f"columns.id: {n} items, at most {MAX_BATCH} allowed", "columns.id")
-    arrays: dict[str, np.ndarray[Any, Any]] = {}
-    for name, raw in given.items():
-        col = REQUEST_BY_NAME[name]
-        count = len(raw) // col.item_bytes
-        if count != n:
-            path = f"columns.{name}"
-            raise ProtocolError(ErrorKind.BAD_VALUE,
-                                f"{path}: {count} items, but columns.id has {n} (every column holds one entry per "
-                                "item)", path)
-        arrays[name] = np.frombuffer(raw, dtype=col.np_dtype).reshape((n,) if col.width == 1 else (n, col.width))
-    req = ColumnRequest(kind, n, arrays, publish)
+    given, n = _checked_columns(cols, kind)
+    req = ColumnRequest(kind, n, {name: _as_array(raw, name, n) for name, raw in given.items()}, publish)
     _bad_reals(req)
     return req

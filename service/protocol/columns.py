@@ -79,15 +79,14 @@ class Column:
     #: column per request on both sides, so worked out once here
     np_dtype: np.dtype[Any] = field(init=False, repr=False, compare=False)
     item_bytes: int = field(init=False, repr=False, compare=False)
+    #: whether its values are reals (f64): those are checked for NaN, infinity and float32's range
+    real: bool = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         wire = _NP_DTYPES[self.dtype]
         object.__setattr__(self, "np_dtype", wire)
         object.__setattr__(self, "item_bytes", wire.itemsize * self.width)
-
-    @property
-    def real(self) -> bool:
-        return self.dtype == "f64"
+        object.__setattr__(self, "real", self.dtype == "f64")
 
     def missing_rows(self, n: int) -> np.ndarray[Any, Any]:
         """`n` rows of this column (in native byte order) that all hold the missing value."""
