@@ -51,18 +51,20 @@ class _PlaneS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
     d: _Real
 
 
-class _StateS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
+class _StateS(msgspec.Struct, forbid_unknown_fields=True, gc=False, kw_only=True):
+    """The fields in the order the service writes them (service/protocol/codec.py, pack_state): msgspec
+    looks for the next key where the last one matched first (`kw_only` lets a required field follow an
+    optional one)."""
+
     id: _U64
     seq: _U64
     ok: bool
     position: _PositionS
+    #: written for readers that do not decode the cell; not read (as STATE declares it)
+    landblock: int | None = None
     transition_state: str
     contact: bool
     on_walkable: bool
-    #: Tag's range: msgpack's integers are all within it
-    tag: int | Annotated[str, msgspec.Meta(max_length=_MAX_TAG_CHARS)] | None = None
-    #: written for readers that do not decode the cell; not read (as STATE declares it)
-    landblock: int | None = None
     contact_plane: _PlaneS | None = None
     contact_plane_cell: _U32 | None = None
     collision_normal: _Vector | None = None
@@ -71,6 +73,8 @@ class _StateS(msgspec.Struct, forbid_unknown_fields=True, gc=False):
     frames_stationary_fall: int | None = None
     transient_state: list[str] = []
     collide_objects: list[_U64] = []
+    #: Tag's range: msgpack's integers are all within it
+    tag: int | Annotated[str, msgspec.Meta(max_length=_MAX_TAG_CHARS)] | None = None
 
 
 class _StateReplyS(msgspec.Struct, gc=False):
