@@ -1,10 +1,17 @@
 """What an instance puts on the bus besides its replies: States, errors, forwarded moves, hand-overs.
 
 `ZenohBus` is the core's `BusPort` (service/core.py) on an open Zenoh session. It owns the publishers
-the node declares for it and the question "would a put here reach anyone": each publication asks
-Zenoh's matching status once per request, so an instance nobody watches publishes nothing
-(docs/protocol.md, "State publication"). The node keeps the session, the queryables and the engine
-thread; it lends the bus two things for a hand-over's wait (`HandoverWait`).
+the node declares for it and the question "would a put here reach anyone", asked once per request, so
+an instance nobody watches publishes nothing (docs/protocol.md, "State publication"). The node keeps
+the session, the queryables and the engine thread; it lends the bus two things for a hand-over's wait
+(`HandoverWait`).
+
+How "would a put reach anyone" stays exact yet cheap (`MatchWatch`): Zenoh's matching listener is told
+of a new subscriber by a task Zenoh spawns while it takes in the declaration, so a request that came
+after the declaration, even on the same link, may be handled before that task has run. Its "yes" is
+therefore trusted (a put after a stale "yes" reaches nobody, which nobody can tell from no put), its
+"no" is not: then the routing tables are read, as every request did before (~1.2 µs uncontended, and
+Zenoh lets go of the GIL for it, which under load hands the interpreter to another thread).
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from service.bus.request_log import ERRORS
 from service.protocol.frames import pack, state_message, states_message
 from service.protocol.wire import ErrorKind, Keys
 
-__all__ = ["ZenohBus", "HandoverWait"]
+__all__ = ["ZenohBus", "HandoverWait", "MatchWatch"]
 
 #: State keys kept parsed (one per mover published recently)
 _KEY_CACHE = 100_000
@@ -39,6 +46,41 @@ class HandoverWait(Protocol):
         ...
 
 
+class MatchWatch:
+    """Whether a put on `publisher`'s key would reach a subscriber now: Zenoh's notified "yes", else its
+    routing tables read at the call (see the module's docstring for why a notified "no" is not enough)."""
+
+    __slots__ = ("publisher", "notified_matching", "_listener")
+
+    def __init__(self, publisher: Any) -> None:
+        self.publisher = publisher
+        #: the last matching status Zenoh notified (it notifies at once when a subscriber exists already)
+        self.notified_matching = False
+        # called on Zenoh's thread (indirect=False): one assignment, no Python thread of its own
+        self._listener: Any = publisher.declare_matching_listener(
+            zenoh.handlers.Callback(self._notified, indirect=False))
+
+    def _notified(self, status: Any) -> None:
+        self.notified_matching = bool(status.matching)
+
+    def matching(self) -> bool:
+        """A subscriber whose declaration reached this session before the call is always seen."""
+        if self.notified_matching:
+            return True
+        try:
+            return bool(self.publisher.matching_status.matching)
+        except Exception:  # the publisher is gone (shutting down): publish as without it
+            return True
+
+    def close(self) -> None:
+        """Undeclare the listener (the publisher stays its owner's to undeclare)."""
+        self.notified_matching = False
+        try:
+            self._listener.undeclare()
+        except Exception:  # already gone with the session
+            pass
+
+
 class ZenohBus:
     """The core's view of the bus (BusPort), on `session` under `keys`'s prefix."""
 
@@ -53,21 +95,29 @@ class ZenohBus:
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
         # a publisher on P/obj/*/state only for its matching status; kept until the queued requests are
         # answered at shutdown (they ask it)
-        self._state_watch: Any = session.declare_publisher(keys.state("*")) if skip_unwatched_states else None
+        self._state_watch: MatchWatch | None = (
+            MatchWatch(session.declare_publisher(keys.state("*"))) if skip_unwatched_states else None)
         self._batch_pub: Any = session.declare_publisher(keys.states)
         self._columns_pub: Any = session.declare_publisher(keys.state_columns)
+        self._batch_watch: MatchWatch | None = MatchWatch(self._batch_pub) if skip_unwatched_states else None
+        self._columns_watch: MatchWatch | None = MatchWatch(self._columns_pub) if skip_unwatched_states else None
         self._open = True
 
     def close(self) -> None:
-        """Undeclare the publishers (the session stays the node's to close)."""
+        """Undeclare the publishers and their listeners (the session stays the node's to close)."""
         self._open = False
-        for pub in (self._state_watch, self._batch_pub, self._columns_pub):
+        for watch in (self._state_watch, self._batch_watch, self._columns_watch):
+            if watch is not None:
+                watch.close()
+        state_pub = self._state_watch.publisher if self._state_watch is not None else None
+        for pub in (state_pub, self._batch_pub, self._columns_pub):
             if pub is not None:
                 try:
                     pub.undeclare()
                 except Exception:  # already gone with the session
                     pass
-        self._state_watch = self._batch_pub = self._columns_pub = None
+        self._state_watch = self._batch_watch = self._columns_watch = None
+        self._batch_pub = self._columns_pub = None
 
     # -- would a put reach anyone -------------------------------------------------
     def states_watched(self) -> bool:
@@ -77,30 +127,29 @@ class ZenohBus:
         watch = self._state_watch
         if watch is None:
             return True
+        # `watch.matching()` written out: this is every single move's path
+        if watch.notified_matching:
+            return True
         try:
-            # Zenoh's routing tables read now: a subscriber whose declaration arrived before the request counts
-            return bool(watch.matching_status.matching)
+            return bool(watch.publisher.matching_status.matching)
         except Exception:  # the publisher is gone (shutting down): publish as without it
             return True
 
-    def _watched(self, pub: Any) -> bool:
-        """Whether a put on `pub`'s key would reach anyone (Zenoh's matching status, read now)."""
+    def _watched(self, pub: Any, watch: MatchWatch | None) -> bool:
+        """Whether a put on `pub`'s key would reach anyone (`watch`'s answer when skipping unwatched puts)."""
         if not self.publish_states or pub is None:
             return False
-        if not self.skip_unwatched_states:
+        if watch is None:
             return True
-        try:
-            return bool(pub.matching_status.matching)
-        except Exception:  # the publisher is gone (shutting down): publish as without it
-            return True
+        return watch.matching()
 
     def batch_watched(self) -> bool:
         """Whether anyone subscribes to P/states now."""
-        return self._watched(self._batch_pub)
+        return self._watched(self._batch_pub, self._batch_watch)
 
     def columns_watched(self) -> bool:
         """Whether anyone subscribes to P/state_columns now."""
-        return self._watched(self._columns_pub)
+        return self._watched(self._columns_pub, self._columns_watch)
 
     # -- puts ----------------------------------------------------------------------
     def publish_state(self, mover_id: int, packed_state: bytes) -> None:
