@@ -10,8 +10,8 @@ How "would a put reach anyone" stays exact yet cheap (`MatchWatch`): Zenoh's mat
 of a new subscriber by a task Zenoh spawns while it takes in the declaration, so a request that came
 after the declaration, even on the same link, may be handled before that task has run. Its "yes" is
 therefore trusted (a put after a stale "yes" reaches nobody, which nobody can tell from no put), its
-"no" is not: then the routing tables are read, as every request did before (~1.2 µs uncontended, and
-Zenoh lets go of the GIL for it, which under load hands the interpreter to another thread).
+"no" is not: then the routing tables are read, as every request did before. That read lets go of the
+GIL and scans every subscription the tables hold (measured ~1 µs with none, ~20 µs with 1000 others).
 """
 
 from __future__ import annotations
