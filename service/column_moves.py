@@ -106,7 +106,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     meanwhile go on to the new owner's push key."""
     bus = core.bus
     arrays = req.arrays
-    ids: list[int] = arrays["id"].tolist()
+    ids: list[int] = req.ids if req.ids is not None else arrays["id"].tolist()
     movers = _movers(core, ids, req.bad)
     out = ColumnResults(req.n)
     out.publish_each = req.publish == "each" and bus.states_watched()

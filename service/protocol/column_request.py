@@ -54,6 +54,9 @@ class ColumnRequest:
     publish: str = "each"
     #: item index -> its error, for items whose values are refused (they are not run)
     bad: dict[int, ProtocolError] = field(default_factory=dict)
+    #: the `id` column as Python ints when known (shared with other requests of the same ids: never
+    #: changed); None: `arrays["id"]` is read
+    ids: list[int] | None = None
 
 
 def is_column_request(msg: dict[str, Any]) -> bool:
@@ -224,6 +227,21 @@ def _checked_columns(cols: dict[str, Any], kind: str) -> tuple[dict[str, bytes],
     return _columns_one_by_one(cols, kind)
 
 
+#: Recent requests' id columns as lists of ints, by their bytes: a client sends the same movers' ids
+#: request after request, and hashing the bytes costs a tenth of making the ints again.
+_ID_LISTS: dict[bytes, list[int]] = {}
+_ID_LISTS_KEPT = 64
+
+
+def _id_list(raw: bytes, ids: np.ndarray[Any, Any]) -> list[int]:
+    got = _ID_LISTS.get(raw)
+    if got is None:
+        if len(_ID_LISTS) >= _ID_LISTS_KEPT:
+            _ID_LISTS.clear()
+        got = _ID_LISTS[raw] = ids.tolist()
+    return got
+
+
 def _as_array(raw: bytes, name: str, n: int) -> np.ndarray[Any, Any]:
     dtype, width = _SHAPED[name]
     a = np.frombuffer(raw, dtype)
@@ -243,6 +261,7 @@ def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
     kind = _parse_kind(msg)
     publish = _parse_publish(msg)
     given, n = _checked_columns(cols, kind)
-    req = ColumnRequest(kind, n, {name: _as_array(raw, name, n) for name, raw in given.items()}, publish)
+    arrays = {name: _as_array(raw, name, n) for name, raw in given.items()}
+    req = ColumnRequest(kind, n, arrays, publish, ids=_id_list(given["id"], arrays["id"]))
     _bad_reals(req)
     return req
