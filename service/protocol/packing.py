@@ -2,19 +2,17 @@
 
 The per-move State is written this way: fixed-size values (ids, seq, cell, reals, booleans) and the
 constant bytes around them (keys, headers) are packed in one `struct` call per run, the few strings and
-string lists a field takes are packed once and looked up, and a nil or a value is one piece each. The
-bytes decode to exactly the map the declaration's `encode_fn` gives.
+string lists a field takes are packed once and looked up (dicts that pack what they lack), and a nil or a
+value is one piece each; the pieces, the optional fields' included, are joined once. Constant bytes are
+literals of the generated source (loaded as the code's constants, not looked up by name). The bytes
+decode to exactly the map the declaration's `encode_fn` gives.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
-
-import msgpack
-
 from service.protocol.schema import Field, Map
-from service.protocol.schema_kinds import Kind, Packed, Quaternion, SourceGen, Vector
+from service.protocol.schema_kinds import Kind, Packed, Quaternion, SourceGen, Vector, packb
 
 __all__ = ["make_packer"]
 
@@ -26,7 +24,7 @@ def make_packer(m: Map, args: str) -> Callable[..., bytes]:
     nested maps flattened, fixed-size values packed together. `omit` fields come last, and the map's
     entry count counts them when given."""
     g = SourceGen()
-    g.ns.update(_packb=_packb, _cached=_cached, _cached_list=_cached_list, _NIL=_NIL, _SMALL=_SMALL)
+    g.ns.update(_packb=packb)
     out = Packed(g)
     always = [f for f in m.fields if not f.omit]
     omissible = [f for f in m.fields if f.omit]
@@ -34,16 +32,15 @@ def make_packer(m: Map, args: str) -> Callable[..., bytes]:
     out.fixed(b"\xde", "H", count)
     for f in always:
         _pack_field(g, f, f.source(""), out, True)
-    tail = Packed(g)
-    for f in omissible:
+    for f in omissible:  # in the one join with the rest: no second copy of the bytes
         inner = Packed(g)
         _pack_field(g, f, f.source(""), inner, False)
-        tail.expr(f"(b'' if {f.source('')} is None else {inner.join()})")
+        out.expr(f"(b'' if {f.source('')} is None else {inner.join()})")
     fn = f"pack_{m.name}"
     g.emit(0, f"def {fn}({args}):")
     for line in out.pre:
         g.emit(1, line)
-    g.emit(1, f"return {out.join()}{' + ' + tail.join() if omissible else ''}")
+    g.emit(1, f"return {out.join()}")
     return g.compile(fn)  # type: ignore[no-any-return]
 
 
@@ -59,13 +56,13 @@ def _hoisted(g: SourceGen, src: str, out: Packed, hoist: bool) -> str:
 def _pack_field(g: SourceGen, f: Field, src: str, out: Packed, hoist: bool) -> None:
     """The field's key and value. `hoist`: locals may be set at the function's start (not inside a
     branch taken only when an enclosing value is given)."""
-    key = _packb(f.name)
+    key = packb(f.name)
     if f.nullable:  # the key goes into both branches: one piece, not two
         local = _hoisted(g, src, out, hoist)
         inner = Packed(g)
         inner.const(key)
         _pack_value(g, f.kind, local, inner, False)
-        out.expr(f"({g.const(key + _NIL, 'B')} if {local} is None else {inner.join()})")
+        out.expr(f"({key + _NIL!r} if {local} is None else {inner.join()})")
     else:
         out.const(key)
         _pack_value(g, f.kind, src, out, hoist)
@@ -81,24 +78,3 @@ def _pack_value(g: SourceGen, kind: Kind, src: str, out: Packed, hoist: bool) ->
         kind.pack(g, _hoisted(g, src, out, hoist), out)
     else:
         kind.pack(g, src, out)
-
-
-def _packb(value: Any) -> bytes:
-    return bytes(msgpack.packb(value, use_bin_type=True))
-
-
-_SMALL = [_packb(i) for i in range(128)]  # positive fixints
-
-
-def _cached(cache: dict[str, bytes], prefix: bytes, s: str) -> bytes:
-    b = prefix + _packb(s)
-    if len(cache) < 64:  # the names are a handful; anything else is packed each time
-        cache[s] = b
-    return b
-
-
-def _cached_list(cache: dict[tuple[str, ...], bytes], prefix: bytes, names: list[str]) -> bytes:
-    b = prefix + _packb(names)
-    if len(cache) < 256:
-        cache[tuple(names)] = b
-    return b

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from struct import Struct
 from typing import Any
 
+import msgpack
+
 from engine.limits import FLOAT32_MAX
 
 from service.protocol.errors import ProtocolError
@@ -30,7 +32,7 @@ from service.protocol.wire import ErrorKind
 
 __all__ = [
     "SourceGen", "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Number", "Bool", "Str", "Enum", "Value",
-    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed",
+    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed", "PackedNames", "packb",
 ]
 
 MAX_TAG_LEN = 256
@@ -116,7 +118,10 @@ class Int(Kind):
         return x
 
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
-        out.expr(f"(_SMALL[{src}] if 0 <= {src} < 128 else _packb({src}))")
+        # 0..127 (a counter's usual values) looked up with the key before them; any other packed
+        prefix = out.take_prefix()
+        small = g.const(tuple(prefix + packb(i) for i in range(128)), "small")
+        out.expr(f"({small}[{src}] if 0 <= {src} < 128 else {prefix!r} + _packb({src}))")
 
 
 @dataclass(frozen=True, slots=True)
@@ -190,9 +195,8 @@ class Str(_Exact):
 
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         # the handful of names a field takes, packed once each (with the key before them)
-        prefix = g.const(out.take_prefix(), "B")
-        cache = g.const({}, "strs")
-        out.expr(f"({cache}.get({src}) or _cached({cache}, {prefix}, {src}))")
+        names = g.const(PackedNames(out.take_prefix(), 64), "strs")
+        out.expr(f"{names}[{src}]")
 
 
 class Enum(Kind):
@@ -376,11 +380,32 @@ class ListOf(Kind):
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         prefix = out.take_prefix()
         if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each, key and all
-            cache = g.const({}, "lists")
-            out.expr(f"({cache}.get(tuple({src})) or _cached_list({cache}, {g.const(prefix, 'B')}, {src}))")
-        else:
-            empty = g.const(prefix + b"\x90", "B")  # an empty array
-            out.expr(f"({g.const(prefix, 'B')} + _packb({src}) if {src} else {empty})")
+            lists = g.const(PackedNames(prefix, 256), "lists")
+            out.expr(f"{lists}[tuple({src})]")
+        else:  # an empty array, or the list packed
+            empty = prefix + b"\x90"
+            out.expr(f"({prefix!r} + _packb({src}) if {src} else {empty!r})")
+
+
+def packb(value: Any) -> bytes:
+    """msgpack's bytes of `value` (strings as str, bytes as bin)."""
+    return bytes(msgpack.packb(value, use_bin_type=True))
+
+
+class PackedNames(dict[Any, bytes]):
+    """A field's names (or tuples of names) to their bytes after the field's key, each packed when first
+    asked for; the first `limit` kept (a field takes a handful: anything past them is packed each time)."""
+
+    def __init__(self, prefix: bytes, limit: int) -> None:
+        super().__init__()
+        self.prefix = prefix
+        self.limit = limit
+
+    def __missing__(self, key: Any) -> bytes:
+        b = self.prefix + packb(key)  # a tuple is packed as the array its list would be
+        if len(self) < self.limit:
+            self[key] = b
+        return b
 
 
 #: msgpack's true and false, as Packed writes a boolean
@@ -388,45 +413,45 @@ _TRUE, _FALSE = b"\xc3", b"\xc2"
 
 
 class Packed:
-    """Bytes being put together: runs of constants and fixed-size values become one Struct each."""
+    """Bytes being put together: runs of constants and fixed-size values become one Struct each.
+
+    Constant bytes are written into the generated source as literals (a local constant to the code,
+    cheaper to load than a name), beside each other merged into one."""
 
     def __init__(self, g: SourceGen) -> None:
         self.g = g
         self.parts: list[str] = []
         self.pre: list[str] = []  # statements the parts need first (locals)
-        self._fmt = ""
-        self._args: list[str] = []
-        self._consts: set[str] = set()
+        self._codes: list[str] = []  # the pending run: each argument's Struct code
+        self._args: list[str | bytes] = []  # ... and the argument: an expression, or constant bytes
         self._flags: dict[int, str] = {}  # argument index: the boolean it packs
 
     def const(self, b: bytes) -> None:
-        if b:
-            if self._args and self._args[-1] in self._consts:  # one constant, not two beside each other
-                b = self.take_prefix() + b
-            self._fmt += f"{len(b)}s"
-            name = self.g.const(b, "B")
-            self._consts.add(name)
-            self._args.append(name)
+        if not b:
+            return
+        if self._args and isinstance(self._args[-1], bytes):  # one constant, not two beside each other
+            b = self.take_prefix() + b
+        self._codes.append(f"{len(b)}s")
+        self._args.append(b)
 
     def flag(self, cond: str) -> None:
         """A boolean: one byte, true or false."""
-        self._fmt += "B"
+        self._codes.append("B")
         self._args.append(f"(0xC3 if {cond} else 0xC2)")
         self._flags[len(self._args) - 1] = cond
 
     def fixed(self, prefix: bytes, code: str, value: str) -> None:
         self.const(prefix)
-        self._fmt += code
+        self._codes.append(code)
         self._args.append(value)
 
     def take_prefix(self) -> bytes:
         """The constant bytes at the end of the pending run, taken out of it (the next piece includes them)."""
-        taken = b""
-        while self._args and self._args[-1] in self._consts:
-            name = self._args.pop()
-            b = self.g.ns[name]
-            self._fmt = self._fmt[: -len(f"{len(b)}s")]
-            taken = b + taken
+        if not self._args or not isinstance(self._args[-1], bytes):
+            return b""
+        self._codes.pop()
+        taken = self._args.pop()
+        assert isinstance(taken, bytes)
         return taken
 
     def expr(self, e: str) -> None:
@@ -436,27 +461,27 @@ class Packed:
     def _flush(self) -> None:
         if not self._args:
             return
-        if all(a in self._consts for a in self._args):  # constants only
-            self.parts.append(self.g.const(b"".join(self.g.ns[a] for a in self._args), "B"))
-        elif len(self._flags) <= 3 and all(a in self._consts or i in self._flags for i, a in enumerate(self._args)):
-            # constants and a few booleans: every combination packed once, looked up
-            table = {}
-            for bits in range(1 << len(self._flags)):
-                values = dict(zip(self._flags, ((bits >> k) & 1 == 1 for k in range(len(self._flags)))))
-                table[tuple(values.values())] = b"".join(
-                    (_TRUE if values[i] else _FALSE) if i in values else self.g.ns[a] for i, a in enumerate(self._args))
-            conds = list(self._flags.values())
-            if len(conds) == 1:
-                t = self.g.const(table[(True,)], "B")
-                f = self.g.const(table[(False,)], "B")
-                self.parts.append(f"({t} if {conds[0]} else {f})")
-            else:
-                self.parts.append(f"{self.g.const(table, 'flags')}[{', '.join(f'bool({c})' for c in conds)}]")
+        if all(isinstance(a, bytes) or i in self._flags for i, a in enumerate(self._args)) and len(self._flags) <= 3:
+            # constants and a few booleans: every combination written out, chosen by the booleans
+            self.parts.append(self._choice({}))
         else:
-            s = self.g.const(Struct(">" + self._fmt).pack, "pack")
-            self.parts.append(f"{s}({', '.join(self._args)})")
-        self._fmt, self._args = "", []
-        self._consts, self._flags = set(), {}
+            s = self.g.const(Struct(">" + "".join(self._codes)).pack, "pack")
+            self.parts.append(f"{s}({', '.join(repr(a) if isinstance(a, bytes) else a for a in self._args)})")
+        self._codes, self._args, self._flags = [], [], {}
+
+    def _choice(self, values: dict[int, bool]) -> str:
+        """The run's bytes given the booleans in `values`, the others chosen by nested conditionals."""
+        undecided = [i for i in self._flags if i not in values]
+        if not undecided:
+            run = b""
+            for i, a in enumerate(self._args):
+                if i in values:
+                    run += _TRUE if values[i] else _FALSE
+                elif isinstance(a, bytes):  # every other argument is (see _flush)
+                    run += a
+            return repr(run)
+        i = undecided[0]
+        return f"({self._choice({**values, i: True})} if {self._flags[i]} else {self._choice({**values, i: False})})"
 
     def join(self) -> str:
         self._flush()
