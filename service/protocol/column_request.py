@@ -40,6 +40,7 @@ _ALLOWED = {kind: frozenset(c.name for c in REQUEST_COLUMNS if c.allowed(kind)) 
 _ITEM_BYTES = {c.name: c.item_bytes for c in REQUEST_COLUMNS}
 _SHAPED = {c.name: (c.np_dtype, c.width) for c in REQUEST_COLUMNS}
 _KNOWN = frozenset(REQUEST_BY_NAME)
+_REAL_COLUMNS = tuple(c for c in REQUEST_COLUMNS if c.real)
 _ID_BYTES = REQUEST_BY_NAME["id"].item_bytes
 
 
@@ -148,8 +149,10 @@ def refuse_bad_reals(columns: tuple[Column, ...], arrays: dict[str, np.ndarray[A
 
 def _bad_reals(req: ColumnRequest) -> None:
     """Per-item errors for refused values, the first bad value of an item (in column order) winning."""
-    refuse_bad_reals(REQUEST_COLUMNS, req.arrays, req.n, req.bad)
-    _bad_ranges(req)
+    arrays = req.arrays
+    refuse_bad_reals(_REAL_COLUMNS, arrays, req.n, req.bad)
+    if "dt" in arrays or "to_orientation" in arrays:
+        _bad_ranges(req)
 
 
 def _bad_ranges(req: ColumnRequest) -> None:
@@ -242,12 +245,6 @@ def _id_list(raw: bytes, ids: np.ndarray[Any, Any]) -> list[int]:
     return got
 
 
-def _as_array(raw: bytes, name: str, n: int) -> np.ndarray[Any, Any]:
-    dtype, width = _SHAPED[name]
-    a = np.frombuffer(raw, dtype)
-    return a if width == 1 else a.reshape(n, width)
-
-
 def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
     """`{"v": 1, "kind": ..., "columns": {...}, "publish"?}` to a ColumnRequest; ProtocolError for
     anything that concerns the whole request."""
@@ -258,10 +255,16 @@ def parse_column_request(msg: dict[str, Any]) -> ColumnRequest:
         raise ProtocolError(ErrorKind.WRONG_TYPE, f"columns: expected a map, got {_type_name(cols)}", "columns")
     if not cols.keys() <= _KNOWN:
         _refuse_names(cols)
-    kind = _parse_kind(msg)
-    publish = _parse_publish(msg)
+    kind = msg.get("kind")
+    if type(kind) is not str or kind not in KINDS:
+        kind = _parse_kind(msg)  # refuses it, or takes a str subclass
+    publish = "each" if msg.get("publish") is None else _parse_publish(msg)
     given, n = _checked_columns(cols, kind)
-    arrays = {name: _as_array(raw, name, n) for name, raw in given.items()}
+    arrays: dict[str, np.ndarray[Any, Any]] = {}
+    for name, raw in given.items():
+        dtype, width = _SHAPED[name]
+        a = np.frombuffer(raw, dtype)
+        arrays[name] = a if width == 1 else a.reshape(n, width)
     req = ColumnRequest(kind, n, arrays, publish, ids=_id_list(given["id"], arrays["id"]))
     _bad_reals(req)
     return req

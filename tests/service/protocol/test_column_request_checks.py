@@ -125,3 +125,17 @@ def test_a_nil_optional_column_is_not_given() -> None:
     req = parse_column_request({"v": 1, "kind": "offset", "columns": {
         "id": struct.pack("<2Q", 1, 2), "offset": struct.pack("<6d", *([0.5] * 6)), "velocity": None}})
     assert sorted(req.arrays) == ["id", "offset"] and req.n == 2 and req.bad == {}
+
+
+def test_id_lists_are_each_requests_own_ids() -> None:
+    def ids_of(*ids: int) -> list[int]:
+        req = parse_column_request({"v": 1, "kind": "offset", "columns": {
+            "id": struct.pack(f"<{len(ids)}Q", *ids), "offset": bytes(24 * len(ids))}})
+        assert req.ids is not None and req.ids == req.arrays["id"].tolist()
+        return req.ids
+
+    assert ids_of(5, 2**64 - 1, 5) == [5, 2**64 - 1, 5]
+    assert ids_of(7, 8) == [7, 8] and ids_of(5, 2**64 - 1, 5) == [5, 2**64 - 1, 5]
+    for k in range(200):  # more id columns than are kept
+        assert ids_of(k, k + 1) == [k, k + 1]
+    assert ids_of() == []
