@@ -32,7 +32,7 @@ from service.protocol.wire import ErrorKind
 
 __all__ = [
     "SourceGen", "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Number", "Bool", "Str", "Enum", "Value",
-    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed", "PackedNames", "packb",
+    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed", "packb",
 ]
 
 MAX_TAG_LEN = 256
@@ -83,6 +83,7 @@ class Kind:
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         """Append the msgpack bytes of `src` to `out` (default: msgpack's own packing)."""
         out.expr(f"_packb({self.encode(g, src)})")
+
 
 
 class UInt(Kind):
@@ -195,8 +196,7 @@ class Str(_Exact):
 
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         # the handful of names a field takes, packed once each (with the key before them)
-        names = g.const(PackedNames(out.take_prefix(), 64), "strs")
-        out.expr(f"{names}[{src}]")
+        out.expr(lookup(g, {}, src, src, out.take_prefix(), 64))
 
 
 class Enum(Kind):
@@ -380,8 +380,7 @@ class ListOf(Kind):
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         prefix = out.take_prefix()
         if isinstance(self.item, Str):  # a few distinct lists (transient flags): packed once each, key and all
-            lists = g.const(PackedNames(prefix, 256), "lists")
-            out.expr(f"{lists}[tuple({src})]")
+            out.expr(lookup(g, {}, f"tuple({src})", src, prefix, 256))
         else:  # an empty array, or the list packed
             empty = prefix + b"\x90"
             out.expr(f"({prefix!r} + _packb({src}) if {src} else {empty!r})")
@@ -392,20 +391,20 @@ def packb(value: Any) -> bytes:
     return bytes(msgpack.packb(value, use_bin_type=True))
 
 
-class PackedNames(dict[Any, bytes]):
-    """A field's names (or tuples of names) to their bytes after the field's key, each packed when first
-    asked for; the first `limit` kept (a field takes a handful: anything past them is packed each time)."""
+def lookup(g: SourceGen, cache: dict[Any, bytes], key: str, value: str, prefix: bytes, limit: int) -> str:
+    """An expression of `value`'s bytes after `prefix`, looked up in `cache` by `key` (both expressions),
+    packed and kept there when missing while the cache holds fewer than `limit` (a field takes a handful
+    of values: any past them is packed each time). An exact dict's `get`: cheaper than a subclass's
+    `__missing__`, whose subscript Python does not specialize."""
+    c = g.const(cache, "cache")
+    return f"({c}.get({key}) or {g.const(_packed_new, 'new')}({c}, {key}, {value}, {prefix!r}, {limit}))"
 
-    def __init__(self, prefix: bytes, limit: int) -> None:
-        super().__init__()
-        self.prefix = prefix
-        self.limit = limit
 
-    def __missing__(self, key: Any) -> bytes:
-        b = self.prefix + packb(key)  # a tuple is packed as the array its list would be
-        if len(self) < self.limit:
-            self[key] = b
-        return b
+def _packed_new(cache: dict[Any, bytes], key: Any, value: Any, prefix: bytes, limit: int) -> bytes:
+    b = prefix + packb(value)
+    if len(cache) < limit:
+        cache[key] = b
+    return b
 
 
 #: msgpack's true and false, as Packed writes a boolean
