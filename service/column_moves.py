@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 from itertools import repeat
-from operator import is_not, itemgetter
+from operator import is_not
 from dataclasses import dataclass, field
 from time import monotonic, perf_counter
 from typing import TYPE_CHECKING, Any
@@ -84,20 +84,6 @@ class ColumnResults:
     journaled: int = 0
 
 
-def _movers(core: ServiceCore, ids: list[int], bad: dict[int, ProtocolError]) -> list[Mover | None]:
-    """Each item's engine mover (None for a refused item or an id not held here)."""
-    held = core.engine_movers
-    movers: list[Mover | None]
-    try:
-        # every id held, the usual case: one C call looks them all up (a map of `get` calls one method per id)
-        movers = list(itemgetter(*ids)(held)) if len(ids) > 1 else [held[i] for i in ids]
-    except KeyError:
-        movers = list(map(held.get, ids))
-    for i in bad:
-        movers[i] = None
-    return movers
-
-
 def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
                 forward: bool = False) -> tuple[ColumnResults, list[bytes]]:
     """Every item of `req` in order, run by the engine's batch entry point; the results and, for
@@ -107,7 +93,9 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     bus = core.bus
     arrays = req.arrays
     ids: list[int] = req.ids if req.ids is not None else arrays["id"].tolist()
-    movers = _movers(core, ids, req.bad)
+    movers = core.engine_movers_of(ids)
+    for i in req.bad:  # a refused item does not run
+        movers[i] = None
     out = ColumnResults(req.n)
     out.publish_each = req.publish == "each" and bus.states_watched()
     out.gather = req.publish == "batch" and bus.batch_watched()
@@ -145,9 +133,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
         _translate_collisions(core, out)
     # each move's latency, from the request's arrival to its result, is its finishing time shifted by
     # `since - started`: the stats keep the engine's list and the shift, and add them up when asked
-    core.stats.batch_done(since - started, rows.finished_at, rows.engine_seconds)
-    if monotonic() - core._cache_read_at > 1.0:  # as ServiceCore.moves_done
-        core.refresh()
+    core.batch_done(since - started, rows.finished_at, rows.engine_seconds)
     if req.publish == "columns" and len(out.errors) + out.forwarded < req.n and core.bus.columns_watched():
         core.bus.publish_columns(publication_message(out, req))
     return out, out.packed

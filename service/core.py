@@ -12,13 +12,15 @@ import random
 from time import monotonic, perf_counter
 from dataclasses import dataclass, replace
 from collections.abc import Callable
-from typing import Any, Protocol
+from operator import itemgetter
+from typing import Any
 
 import msgpack
 
 from engine.geometry import Plane, Position, Vec3
 from engine import Mover, MoverSpec, MoveResult, MoveUndo
 
+from service.bus_port import BusPort
 from service.protocol.codec import encode_mover_spec, encode_state, encode_vec, pack_state
 from service.engine_errors import to_protocol_error
 from service.protocol.errors import ProtocolError
@@ -29,7 +31,7 @@ from service.protocol.requests import HandoverRequest, ItemError, MoveBatch, Mov
 from service.stats import ServiceStats
 from service.protocol.wire import ErrorKind, lb_hex
 
-__all__ = ["BusPort", "MoverRecord", "ServiceCore"]
+__all__ = ["MoverRecord", "ServiceCore"]
 
 log = logging.getLogger("acphys.service")
 
@@ -52,48 +54,6 @@ def _move_fields(item: MoveItem) -> dict[str, str]:
     if item.to is not None:
         return {"target": f"{base}to", "velocity": f"{base}velocity"}
     return {"motion": f"{base}motion", "dt": f"{base}dt"}
-
-class BusPort(Protocol):
-    """What the core needs from the bus (service.bus.publication.ZenohBus implements it)."""
-
-    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
-        """Publish a State (given packed: the node frames it as `{"v", "state"}`)."""
-        ...
-
-    def states_watched(self) -> bool:
-        """Whether anyone subscribes to a state key now (else publishing States can be skipped)."""
-        ...
-
-    def batch_watched(self) -> bool:
-        """Whether anyone subscribes to P/states now."""
-        ...
-
-    def publish_batch(self, packed_states: list[bytes]) -> None:
-        """Publish one request's States as one message on P/states."""
-        ...
-
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
-
-    def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
-        """Put a fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
-        ...
-
-    def handover(self, lb: int, payload: dict[str, Any]) -> dict[str, Any]:
-        """Send a mover to `lb`'s owner; its reply map, or ProtocolError."""
-        ...
-
-    def columns_watched(self) -> bool:
-        """Whether anyone subscribes to P/state_columns now."""
-        ...
-
-    def publish_columns(self, message: bytes) -> None:
-        """Put a columnar publication (a whole message) on P/state_columns."""
-        ...
-
-    def forward_columns(self, lb: int, message: bytes) -> None:
-        """Put a column push (a whole message) on `lb`'s push key."""
-        ...
-
 
 @dataclass(slots=True)
 class MoverRecord:
@@ -138,6 +98,10 @@ class ServiceCore:
         #: each held mover's engine Mover by wire id (its record's `mover`): what a column batch hands the
         #: engine, looked up a whole id column at a time
         self.engine_movers: dict[int, Mover] = {}
+        #: bumped whenever `engine_movers` changes (a mover added, dropped or replaced): a column batch's
+        #: lookup of the same id column is kept while it stands (`engine_movers_of`)
+        self.movers_version = 0
+        self._movers_of: dict[int, tuple[list[int], int, tuple[Mover | None, ...]]] = {}
         self._by_engine: dict[int, int] = {}
         self._forwarded: dict[int, int] = {}
         # assigned ids sit above 2^32 so they never collide with AC guids a client may choose
@@ -242,6 +206,7 @@ class ServiceCore:
         rec = MoverRecord(mover_id, eid, spec, mover)
         self.movers[mover_id] = rec
         self.engine_movers[mover_id] = mover
+        self.movers_version += 1
         self._by_engine[eid] = mover_id
         self._forwarded.pop(mover_id, None)
         return rec
@@ -250,6 +215,7 @@ class ServiceCore:
         self.world.remove_mover(rec.engine_id)
         self.movers.pop(rec.id, None)
         self.engine_movers.pop(rec.id, None)
+        self.movers_version += 1
         self._by_engine.pop(rec.engine_id, None)
 
     def _check_owner(self, lb: int, what: str) -> None:
@@ -287,6 +253,7 @@ class ServiceCore:
         try:
             self.world.update_mover(rec.engine_id, spec)
             rec.mover = self.engine_movers[rec.id] = self.world.mover(rec.engine_id)
+            self.movers_version += 1
             rec.mover.last = self.world.mover_state(rec.engine_id)
         except Exception as e:
             raise to_protocol_error(e, "mover", fields=_UPDATE_FIELDS) from None
@@ -453,8 +420,29 @@ class ServiceCore:
     def hand_over(self, rec: MoverRecord, lb: int, state: bytes | None, undo: MoveUndo) -> None:
         self._hand_over(rec, lb, state, undo)
 
-    def moves_done(self, latency: list[float], engine: list[float]) -> None:
-        self._done(latency, engine)
+    def batch_done(self, shift: float, finished_at: list[float], engine: list[float]) -> None:
+        """A column batch's moves resolved: each one's latency is its finishing time plus `shift`."""
+        self.stats.batch_done(shift, finished_at, engine)
+        if monotonic() - self._cache_read_at > 1.0:
+            self.refresh()
+
+    def engine_movers_of(self, ids: list[int]) -> list[Mover | None]:
+        """Each id's engine Mover (None where it is not held here), a fresh list the caller may change. A
+        client moving the same movers every tick sends the same id column, read into one shared list
+        (service.protocol.column_request): its lookup is kept while no mover is added, dropped or replaced."""
+        kept = self._movers_of.get(id(ids))
+        if kept is not None and kept[0] is ids and kept[1] == self.movers_version:
+            return list(kept[2])
+        held = self.engine_movers
+        movers: list[Mover | None]
+        try:  # every id held, the usual case: one C call looks them all up
+            movers = list(itemgetter(*ids)(held)) if len(ids) > 1 else [held[i] for i in ids]
+        except KeyError:
+            movers = list(map(held.get, ids))
+        if len(self._movers_of) >= 64:
+            self._movers_of.clear()
+        self._movers_of[id(ids)] = (ids, self.movers_version, tuple(movers))  # holds `ids`: its id stays its own
+        return movers
 
     # -- hand-over (scale-out) ----------------------------------------------------
     def _handover_payload(self, rec: MoverRecord, state: bytes | None = None) -> dict[str, Any]:

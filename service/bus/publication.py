@@ -1,6 +1,6 @@
 """What an instance puts on the bus besides its replies: States, errors, forwarded moves, hand-overs.
 
-`ZenohBus` is the core's `BusPort` (service/core.py) on an open Zenoh session. It owns the publishers
+`ZenohBus` is the core's `BusPort` (service/bus_port.py) on an open Zenoh session. It owns the publishers
 the node declares for it and the question "would a put here reach anyone", asked once per request, so
 an instance nobody watches publishes nothing (docs/protocol.md, "State publication"). The node keeps
 the session, the queryables and the engine thread; it lends the bus two things for a hand-over's wait
