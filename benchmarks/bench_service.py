@@ -349,7 +349,7 @@ def handling_main(moves: int) -> None:
             handler(StandInQuery(key, payloads[i % 2]))
         out: dict[str, Any] = {}
         for gap in (0.0, 0.0004, 0.002):
-            engine0 = len(node.stats.engine_time._samples)
+            engine0 = node.stats.engine_time.count
             times = []
             for i in range(moves):
                 if gap:
@@ -359,7 +359,7 @@ def handling_main(moves: int) -> None:
                 handler(q)
                 times.append(time.perf_counter() - t0)
                 assert q.replies == 1
-            engine = list(node.stats.engine_time._samples)[engine0:]
+            engine = node.stats.engine_time.samples()[engine0 - node.stats.engine_time.count:]
             out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
         # the engine replaced: every move resolves to the mover's current state (what the service adds)
         real_world = core.world
