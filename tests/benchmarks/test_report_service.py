@@ -1,0 +1,53 @@
+"""docs/performance.md's targets at the bus's floor (benchmarks/report_service.py), written from a run's
+results: each row's figure against its bound, and its verdict."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from benchmarks.report_service import service_targets
+
+
+def _results(rest: float, move: float, raw_rows: list[float], bare_rows: list[float]) -> dict[str, Any]:
+    def rounds(rates: list[float]) -> list[dict[str, Any]]:
+        return [{"moves_per_s": r, "ratio_to_engine": r / 200_000.0} for r in rates]
+
+    return {
+        "instructions": {"column_path": [{"per_move": 32_000.0, "run_batch_per_move": 32_000.0 - rest,
+                                          "rest_per_move": rest}]},
+        "service": {
+            "latency": {"echo": {"median": 300.0}, "engine_echo": {"median": 400.0}, "raw_move": {"median": 460.0},
+                        "move": {"median": move}, "ratio_move_to_echo": move / 300.0},
+            "batch_workload": {
+                "engine": {"moves_per_s": 200_000.0, "cpu_us_per_move": 5.0},
+                "bare": {"moves_per_s": bare_rows[1], "ratio_to_engine": 0.7, "rounds": rounds(bare_rows)},
+                "service": [{"form": "columns, raw clients", "moves_per_s": raw_rows[1], "ratio_to_engine": 0.6,
+                             "cpu_ratio_to_engine": 0.5, "service_cpu_us_per_move": 9.0, "rounds": rounds(raw_rows)}],
+            },
+        },
+    }
+
+
+def _row(lines: list[str], start: str) -> str:
+    (row,) = [line for line in lines if line.startswith(start)]
+    return row
+
+
+def test_each_target_at_the_floor_is_read_against_its_bound() -> None:
+    lines = service_targets(_results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0]))
+    count = _row(lines, "| the service's own work in a column batch")
+    assert "| 2,275 (run_batch 29,725) | met |" in count
+    trip = _row(lines, "| one move's round trip")
+    # 530 - 400 = 130 over the bound: the service 460 - 400 = 60, the client library 530 - 460 = 70
+    assert "530 vs 400 µs: 130 µs over (the service 60 µs" in trip and "client library 70 µs" in trip
+    assert trip.endswith("| missed |")
+    columns = _row(lines, "| column batches with raw clients")
+    # 120,000 / 150,000 = 0.80; the rounds 0.90, 0.80, 0.80
+    assert "120,000 vs 150,000 moves/s: 0.80 (rounds 0.90, 0.80, 0.80) | missed |" in columns
+
+
+def test_targets_met_say_met() -> None:
+    lines = service_targets(_results(2_600.0, 430.0, [96_000.0, 97_000.0, 99_000.0], [100_000.0, 100_000.0, 100_000.0]))
+    assert _row(lines, "| the service's own work in a column batch").endswith("| missed |")  # 2,600 > 2,500
+    assert _row(lines, "| one move's round trip").endswith("| met |")  # 30 µs over
+    assert _row(lines, "| column batches with raw clients").endswith("| met |")  # 0.97
