@@ -127,13 +127,7 @@ class ZenohBus:
         watch = self._state_watch
         if watch is None:
             return True
-        # `watch.matching()` written out: this is every single move's path
-        if watch.notified_matching:
-            return True
-        try:
-            return bool(watch.publisher.matching_status.matching)
-        except Exception:  # the publisher is gone (shutting down): publish as without it
-            return True
+        return watch.matching()
 
     def _watched(self, pub: Any, watch: MatchWatch | None) -> bool:
         """Whether a put on `pub`'s key would reach anyone (`watch`'s answer when skipping unwatched puts)."""
