@@ -151,10 +151,8 @@ def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str 
                 f"work but Zenoh's receive and reply), counted as the difference of a {rounds[0]}-round and a "
                 f"{rounds[1]}-round run; \"run_batch\" counts only inside the engine's batch entry point, and the rest "
                 "is the service's own work per move (with the freeing of the batch's results)."), "",
-           "| build | whole path | run_batch | the rest |", "|---|---:|---:|---:|"]
-    names = ["this checkout", f"commit {against_commit}"]
-    for name, c in zip(names, counts):
-        out.append(f"| {name} | {c['per_move']:,.0f} | {c['run_batch_per_move']:,.0f} | {c['rest_per_move']:,.0f} |")
+           *_count_table(("whole path", "run_batch", "the rest"), counts,
+                         ("per_move", "run_batch_per_move", "rest_per_move"), against_commit)]
     return out + [""]
 
 
@@ -168,8 +166,15 @@ def _single_move_lines(counts: list[dict[str, Any]] | None, against_commit: str 
             "nobody subscribed (Zenoh's receive, reply and matching status are not counted), as the difference "
             f"of a {moves[0]}-move and a {moves[1]}-move run; once with the engine replaced by a stand-in that "
             "answers the mover's current state (the service's own work) and once with the engine."), "",
-           "| build | whole callback | the service's own | the engine's |", "|---|---:|---:|---:|"]
-    names = ["this checkout", f"commit {against_commit}"]
-    for name, c in zip(names, counts):
-        out.append(f"| {name} | {c['per_move']:,.0f} | {c['service_per_move']:,.0f} | {c['engine_per_move']:,.0f} |")
+           *_count_table(("whole callback", "the service's own", "the engine's"), counts,
+                         ("per_move", "service_per_move", "engine_per_move"), against_commit)]
     return out + [""]
+
+
+def _count_table(headers: tuple[str, ...], counts: list[dict[str, Any]], keys: tuple[str, ...],
+                 against_commit: str | None) -> list[str]:
+    """A table of instruction counts, a row per build (this checkout, then the one compared against)."""
+    out = ["| build | " + " | ".join(headers) + " |", "|---|" + "---:|" * len(headers)]
+    for name, c in zip(["this checkout", f"commit {against_commit}"], counts):
+        out.append(f"| {name} | " + " | ".join(f"{c[k]:,.0f}" for k in keys) + " |")
+    return out
