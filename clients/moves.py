@@ -20,7 +20,7 @@ from service.protocol.wire import MAX_PAYLOAD, ErrorKind, Keys
 
 from clients.batch import BatchResults, move_batch
 from clients.errors import AcphysError, ServiceError
-from clients.request_channel import PendingRequest, pack_move_request, pack_request
+from clients.request_channel import FirstReplies, PendingRequest, gather_state, pack_move_request, pack_request
 from clients.types import Move, MoverState, item_result
 
 __all__ = ["MoveCalls", "REDIRECTS", "MAX_REDIRECTS"]
@@ -37,7 +37,11 @@ class MoveCalls:
 
     session: zenoh.Session
     keys: Keys
+    timeout: float
+    user: str | None
     known_landblocks: dict[int, int]
+    _tried: str
+    _lb_keys: dict[tuple[int, str], zenoh.KeyExpr]
     _push_route: dict[int, int]
     _learn: Callable[[MoverState], MoverState]
     _lb_key: Callable[[int, str], zenoh.KeyExpr]
@@ -95,12 +99,24 @@ class MoveCalls:
     def send(self, move: Move, timeout: float | None = None) -> MoverState:
         """Send one `Move` (a transition or a physics step, as `move` and `step`) and return the mover's
         State after it. Raises as `move` and `step` do."""
-        lb = self.landblock_of(move.id)
+        # The usual case in as few calls as it takes: the landblock known, its key parsed, the reply a State
+        # in the service's shape. Anything else goes the general way (`landblock_of`'s find, `_lb_key`,
+        # `_lb_ask` with its redirects and the settle retry), reading the replies already gathered first.
+        mover_id = move.id
+        lb = self.known_landblocks.get(mover_id)
+        if lb is None:
+            lb = self.landblock_of(mover_id)
         payload = pack_move_request(move.to_wire())
-        got = self._lb_ask(lb, "move", payload, move.id, timeout, self._get_state)
-        st = got if type(got) is MoverState else MoverState.from_wire(got["state"])
-        self.known_landblocks[st.id] = (st.result.position.cell_id >> 16) & 0xFFFF  # `_learn`, written out
-        return st
+        key = self._lb_keys.get((lb, "move"))
+        got = gather_state(self.session, self._lb_key(lb, "move") if key is None else key, payload,
+                           self.timeout if timeout is None else timeout)
+        if isinstance(got, list):
+            got = self._lb_ask(lb, "move", payload, mover_id, timeout,
+                               FirstReplies(got, self._get_state, self._tried, self.user is not None))
+            if type(got) is not MoverState:
+                got = MoverState.from_wire(got["state"])
+        self.known_landblocks[got.id] = (got.result.position.cell_id >> 16) & 0xFFFF  # `_learn`, written out
+        return got
 
     def move_many(self, moves: Sequence[Move], timeout: float | None = None,
                   publish: str | None = None) -> list[MoverState | AcphysError]:

@@ -10,11 +10,14 @@ for its reply map or raises what the reply says. `RequestChannel` is what a batc
 
 A single move (`Client.move`, `Client.step`) takes a shorter way, as it runs once per call and its
 reply is always a State: `pack_move_request` packs it, `ask_state` sends it and reads the State
-straight into a MoverState (clients/state_reply.py), with the same bytes, answers and errors.
+straight into a MoverState (clients/state_reply.py), with the same bytes, answers and errors. `Client.send`
+calls its first half, `gather_state`, itself, and hands any other answer to the general routine with
+`FirstReplies`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -31,7 +34,8 @@ if TYPE_CHECKING:
     from clients.types import MoverState
 
 __all__ = ["PendingRequest", "RequestChannel", "pack_request", "pack_move_request", "unpack_message",
-           "send_query", "send_payload", "read_reply", "reply_map", "ask_state"]
+           "send_query", "send_payload", "read_reply", "reply_map", "ask_state", "gather_state",
+           "FirstReplies"]
 
 
 def pack_request(content: dict[str, Any]) -> bytes:
@@ -101,6 +105,14 @@ def ask_state(session: zenoh.Session, key: str | zenoh.KeyExpr, payload: bytes, 
     """One request answered with a State (a move, a step), sent and its reply read: the MoverState when the
     reply is one in the shape the service writes (clients/state_reply.py), else what `read_reply` returns
     or raises (the caller reads the map's State itself, as before)."""
+    got = gather_state(session, key, payload, timeout)
+    return reply_map(got, key, timeout, tried, logged_in) if isinstance(got, list) else got
+
+
+def gather_state(session: zenoh.Session, key: str | zenoh.KeyExpr, payload: bytes,
+                 timeout: float) -> MoverState | list[Any]:
+    """`ask_state`'s request sent and its replies gathered: the MoverState when the first reply is a State in
+    the shape the service writes, else the list of replies, for `reply_map` (or `FirstReplies`) to read."""
     replies = list(session.get(key, payload=payload, timeout=timeout))
     if replies:
         ok = replies[0].ok
@@ -108,7 +120,30 @@ def ask_state(session: zenoh.Session, key: str | zenoh.KeyExpr, payload: bytes, 
             st = decode_state_reply(ok.payload.to_bytes())
             if st is not None:
                 return st
-    return reply_map(replies, key, timeout, tried, logged_in)
+    return replies
+
+
+class FirstReplies:
+    """A `get` for `Client._ask` (as `Client._get_state`) whose first call reads replies `gather_state` has
+    already gathered instead of asking again; later calls (after a redirect, or the settle wait) ask by
+    `get`. It lets a move that was sent on the short path fall back to the general routine, which then
+    follows redirects and retries as it does for any request, without sending the move twice."""
+
+    __slots__ = ("replies", "get", "tried", "logged_in")
+
+    def __init__(self, replies: list[Any], get: Callable[[str | zenoh.KeyExpr, bytes, float], Any], tried: str,
+                 logged_in: bool) -> None:
+        self.replies: list[Any] | None = replies
+        self.get = get
+        self.tried = tried
+        self.logged_in = logged_in
+
+    def __call__(self, key: str | zenoh.KeyExpr, payload: bytes, seconds: float) -> Any:
+        replies = self.replies
+        if replies is None:
+            return self.get(key, payload, seconds)
+        self.replies = None
+        return reply_map(replies, key, seconds, self.tried, self.logged_in)
 
 
 def reply_map(replies: list[Any], key: str | zenoh.KeyExpr, timeout: float, tried: str,
