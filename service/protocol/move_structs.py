@@ -7,7 +7,8 @@ error kind and path docs/protocol.md promises kept. A one-move request as client
 straight from its bytes (`plain_single_move`, for service/bus/node.py); every other request, and any
 fault, is read from the request map msgpack gave, the Structs filled by `msgspec.convert` from its values.
 
-What the Structs say (`msgspec.Meta`): a real within float32's range (NaN and ±infinity fail that bound
+The Structs are generated from MOVE's and TARGET's declarations (service/protocol/structs.py), and say
+what their kinds bound (`msgspec.Meta`): a real within float32's range (NaN and ±infinity fail that bound
 too), a cell's 32 bits, an id that is not negative, a tag's 256 characters, vectors of 3 and quaternions
 of 4 numbers (fixed tuples). What they cannot say is `move_item`'s post-pass: exactly one of
 to/offset/motion, `dt` with `motion` only (it is not read otherwise, as MOVE declares it) and no
@@ -24,57 +25,40 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Annotated, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import msgspec
 
 from engine import limits
 from engine.geometry import Quat, Vec3
 from engine.constants import HUGE_QUANTUM
-from engine.limits import FLOAT32_MAX, MAX_MOTION
+from engine.limits import MAX_MOTION
 
 from service.protocol.errors import ProtocolError
-from service.protocol.messages import MOVE, MoveItem, Target, engine_check
-from service.protocol.schema_kinds import MAX_TAG_LEN, Tag
+from service.protocol.messages import MOVE, MOVE_REQUEST, TARGET, MoveItem, Target, engine_check
+from service.protocol.schema_kinds import Tag
+from service.protocol.structs import struct_of
 from service.protocol.validate import as_float, as_uint
 from service.protocol.wire import PROTOCOL_VERSION, ErrorKind
 
-__all__ = ["MoveS", "TargetS", "Vector", "Real", "read_move", "read_moves", "move_item", "protocol_error",
+__all__ = ["MoveS", "TargetS", "read_move", "read_moves", "move_item", "protocol_error",
            "plain_single_move"]
 
-# -- the declarations ---------------------------------------------------------------------------------
-#: a real: within float32's range, which NaN and ±infinity fail too (told apart by protocol_error)
-Real = Annotated[float, msgspec.Meta(ge=-FLOAT32_MAX, le=FLOAT32_MAX)]
-Vector = tuple[Real, Real, Real]
-QuatValue = tuple[Real, Real, Real, Real]
-U32 = Annotated[int, msgspec.Meta(ge=0, le=0xFFFFFFFF)]
-#: "< 2**64" is the post-pass's: Meta takes int64 bounds only (and msgpack holds no larger int)
-U64 = Annotated[int, msgspec.Meta(ge=0)]
-TagValue = int | Annotated[str, msgspec.Meta(max_length=MAX_TAG_LEN)]
+# -- the Structs, generated from MOVE's declaration ------------------------------------------------------
+if TYPE_CHECKING:  # a Struct made at run time has no fields mypy could see: to it, any value
+    MoveS: TypeAlias = Any
+    TargetS: TypeAlias = Any
+else:
+    #: a move's `to` (messages.TARGET): cell and orientation default to the mover's own
+    TargetS = struct_of(TARGET, gc=False)
+    #: one move as messages.MOVE declares it (its `to`: TargetS). `dt` stays untyped: it belongs to `motion`
+    #: and is read (by MOVE's own kind, its range there) only with it; sent with an offset it is ignored
+    MoveS = struct_of(MOVE, gc=False, types={"dt": Any})
+
+#: an id's and an integer tag's upper bound, and a tag's lower one: the post-pass's (Meta takes int64 bounds only)
 _U64_END = 1 << 64
 _TAG_MIN = -(1 << 63)
-
-
-class TargetS(msgspec.Struct, gc=False):
-    """A move's `to` (messages.TARGET): cell and orientation default to the mover's own."""
-
-    origin: Vector
-    cell: U32 | None = None
-    orientation: QuatValue | None = None
-
-
-class MoveS(msgspec.Struct, gc=False):
-    """One move as messages.MOVE declares it. `dt` stays untyped: it belongs to `motion` and is read
-    (by MOVE's own kind, its range there) only with it; sent with an offset it is ignored, as before."""
-
-    id: U64
-    tag: TagValue | None = None
-    to: TargetS | None = None
-    offset: Vector | None = None
-    motion: Vector | None = None
-    dt: Any = None
-    velocity: Vector | None = None
-
 
 _ONE_OF = MOVE.one_of
 #: `dt`'s kind (its range), read in full only when the usual float in (0, HUGE_QUANTUM] is not given
@@ -174,25 +158,16 @@ def read_move(value: Any, path: str) -> MoveItem:
 
 
 # -- a plain single move straight from the payload's bytes ------------------------------------------------
-class _ExactTarget(TargetS, forbid_unknown_fields=True):
-    """TargetS with no field it does not name (see `plain_single_move`)."""
-
-
-class _ExactMove(MoveS, forbid_unknown_fields=True):
-    """MoveS with no field it does not name (see `plain_single_move`)."""
-
-    to: _ExactTarget | None = None
-
-
-class _SingleMoveRequest(msgspec.Struct, gc=False, forbid_unknown_fields=True):
-    """`{"v", "move", "publish"?}` and nothing else: the one-move request as clients send it."""
-
-    v: int
-    move: _ExactMove
-    publish: str | None = None
-
-
-_decode_single = msgspec.msgpack.Decoder(_SingleMoveRequest).decode
+#: `{"v", "move", "publish"?}` and nothing else, nor in the move (MOVE_REQUEST without its batch's `moves`):
+#: the one-move request as clients send it
+_SingleMoveRequest = struct_of(
+    MOVE_REQUEST, name="SingleMoveRequest",
+    first=(("v", int),),  # the envelope's version, which no map declares
+    leave_out=("moves",),  # a batch is left to the request map's path
+    required=("move",),  # MOVE_REQUEST's one_of, with `moves` left out
+    types={"move.dt": Any},  # as MoveS's
+    forbid_unknown_fields=True, gc=False)
+_decode_single: Callable[[bytes], Any] = msgspec.msgpack.Decoder(_SingleMoveRequest).decode
 
 
 def plain_single_move(payload: bytes) -> tuple[MoveItem, bool] | None:
@@ -201,22 +176,17 @@ def plain_single_move(payload: bytes) -> tuple[MoveItem, bool] | None:
     (a batch's `moves`, a column request's `columns`, an unknown one), or a fault of any kind. The caller
     then takes the request map's path (requests.decode_envelope, parse_single_move), which says what is
     wrong in the protocol's words: only a request that path accepts as it is gets here an answer of its
-    own, and the same MoveItem (these Structs check what MoveS checks, and the post-pass is the same)."""
+    own, and the same MoveItem (its move's Structs are MoveS's with no unknown field, and the post-pass is
+    the same)."""
     try:
         req = _decode_single(payload)
     except msgspec.DecodeError:  # ValidationError is one too
         return None
     if req.v != PROTOCOL_VERSION:
         return None
-    publish = req.publish
-    if publish is None or publish == "each":
-        batch = False
-    elif publish == "batch":
-        batch = True
-    else:
-        return None
+    publish = req.publish  # one of MOVE_REQUEST's modes, or nil for its default ("each")
     try:
-        return move_item(req.move, "move"), batch
+        return move_item(req.move, "move"), publish is not None and publish == "batch"
     except ProtocolError:
         return None
 
