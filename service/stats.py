@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections import Counter, deque
+from collections import deque
 from typing import Any
 
 from service.protocol import REQUEST_OPS
@@ -95,26 +95,31 @@ class LatencyWindow:
 
 
 class ServiceStats:
-    """Thread-safe: bumped from zenoh callbacks and from the engine thread."""
+    """Thread-safe: bumped from zenoh callbacks and from the engine thread.
+
+    The counters are plain dicts (a key counts from 0): the compiled install compiles this module
+    (setup.py), and mypyc reads and writes a dict natively, a Counter only through Python's protocols."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self.started = time.monotonic()
-        self.requests: Counter[str] = Counter()
-        self.errors: Counter[str] = Counter()
+        self.requests: dict[str, int] = {}
+        self.errors: dict[str, int] = {}
         self.moves = 0
-        self.handovers: Counter[str] = Counter()
-        self.lb_cache: Counter[str] = Counter()
+        self.handovers: dict[str, int] = {}
+        self.lb_cache: dict[str, int] = {}
         self.latency = LatencyWindow()  # receipt to result, per move
         self.engine_time = LatencyWindow()  # inside the engine, per move
 
     def request(self, op: str) -> None:
         with self._lock:
-            self.requests[op] += 1
+            counts = self.requests
+            counts[op] = counts.get(op, 0) + 1
 
     def error(self, kind: str) -> None:
         with self._lock:
-            self.errors[kind] += 1
+            counts = self.errors
+            counts[kind] = counts.get(kind, 0) + 1
 
     def move_done(self, latency: float, engine: float) -> None:
         """One move resolved (a single-move request's path: no lists built for one sample)."""
@@ -144,8 +149,10 @@ class ServiceStats:
             return {"latency_s": self.latency.samples(), "engine_s": self.engine_time.samples()}
 
     def bump(self, counter: str, key: str) -> None:
+        """Count one `key` in the counter named `counter` ("handovers" or "lb_cache")."""
         with self._lock:
-            getattr(self, counter)[key] += 1
+            counts: dict[str, int] = getattr(self, counter)
+            counts[key] = counts.get(key, 0) + 1
 
     def snapshot(self) -> dict[str, Any]:
         with self._lock:

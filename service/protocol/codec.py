@@ -15,7 +15,7 @@ from engine.geometry import Plane, Position, Quat, Vec3
 from engine import MoverSpec, MoveResult
 
 from service.protocol.messages import MAX_SPHERES, MOVER_SPEC, PLANE, POSITION, STATE, TARGET
-from service.protocol.packing import make_packer
+from service.protocol.state_packer import pack_State
 
 __all__ = [
     "decode_position",
@@ -93,8 +93,9 @@ def encode_plane(p: Plane | None) -> dict[str, Any] | None:
 
 #: `pack_state(mover_id, seq, r, collide_ids, tag=None)`: the State's msgpack bytes, written from STATE's
 #: fields (floats as float64; ids, seq, cell and landblock in fixed-width integers, as msgpack allows;
-#: the tag, when given, last). This runs once per move.
-pack_state = make_packer(STATE, "mover_id, seq, r, collide_ids, tag=None")
+#: the tag, when given, last). This runs once per move: its code is generated into a module
+#: (service/protocol/generate.py), which the compiled install compiles.
+pack_state = pack_State
 
 
 def encode_state(mover_id: int, seq: int, r: MoveResult, collide_ids: list[int],

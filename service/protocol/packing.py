@@ -1,4 +1,5 @@
-"""A map's msgpack bytes written directly by a function generated from its declaration (service/protocol/schema.py).
+"""A map's msgpack bytes written directly by a function generated from its declaration (service/protocol/schema.py)
+into a module of its own (service/protocol/generate.py).
 
 The per-move State is written this way: fixed-size values (ids, seq, cell, reals, booleans) and the
 constant bytes around them (keys, headers) are packed in one `struct` call per run, the few strings and
@@ -10,19 +11,38 @@ decode to exactly the map the declaration's `encode_fn` gives.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from service.protocol.schema import Field, Map
 from service.protocol.schema_kinds import Kind, Packed, Quaternion, SourceGen, Vector, packb
 
-__all__ = ["make_packer"]
+__all__ = ["packer_module"]
 
 _NIL = b"\xc0"
 
 
-def make_packer(m: Map, args: str) -> Callable[..., bytes]:
-    """A function of `args` writing `m`'s msgpack bytes: fields whose `src` reads the arguments,
-    nested maps flattened, fixed-size values packed together. `omit` fields come last, and the map's
-    entry count counts them when given."""
+def packer_module(m: Map, args: str, returns: str, imports: tuple[str, ...], doc: str) -> str:
+    """The source of a module defining a function of `args`, `pack_<Map name>`, writing `m`'s msgpack
+    bytes (fields whose `src` reads the arguments, nested maps flattened, fixed-size values packed
+    together; `omit` fields last, the map's entry count counting them when given), and the constants
+    it refers to. A module of its own, so that mypyc can compile it (service/protocol/generate.py
+    writes it). `args` may carry annotations and `returns` is the return annotation; `imports` are the
+    lines they need; `doc` is the module's docstring. The constants are `Final`: mypyc keeps those in C
+    variables instead of the module's dict."""
+    g, fn = _generate(m, args, f" -> {returns}")
+    missing = [name for name in g.ns if name.startswith("_") and name not in g.sources and name != "_packb"]
+    if missing:
+        raise ValueError(f"{m.name}: constants {missing} have no source form")
+    out = [f'"""{doc}"""', "", "from __future__ import annotations", "", "from struct import Struct",
+           "from typing import Any, Final", "", *imports,
+           "from service.protocol.schema_kinds import packb as _packb, packed_new", "",
+           "__all__ = [" + repr(fn) + "]", ""]
+    for name, (annotation, source) in g.sources.items():
+        out.append(f"{name}: Final[{annotation}] = {source}" if annotation else f"{name}: Final = {source}")
+    out += ["", ""] + g.lines
+    return "\n".join(out) + "\n"
+
+
+def _generate(m: Map, args: str, returns: str = "") -> tuple[SourceGen, str]:
+    """The packer's generated source (in `g.lines`) and its function's name."""
     g = SourceGen()
     g.ns.update(_packb=packb)
     out = Packed(g)
@@ -37,11 +57,11 @@ def make_packer(m: Map, args: str) -> Callable[..., bytes]:
         _pack_field(g, f, f.source(""), inner, False)
         out.expr(f"(b'' if {f.source('')} is None else {inner.join()})")
     fn = f"pack_{m.name}"
-    g.emit(0, f"def {fn}({args}):")
+    g.emit(0, f"def {fn}({args}){returns}:")
     for line in out.pre:
         g.emit(1, line)
     g.emit(1, f"return {out.join()}")
-    return g.compile(fn)  # type: ignore[no-any-return]
+    return g, fn
 
 
 def _hoisted(g: SourceGen, src: str, out: Packed, hoist: bool) -> str:

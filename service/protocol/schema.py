@@ -11,7 +11,7 @@ a nested map). From that one declaration (service/protocol/messages.py holds eve
   reader decides and names the field. It runs the same checks and builds the same value (the State's:
   a move request is read with msgspec instead, service/protocol/move_structs.py);
 - `Map.encode(obj)`: the msgpack-ready map of a value (generated too: one dict display per map);
-- `packing.make_packer(map, ...)`: for the per-move State, a function that writes the msgpack bytes directly
+- `packing.packer_module(map, ...)`: for the per-move State, a function that writes the msgpack bytes directly
   (service/protocol/packing.py), generated from the same fields;
 - `Field.doc_type` and `Map.required_names`: what docs/protocol.md's tables are checked against
   (tests/service/protocol/test_service_schema.py).

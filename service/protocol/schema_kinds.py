@@ -32,7 +32,7 @@ from service.protocol.wire import ErrorKind
 
 __all__ = [
     "SourceGen", "Kind", "UInt", "Int", "Range", "POSITIVE", "NON_NEGATIVE", "Number", "Bool", "Str", "Enum", "Value",
-    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed", "packb",
+    "Tag", "Vector", "Quaternion", "ListOf", "MAX_TAG_LEN", "Packed", "packb", "packed_new",
 ]
 
 MAX_TAG_LEN = 256
@@ -45,15 +45,22 @@ class SourceGen:
         self.lines: list[str] = []
         self.ns: dict[str, Any] = {"ProtocolError": ProtocolError, "field_path": field_path, "isfinite": math.isfinite,
                                    "sqrt": math.sqrt, "F32": FLOAT32_MAX}
+        #: each constant's definition as module source (`annotation`, `expression`), where it has one:
+        #: what `module_source` writes for a generated module (service/protocol/packing.py)
+        self.sources: dict[str, tuple[str | None, str]] = {}
         self._n = 0
 
     def var(self, stem: str = "v") -> str:
         self._n += 1
         return f"{stem}{self._n}"
 
-    def const(self, value: Any, stem: str = "K") -> str:
+    def const(self, value: Any, stem: str = "K", source: str | None = None, annotation: str | None = None) -> str:
+        """A name for `value` in the generated code; `source` is an expression that makes the same value in
+        a module of its own (with `annotation`, the type a checker needs, such as an empty dict's)."""
         name = self.var(f"_{stem}")
         self.ns[name] = value
+        if source is not None:
+            self.sources[name] = (annotation, source)
         return name
 
     def emit(self, indent: int, line: str) -> None:
@@ -121,7 +128,8 @@ class Int(Kind):
     def pack(self, g: SourceGen, src: str, out: Packed) -> None:
         # 0..127 (a counter's usual values) looked up with the key before them; any other packed
         prefix = out.take_prefix()
-        small = g.const(tuple(prefix + packb(i) for i in range(128)), "small")
+        small = g.const(tuple(prefix + packb(i) for i in range(128)), "small",
+                        source=f"tuple({prefix!r} + _packb(i) for i in range(128))")
         out.expr(f"({small}[{src}] if 0 <= {src} < 128 else {prefix!r} + _packb({src}))")
 
 
@@ -396,11 +404,13 @@ def lookup(g: SourceGen, cache: dict[Any, bytes], key: str, value: str, prefix: 
     packed and kept there when missing while the cache holds fewer than `limit` (a field takes a handful
     of values: any past them is packed each time). An exact dict's `get`: cheaper than a subclass's
     `__missing__`, whose subscript Python does not specialize."""
-    c = g.const(cache, "cache")
-    return f"({c}.get({key}) or {g.const(_packed_new, 'new')}({c}, {key}, {value}, {prefix!r}, {limit}))"
+    c = g.const(cache, "cache", source="{}", annotation="dict[Any, bytes]")
+    return f"({c}.get({key}) or {g.const(packed_new, 'new', source='packed_new')}({c}, {key}, {value}, {prefix!r}, {limit}))"
 
 
-def _packed_new(cache: dict[Any, bytes], key: Any, value: Any, prefix: bytes, limit: int) -> bytes:
+def packed_new(cache: dict[Any, bytes], key: Any, value: Any, prefix: bytes, limit: int) -> bytes:
+    """`value` packed after `prefix`, kept in `cache` under `key` while it holds fewer than `limit` (a
+    generated packer's lookup, when the value is new)."""
     b = prefix + packb(value)
     if len(cache) < limit:
         cache[key] = b
@@ -464,7 +474,8 @@ class Packed:
             # constants and a few booleans: every combination written out, chosen by the booleans
             self.parts.append(self._choice({}))
         else:
-            s = self.g.const(Struct(">" + "".join(self._codes)).pack, "pack")
+            fmt = ">" + "".join(self._codes)
+            s = self.g.const(Struct(fmt).pack, "pack", source=f"Struct({fmt!r}).pack")
             self.parts.append(f"{s}({', '.join(repr(a) if isinstance(a, bytes) else a for a in self._args)})")
         self._codes, self._args, self._flags = [], [], {}
 

@@ -74,7 +74,7 @@ def struct_of(decl: Map, *, name: str | None = None, first: Sequence[tuple[str, 
     - `leave_out`: fields not in the Struct (an unknown key then, refused with `forbid_unknown_fields`);
     - `required`: fields required though the map gives them a default;
     - `types`: a field's type instead of its kind's (a field read by the post-pass: Any);
-    - `written_order`: the order the service writes the map in (Map.encode_fn, packing.make_packer:
+    - `written_order`: the order the service writes the map in (Map.encode_fn, packing.packer_module:
       `omit` fields last; the maps inside it in their own order), where msgspec looks for each key
       first (the one after the last it matched);
     - `forbid_unknown_fields`, `gc`: msgspec's options, for this Struct and the nested ones.
