@@ -206,9 +206,8 @@ class MoveItem:
     velocity: Vec3 | None = None
 
 
-#: written from clients.types.Move (whose `to` is a Position); the service reads it with msgspec Structs that
-#: follow these fields (service/protocol/move_structs.py, MoveS; tests/service/protocol/test_move_structs.py
-#: checks the two agree), into a MoveItem
+#: written from clients.types.Move (whose `to` is a Position); the service reads it with msgspec Structs
+#: generated from these fields (service/protocol/structs.py, used by move_structs.py), into a MoveItem
 MOVE = Map("Move", (
     Field("id", UInt(64), required=True),
     Field("tag", Tag(), omit=True, doc="int or string (≤ 256 chars)"),
