@@ -109,10 +109,15 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
     for root, counted_move in zip(roots, single_move):
         log(f"instructions: one move request handled ({root.name}) {counted_move['per_move']:9.0f} per move, "
             f"the service's own {counted_move['service_per_move']:9.0f}, the engine's {counted_move['engine_per_move']:9.0f}")
+    from .instructions_client_move import count_client_move
+
+    client_move = [count_client_move(_python_of(root), root) for root in roots]
+    for root, counted_call in zip(roots, client_move):
+        log(f"instructions: one Client.move in the client library ({root.name}) {counted_call['per_call']:9.0f} per call")
     return {"rows": rows, "against": str(against) if against is not None else None,
             "against_commit": common.short_commit(roots[1]) if against is not None else None,
             "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None, "column_path": column_path,
-            "single_move": single_move}
+            "single_move": single_move, "client_move": client_move}
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
@@ -137,7 +142,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
         out += ["| trace | engine calls | instructions per call |", "|---|---:|---:|"]
         out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} |" for r in data["rows"]]
     return (out + _column_path_lines(data.get("column_path"), data.get("against_commit"))
-            + _single_move_lines(data.get("single_move"), data.get("against_commit")))
+            + _single_move_lines(data.get("single_move"), data.get("against_commit"))
+            + _client_move_lines(data.get("client_move"), data.get("against_commit")))
 
 
 def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
@@ -168,6 +174,19 @@ def _single_move_lines(counts: list[dict[str, Any]] | None, against_commit: str 
             "answers the mover's current state (the service's own work) and once with the engine."), "",
            *_count_table(("whole callback", "the service's own", "the engine's"), counts,
                          ("per_move", "service_per_move", "engine_per_move"), against_commit)]
+    return out + [""]
+
+
+def _client_move_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
+    """One `Client.move` in the client library (benchmarks/instructions_client_move.py)."""
+    if not counts:
+        return []
+    calls = counts[0]["calls"]
+    out = [("One `Client.move` in the client library, instructions per call (benchmarks/instructions_client_move.py): "
+            "a Client on a stand-in session that answers every request with a State as the service packs it (Zenoh's "
+            "send and receive are not counted): the Move packed, its key found, the State read into a MoverState, "
+            f"as the difference of a {calls[0]}-call and a {calls[1]}-call run."), "",
+           *_count_table(("Client.move",), counts, ("per_call",), against_commit)]
     return out + [""]
 
 

@@ -90,3 +90,31 @@ def test_one_move_request_count_is_the_service_and_the_engine() -> None:
     c = count_single_move(bi._python_of(common.ROOT))  # raises unless every move was answered
     assert 0 < c["service_per_move"] < c["per_move"]
     assert c["engine_per_move"] == c["per_move"] - c["service_per_move"] > 0
+
+
+def test_the_section_gives_one_client_move_after_the_move_request() -> None:
+    data = {"rows": [{"name": "flat", "calls": 10, "instructions": 1000, "per_call": 100.0,
+                      "against_per_call": 120.0, "ratio": 100.0 / 120.0}],
+            "single_move": [{"per_move": 90_000.0, "service_per_move": 55_000.0, "engine_per_move": 35_000.0,
+                             "moves": [200, 1200]}],
+            "client_move": [{"per_call": 41_250.5, "calls": [200, 1200]}, {"per_call": 47_706.0, "calls": [200, 1200]}],
+            "against": "/elsewhere", "against_commit": "abc1234"}
+    lines = bi.section(data, "Measured by ...")
+    assert lines.index("| this checkout | 41,250 |") > lines.index("| this checkout | 90,000 | 55,000 | 35,000 |")
+    assert "| commit abc1234 | 47,706 |" in lines
+    assert any("a 200-call and a 1200-call run" in line for line in lines)
+
+
+def test_client_move_per_call_is_the_difference_of_the_two_runs_over_their_calls() -> None:
+    from benchmarks.instructions_client_move import per_call
+
+    # 200 and 1,200 calls: the 1,000 calls between them took 60,000,000 - 15,000,000 instructions
+    assert per_call(15_000_000, 60_000_000, (200, 1200)) == 45_000.0
+
+
+@pytest.mark.skipif(bi.unavailable() is not None, reason=str(bi.unavailable()))
+def test_client_move_count_is_counted() -> None:
+    from benchmarks.instructions_client_move import count_client_move
+
+    c = count_client_move(bi._python_of(common.ROOT))  # raises unless every call answered the mover's State
+    assert c["per_call"] > 0 and c["calls"] == [200, 1200]
