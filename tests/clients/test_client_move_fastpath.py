@@ -19,6 +19,7 @@ from engine import MoveResult
 from engine.geometry import Position, Vec3
 from service.protocol.codec import pack_state
 from service.protocol.frames import state_message
+from support.service_harness import StandInReply as _Reply
 
 CELL = 0xA9B40001
 HERE, THERE = "acphys/lb/A9B4/move", "acphys/lb/A9B5/move"
@@ -33,21 +34,6 @@ def _state(lb: int = 0xA9B4, mover_id: int = 7) -> bytes:
 
 def _error(kind: str, **details: Any) -> bytes:
     return msgpack.packb({"v": 1, "error": {"kind": kind, "message": kind, **details}})
-
-
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.payload = self
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class _Reply:
-    def __init__(self, ok: bytes | None = None, err: bytes | None = None) -> None:
-        self.ok = None if ok is None else _Payload(ok)
-        self.err = None if err is None else _Payload(err)
 
 
 class _Session:

@@ -23,6 +23,7 @@ from engine.geometry import Plane, Position, Quat, Vec3
 from service.protocol.codec import pack_state
 from service.protocol.errors import ProtocolError
 from service.protocol.frames import state_message
+from support.service_harness import StandInReply as _Reply
 
 CELL = 0xA9B40001
 
@@ -123,21 +124,6 @@ def test_any_other_reply_is_left_to_the_usual_reader(reply: Any) -> None:
     payload = msgpack.packb(reply, use_bin_type=True)
     assert decode_state_reply(payload) is None
     assert decode_state_reply(payload + b"\x00") is None
-
-
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.payload = self
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
-
-
-class _Reply:
-    def __init__(self, ok: bytes | None = None, err: bytes | None = None) -> None:
-        self.ok = None if ok is None else _Payload(ok)
-        self.err = None if err is None else _Payload(err)
 
 
 class _Session:

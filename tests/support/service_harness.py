@@ -284,6 +284,21 @@ class _Payload:
         return self.data
 
 
+class _Sample:
+    """A reply's sample: its payload."""
+
+    def __init__(self, data: bytes) -> None:
+        self.payload = _Payload(data)
+
+
+class StandInReply:
+    """What a client reads of a zenoh.Reply: `ok` (a sample, or None) or `err` (its error's sample)."""
+
+    def __init__(self, ok: bytes | None = None, err: bytes | None = None) -> None:
+        self.ok = None if ok is None else _Sample(ok)
+        self.err = None if err is None else _Sample(err)
+
+
 class StandInQuery:
     """What the node's query callback uses of a zenoh.Query; keeps what it was answered."""
 
