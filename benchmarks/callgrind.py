@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-__all__ = ["run_counted", "totals_of", "python_of", "CHILD_TIMEOUT_S"]
+__all__ = ["run_counted", "totals_of", "per_unit", "python_of", "CHILD_TIMEOUT_S"]
 
 #: seconds a counted child may run before it is given up
 CHILD_TIMEOUT_S = 1800.0
@@ -32,6 +32,12 @@ def totals_of(callgrind_out: str) -> int:
     if m is None:
         raise ValueError("no totals line in the callgrind output")
     return int(m.group(1))
+
+
+def per_unit(low: int, high: int, units: tuple[int, int]) -> float:
+    """Instructions per unit of work (a move, a call) from the counts of a short run (`low`, `units[0]`
+    units) and a long one (`high`, `units[1]`): start-up and loading are in both and cancel out."""
+    return (high - low) / (units[1] - units[0])
 
 
 def python_of(root: Path) -> str:

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .callgrind import python_of, run_counted
+from .callgrind import per_unit, python_of, run_counted
 
 __all__ = ["count_client_move", "per_call", "CALLS"]
 
@@ -60,7 +60,7 @@ print("RESULT " + json.dumps({"answered": answered}))
 
 def per_call(low: int, high: int, calls: tuple[int, int] = CALLS) -> float:
     """Instructions per call from the counts of a short (`low`) and a long (`high`) run."""
-    return (high - low) / (calls[1] - calls[0])
+    return per_unit(low, high, calls)
 
 
 def _run(python: str, root: Path, calls: int) -> int:

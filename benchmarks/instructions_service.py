@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .callgrind import run_counted
+from .callgrind import per_unit, run_counted
 
 __all__ = ["count_column_path", "per_move", "ROUNDS", "MOVES_PER_ROUND"]
 
@@ -75,7 +75,7 @@ print("RESULT " + json.dumps({"moves": served}))
 
 def per_move(low: int, high: int, rounds: tuple[int, int] = ROUNDS, moves_per_round: int = MOVES_PER_ROUND) -> float:
     """Instructions per move from the counts of a short (`low`) and a long (`high`) run."""
-    return (high - low) / ((rounds[1] - rounds[0]) * moves_per_round)
+    return per_unit(low, high, (rounds[0] * moves_per_round, rounds[1] * moves_per_round))
 
 
 def _run(python: str, root: Path, rounds: int, engine_only: bool) -> int:

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .callgrind import python_of, run_counted
+from .callgrind import per_unit, python_of, run_counted
 
 __all__ = ["count_single_move", "per_move", "MOVES"]
 
@@ -76,7 +76,7 @@ print("RESULT " + json.dumps({"replies": sum(q.replies for q in queries)}))
 
 def per_move(low: int, high: int, moves: tuple[int, int] = MOVES) -> float:
     """Instructions per move from the counts of a short (`low`) and a long (`high`) run."""
-    return (high - low) / (moves[1] - moves[0])
+    return per_unit(low, high, moves)
 
 
 def _run(python: str, root: Path, moves: int, engine: str) -> int:
