@@ -412,7 +412,8 @@ def accounts_users_file(directory: Path) -> Path:
 
 
 def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
-            accounts_endpoint: str | None = None, engine_echo_endpoint: str | None = None) -> dict[str, Any]:
+            accounts_endpoint: str | None = None, engine_echo_endpoint: str | None = None,
+            floor_endpoint: str | None = None) -> dict[str, Any]:
     import msgpack
     import zenoh
 
@@ -423,9 +424,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
     # raw_move: the move request as a bare get, no client library (move - raw_move is the client's part);
     # accounts_move: one move to the same service run with accounts, logged in (Zenoh's authentication and
     # access control on every message); engine_echo: the same bare get to a bare queryable that only runs
-    # the engine (engine_echo_main: the bound of any service's one move here)
+    # the engine (engine_echo_main: the bound of any service's one move here); floor_*: the same bare get to a
+    # service node's process (benchmarks/service_floor.py): a lean handler on a literal key and on a wildcard
+    # one, and that node's own move key
     samples: dict[str, list[float]] = {"echo": [], "engine_echo": [], "health": [], "raw_move": [], "move": [],
-                                       "batch10": [], "batch100": [], "accounts_move": []}
+                                       "batch10": [], "batch100": [], "accounts_move": [], "floor_exact": [],
+                                       "floor_wild": [], "floor_move": []}
     clock = time.perf_counter
     with contextlib.ExitStack() as stack:
         c = stack.enter_context(Client([endpoint], timeout=30.0))
@@ -436,6 +440,16 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
             user_mid = user.register(bench_walker(), start_position(0)).id
         mid = c.register(bench_walker(), start_position(0)).id
         c.move(mid, offset=(0.0, 0.0, 0.0))
+        floor: list[tuple[str, Any, list[bytes]]] = []  # (series, key, the two requests) of the floor's process
+        if floor_endpoint is not None:
+            from .service_floor import FLOOR_EXACT_KEY, FLOOR_WILD_QUERY
+
+            fc = stack.enter_context(Client([floor_endpoint], timeout=30.0))
+            floor_mid = fc.register(bench_walker(), start_position(0)).id
+            floor_moves = [msgpack.packb({"v": 1, "move": Move(floor_mid, offset=(d, 0.0, 0.0)).to_wire()},
+                                         use_bin_type=True) for d in (0.2, -0.2)]
+            floor = [("floor_exact", FLOOR_EXACT_KEY, floor_moves), ("floor_wild", FLOOR_WILD_QUERY, floor_moves),
+                     ("floor_move", fc.keys.move(start_position(0).landblock), floor_moves)]
         # what one move request looks like on the wire: the echo carries as many bytes
         probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
         raw_moves = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
@@ -452,6 +466,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                 c.move(mid, offset=(0.0, 0.0, 0.0))
                 if user is not None:
                     user.move(user_mid, offset=(0.0, 0.0, 0.0))
+                for _series, key, payloads in floor:
+                    list(fc.session.get(key, payload=payloads[i % 2], timeout=10.0))
             sign = 1.0
             for _round in range(rounds):
                 for _ in range(block):
@@ -475,6 +491,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                     replies = list(c.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0))
                     samples["raw_move"].append(clock() - t0)
                     assert replies and replies[0].ok is not None
+                for series, key, payloads in floor:
+                    for i in range(block):
+                        t0 = clock()
+                        replies = list(fc.session.get(key, payload=payloads[i % 2], timeout=10.0))
+                        samples[series].append(clock() - t0)
+                        assert replies and replies[0].ok is not None
                 for _ in range(block):
                     t0 = clock()
                     c.move(mid, offset=(0.2 * sign, 0.0, 0.0))
@@ -498,6 +520,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
         c.remove(mid)
         if user is not None:
             user.remove(user_mid)
+        if floor:
+            fc.remove(floor_mid)
     out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items() if v}
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
@@ -510,7 +534,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
         out["ratio_engine_echo_to_echo"] = out["engine_echo"]["median"] / out["echo"]["median"]
     if "accounts_move" in out:
         out["ratio_accounts_move_to_move"] = out["accounts_move"]["median"] / out["move"]["median"]
-    for k in ("echo", "engine_echo", "health", "raw_move", "move", "accounts_move", "batch10", "batch100"):
+    for k in ("echo", "engine_echo", "floor_exact", "floor_wild", "floor_move", "health", "raw_move", "move",
+              "accounts_move", "batch10", "batch100"):
         if k in out:
             log(f"service: round trip {k:13s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  "
                 f"(n={out[k]['n']})")
@@ -532,28 +557,33 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
     echo: Child | None = None
     accounts: Child | None = None
     engine_echo: Child | None = None
+    floor: Child | None = None
     users_dir = tempfile.TemporaryDirectory(prefix="acphys-bench-users-")
     try:
         echo = Child([sys.executable, "-m", "benchmarks.bench_service", "echo", str(echo_port)], "echo ready")
         engine_echo_endpoint = f"tcp/127.0.0.1:{free_port()}"
         engine_echo = Child([sys.executable, "-m", "benchmarks.bench_service", "engine-echo",
                              engine_echo_endpoint.rsplit(":", 1)[1]], "engine echo ready", engine_root)
+        floor_port = free_port()
+        floor = Child([sys.executable, "-m", "benchmarks.service_floor", str(floor_port)], "floor ready", engine_root)
         accounts_endpoint = f"tcp/127.0.0.1:{free_port()}"
         accounts = Child([sys.executable, "-m", "service", "--scene", str(scene), "--listen", accounts_endpoint,
                           "--log-level", "WARNING", "--queue", "4096",
                           "--users", str(accounts_users_file(Path(users_dir.name)))], "acphys service ready", engine_root)
         lat = latency(endpoint, echo_endpoint, rounds=4 if quick else 20, block=50 if quick else 100,
-                      accounts_endpoint=accounts_endpoint, engine_echo_endpoint=engine_echo_endpoint)
+                      accounts_endpoint=accounts_endpoint, engine_echo_endpoint=engine_echo_endpoint,
+                      floor_endpoint=f"tcp/127.0.0.1:{floor_port}")
         accounts.stop()
         engine_echo.stop()
-        accounts = engine_echo = None
+        floor.stop()
+        accounts = engine_echo = floor = None
         lat["handling_us"] = handling(engine_root, 300 if quick else 1000)
         seconds = 2.0 if quick else 8.0
         rows = [throughput(endpoint, service, procs, batch, seconds, mode, watched, publish)
                 for procs, batch, mode, watched, publish in THROUGHPUT_RUNS]
     finally:
         service.stop()
-        for child in (echo, accounts, engine_echo):
+        for child in (echo, accounts, engine_echo, floor):
             if child is not None:
                 child.stop()
         users_dir.cleanup()

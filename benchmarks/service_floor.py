@@ -1,0 +1,77 @@
+"""The floor under the service's one move, measured inside a service's own process.
+
+    python3 -m benchmarks.service_floor PORT     (the service benchmark starts it; prints "floor ready")
+
+A service node is started as `python -m service` starts one (same options, same world source), and two
+more queryables are declared on its session, both answering one move with the least the protocol asks:
+the request read by the service's own reader (msgspec, `plain_single_move`), `World.move` on the mover's
+last position, the State packed by the service's packer, the reply. No key check, stats, queue, engine
+lock, publication check or error handling: what those cost is the gap between this floor and the node's
+own `P/lb/*/move` in the same process, queried the same way.
+
+- `FLOOR_EXACT_KEY` is declared as it is queried, a literal key, as the bare engine queryable's is;
+- `FLOOR_WILD_KEY` is declared with a `*` chunk and queried on a literal one, as the service's
+  per-landblock keys are (`P/lb/*/move`): the difference is what Zenoh's dispatch of a wildcard
+  declaration costs each query.
+
+Movers are registered through the node's own `register` (the client library); the floor handlers move
+them with the core's records. Listens on 127.0.0.1 only; stops on SIGINT or SIGTERM.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from typing import Any
+
+__all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main"]
+
+FLOOR_EXACT_KEY = "acphys-bench/floor-exact/A9B4"
+#: declared with a wildcard chunk; queried as FLOOR_WILD_QUERY
+FLOOR_WILD_KEY = "acphys-bench/floor-wild/*"
+FLOOR_WILD_QUERY = "acphys-bench/floor-wild/A9B4"
+
+
+def floor_main(port: int) -> None:
+
+    from service.bus.node import NodeOptions, ServiceNode
+    from service.bus.zconfig import make_config
+    from service.protocol.codec import pack_state
+    from service.protocol.frames import STATE_HEAD
+    from service.protocol.move_structs import plain_single_move
+    from service.world_source import open_world
+
+    from .service_harness import scene_file
+
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    # the options `python -m service` gives its node (service/main.py), the queue as the benchmark's service's
+    node = ServiceNode(open_world(scene=str(scene_file())), make_config(listen=[f"tcp/127.0.0.1:{port}"]),
+                       NodeOptions(queue_capacity=4096, tune_heap=True))
+    node.start()
+    core, session = node.core, node.session
+    assert core is not None and session is not None
+    world = core.world
+
+    def lean_move(query: Any) -> None:
+        """One plain move request answered with its State: decode, engine, pack, reply."""
+        plain = plain_single_move(query.payload.to_bytes())
+        assert plain is not None, "the floor takes only a plain one-move request"
+        item = plain[0]
+        assert item.offset is not None, "the floor takes only an offset move"
+        rec = core.mover_record(item.id)
+        r = world.move(rec.engine_id, rec.last.position.moved(item.offset), item.velocity)
+        query.reply(query.key_expr, STATE_HEAD + pack_state(rec.id, r.seq, r, [], item.tag))
+
+    declared = [session.declare_queryable(key, lean_move) for key in (FLOOR_EXACT_KEY, FLOOR_WILD_KEY)]
+    print("floor ready", flush=True)
+    stop.wait()
+    for d in declared:
+        d.undeclare()
+    node.shutdown()
+
+
+if __name__ == "__main__":
+    floor_main(int(sys.argv[1]))
