@@ -51,3 +51,14 @@ def test_targets_met_say_met() -> None:
     assert _row(lines, "| the service's own work in a column batch").endswith("| missed |")  # 2,600 > 2,500
     assert _row(lines, "| one move's round trip").endswith("| met |")  # 30 µs over
     assert _row(lines, "| column batches with raw clients").endswith("| met |")  # 0.97
+
+
+def test_the_round_trip_row_says_what_bounds_it_when_the_floor_was_measured() -> None:
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    assert "lean handler" not in _row(service_targets(results), "| one move's round trip")  # not measured: no note
+    results["service"]["latency"].update(floor_exact={"median": 407.0}, floor_wild={"median": 419.0},
+                                         floor_move={"median": 472.0})
+    trip = _row(service_targets(results), "| one move's round trip")
+    # over the bound of 400: 407 -> 7, 419 -> 19, 472 -> 72
+    assert "7 µs over on a literal key and 19 µs on a wildcard key" in trip and "own move key 72 µs" in trip
+    assert trip.endswith("| missed |")
