@@ -131,6 +131,22 @@ def _floor_note(lat: dict[str, Any], bound: float) -> str:
             f"{own:.0f} µs")
 
 
+def _floor_walk(lat: dict[str, Any], bound: float) -> str:
+    """From the bound to one move, step by step, as measured in the same run (benchmarks/service_floor.py)."""
+    if not all(k in lat for k in ("floor_exact", "floor_wild", "floor_move", "raw_move", "move")):
+        return ""
+    exact, wild, own, raw, move = (lat[k]["median"] for k in ("floor_exact", "floor_wild", "floor_move", "raw_move", "move"))
+    return (f" Step by step from the bound, in the same run: the same move answered inside a service node's process "
+            f"by a lean handler (the service's own reader and State packer, `World.move`, the reply; nothing else) "
+            f"took {exact - bound:+.0f} µs on a literal key and {wild - exact:+.0f} µs more on a key declared with a "
+            f"wildcard, as the service's `P/lb/*/move` is (Zenoh's dispatch); that node's own move path took "
+            f"{own - wild:+.0f} µs more than the lean handler in the same process (the key's check, the stats, "
+            f"the queue and the engine lock, the publication check, the error handling: small steps each, which "
+            f"after an idle gap cost far more than their instructions); the `python -m service` process answered "
+            f"the same raw request in {raw - bound:+.0f} µs over the bound, and the client library added "
+            f"{move - raw:+.0f} µs (the Move packed, the State read into a MoverState).")
+
+
 def _bus_floor_targets(results: dict[str, Any]) -> list[str]:
     """The rows of the targets at the bus's floor, each against its bound measured in the same run."""
     out: list[str] = []
@@ -444,6 +460,7 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                     f"{ee - lat['echo']['median']:.0f} µs over the echo for one engine call and two msgpack calls. "
                     f"The service and the client library add {lat['move']['median'] - ee:.0f} µs to that (the "
                     "request's checks, the record, seq and stats, the State packed and decoded, the publication check).")
+            txt += _floor_walk(lat, ee)
         out.append(txt)
         if best and best.get("service_cpu_us_per_move"):
             cpu = best["service_cpu_us_per_move"]

@@ -62,3 +62,17 @@ def test_the_round_trip_row_says_what_bounds_it_when_the_floor_was_measured() ->
     # over the bound of 400: 407 -> 7, 419 -> 19, 472 -> 72
     assert "7 µs over on a literal key and 19 µs on a wildcard key" in trip and "own move key 72 µs" in trip
     assert trip.endswith("| missed |")
+
+
+def test_the_walk_from_the_bound_to_one_move_adds_up_step_by_step() -> None:
+    from benchmarks.report_service import _floor_walk
+
+    lat = {k: {"median": v} for k, v in (("floor_exact", 407.0), ("floor_wild", 419.0), ("floor_move", 472.0),
+                                         ("raw_move", 460.0), ("move", 530.0))}
+    walk = _floor_walk(lat, 400.0)
+    # 407 - 400 = +7; 419 - 407 = +12; 472 - 419 = +53; 460 - 400 = +60; 530 - 460 = +70
+    for step in ("+7 µs on a literal key", "+12 µs more on a key declared with a wildcard", "+53 µs more than the lean",
+                 "in +60 µs over the bound", "library added +70 µs"):
+        assert step in walk
+    del lat["floor_wild"]
+    assert _floor_walk(lat, 400.0) == ""  # a run without the floor says nothing of it
