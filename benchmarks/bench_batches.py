@@ -4,9 +4,10 @@
 processes in batches of 100 through the map batch and the column batch (by the client library, and as
 the column request's bytes in raw Zenoh gets: the clients its target is read with); beside it World.move and the
 engine's batch entry point (run_batch) on the same movers in a process of their own, and the bound of
-any service on this bus: the engine behind a bare Zenoh queryable. Run by `python3 -m benchmarks --only
-service` (benchmarks/bench_service.py); its children are this module's `batch-engine`, `batch-worker`
-and `batch-bare` roles.
+any service on this bus: the engine behind a bare Zenoh queryable, measured in rounds and, for the
+raw-client form's target, in half-second windows paired with the bound's. Run by `python3 -m benchmarks
+--only service` (benchmarks/bench_service.py); its children are this module's `batch-engine`,
+`batch-worker`, `batch-paired` and `batch-bare` roles.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from . import common
 from .service_harness import Child, child_env, collect_reports, demo_scene, free_port
 from .common import log
 
-__all__ = ["batch_workload", "batch_spots", "BATCH_MOVERS", "BATCH_STEP"]
+__all__ = ["batch_workload", "batch_spots", "paired_raw_columns", "window_targets", "pair_ratios", "BATCH_MOVERS",
+           "BATCH_STEP"]
 
 
 # -- the batch workload: the map and the column form against the engine in process ----------------------
@@ -54,6 +56,10 @@ RAW_COLUMNS_FORM = "columns, raw clients"
 #: the bound beside the service: a bare Zenoh queryable whose only work per request is the engine's batch
 BARE_FORM = "engine behind a bare queryable"
 BARE_KEY = "acphys-bench/batches/bare"
+#: the paired measurement of the raw-client form against the bound (benchmarks/batches_paired.py): 60 windows
+#: of half a second, 30 pairs
+PAIRED_WINDOW_S = 0.5
+PAIRED_WINDOWS = 60
 
 
 def batch_spots(world: Any) -> list[tuple[Any, Any, int]]:
@@ -344,6 +350,116 @@ def _median_row(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+# -- the raw-client column form against the bound, in windows paired half a second apart ----------------
+# The rounds above measure the raw-client form and the bound in windows of seconds, minutes apart. On this
+# shared machine the speed of the same code swings by a third between such windows, and their ratio with
+# it (0.62 to 0.92 of the bound across one run's rounds). Here the same client processes alternate between
+# the two targets on one schedule of short windows (service, bound, bound, service, ...: each pair
+# adjacent, which comes first alternating) and the ratio is taken pair by pair, each pair seeing nearly the
+# same machine. A worker registers its share of the movers with the service and sends its column request's
+# raw bytes, as the raw-client form does; to the bare queryable it sends its share's request as the bound's
+# clients do. A window's rate counts the requests started in it over the time from its first request's
+# start to its last reply.
+#: the target of window w: the service ("service") or the bound ("bare"), in ABBA order
+SERVICE, BARE = "service", "bare"
+
+
+def window_targets(windows: int) -> list[str]:
+    """Service, bound, bound, service, service, bound, ...: each pair (2k, 2k+1) holds one of each,
+    and which comes first alternates, so that a drift over a pair favours neither."""
+    return [SERVICE if w % 4 in (0, 3) else BARE for w in range(windows)]
+
+
+def pair_ratios(service_rates: list[float], bare_rates: list[float], targets: list[str]) -> list[float]:
+    """The service's rate over the bound's in each adjacent pair of windows (rates in window order)."""
+    rates: dict[str, list[float]] = {SERVICE: list(service_rates), BARE: list(bare_rates)}
+    by_window = [rates[t].pop(0) for t in targets]
+    out = []
+    for k in range(0, len(targets) - 1, 2):
+        a, b = by_window[k], by_window[k + 1]
+        service, bare = (a, b) if targets[k] == SERVICE else (b, a)
+        out.append(service / bare)
+    return out
+
+
+def _paired_worker(service_endpoint: str, bare_endpoint: str, index: int, start_at: float, window: float,
+                   windows: int) -> dict[str, Any]:
+    """This process's share, sent in every window to that window's target: per window, moves and seconds."""
+    import msgpack
+    import zenoh
+
+    from clients import Client
+    from engine import load_scene
+    from service.bus.zconfig import make_config
+
+    from .scenes import PLAYER
+
+    share = BATCH_MOVERS // BATCH_PROCESSES
+    spots = batch_spots(load_scene(str(demo_scene())))[index * share:(index + 1) * share]
+    bare_session = zenoh.open(make_config(connect=[bare_endpoint]))
+    try:
+        with Client([service_endpoint], timeout=30.0) as c:
+            ids = [c.register(PLAYER, pos, contact_plane=plane, contact_plane_cell=cell).id for pos, plane, cell in spots]
+            items = 2 * len(ids)
+            route = {SERVICE: (c.session, zenoh.KeyExpr(c.keys.move(c.landblock_of(ids[0]))), _column_request_bytes(ids)),
+                     BARE: (bare_session, zenoh.KeyExpr(f"{BARE_KEY}/{index}"),
+                            _column_request_bytes(list(range(index * share + 1, (index + 1) * share + 1))))}
+            moves: list[int] = []
+            seconds: list[float] = []
+            errors = 0
+            for w, target in enumerate(window_targets(windows)):
+                session, key, payload = route[target]
+                time.sleep(max(0.0, start_at + w * window - time.time()))
+                end = start_at + (w + 1) * window
+                n = 0
+                t0 = time.time()
+                while time.time() < end:
+                    failures = items
+                    for reply in session.get(key, payload=payload, timeout=30.0):
+                        if reply.ok is not None:
+                            body = reply.ok.payload.to_bytes()
+                            if target == BARE:
+                                failures = 0
+                            else:
+                                msg = msgpack.unpackb(body)
+                                failures = len(msg.get("errors") or ()) if msg.get("n") == items else items
+                    errors += failures
+                    n += items
+                moves.append(n)
+                seconds.append(time.time() - t0)
+            for mid in ids:
+                c.remove(mid)
+    finally:
+        bare_session.close()
+    return {"index": index, "moves": moves, "seconds": seconds, "errors": errors}
+
+
+def paired_raw_columns(service_endpoint: str, bare_endpoint: str, window: float, windows: int) -> dict[str, Any]:
+    """The raw-client column form against the bound in `windows` paired windows of `window` seconds:
+    each pair's ratio, their median, and each target's median rate (moves/s, all workers together)."""
+    start_at = time.time() + 5.0  # every worker has loaded the scene and registered its movers by then
+    procs = [subprocess.Popen([sys.executable, "-m", "benchmarks.bench_batches", "batch-paired", service_endpoint,
+                               bare_endpoint, str(i), repr(start_at), repr(window), str(windows)],
+                              cwd=common.ROOT, env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for i in range(BATCH_PROCESSES)]
+    reports = collect_reports(procs, 5.0 + window * windows + 90.0, "paired batch worker")
+    targets = window_targets(windows)
+    # each window's rate: the workers' moves over the longest of their times in it
+    rates = [sum(r["moves"][w] for r in reports) / max(r["seconds"][w] for r in reports) for w in range(windows)]
+    service_rates = [r for r, t in zip(rates, targets) if t == SERVICE]
+    bare_rates = [r for r, t in zip(rates, targets) if t == BARE]
+    ratios = pair_ratios(service_rates, bare_rates, targets)
+    out = {"window_s": window, "windows": windows, "pair_ratios": ratios, "ratio": statistics.median(ratios),
+           "service_moves_per_s": statistics.median(service_rates), "bare_moves_per_s": statistics.median(bare_rates),
+           "errors": sum(r["errors"] for r in reports)}
+    quartiles = statistics.quantiles(ratios, n=4) if len(ratios) >= 2 else [ratios[0]] * 3
+    log(f"service (batch workload): columns, raw clients / the bound, {len(ratios)} pairs of {window:.1f} s windows: "
+        f"median {out['ratio']:.3f} (quartiles {quartiles[0]:.3f}-{quartiles[2]:.3f}); "
+        f"{out['service_moves_per_s']:.0f} vs {out['bare_moves_per_s']:.0f} moves/s, {out['errors']} errors")
+    return out
+
+
+
 def batch_workload(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
     """The batch workload through the map and the column form, and World.move in process, in one run:
     in rounds (engine, then each form), so that each ratio compares minutes of the same machine state on
@@ -380,13 +496,15 @@ def batch_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
             row["cpu_ratio_to_engine"] = engine["cpu_us_per_move"] / row["service_cpu_us_per_move"]
             log(f"service (batch workload): {BARE_FORM} / engine in process = {row['ratio_to_engine']:.2f} in moves/s")
             bounds.append(row)
+        # the target's figure: the raw-client form and the bound alternating in half-second windows
+        paired = paired_raw_columns(endpoint, bare_endpoint, PAIRED_WINDOW_S, 16 if quick else PAIRED_WINDOWS)
     finally:
         service.stop()
         bare.stop()
     engine_row = _median_row([{k: v for k, v in e.items() if k != "run_batch"} for e in engines])
     engine_row["run_batch"] = _median_row([e["run_batch"] for e in engines])
     return {"engine": engine_row, "service": [_median_row(rows) for rows in per_form.values()],
-            "bare": _median_row(bounds),
+            "bare": _median_row(bounds), "paired": paired,
             "movers": BATCH_MOVERS, "spacing_m": BATCH_SPACING, "step_m": BATCH_STEP, "forms": BATCH_FORMS,
             "rounds": rounds, "seconds_each": seconds}
 
@@ -394,6 +512,9 @@ def batch_workload(quick: bool, engine_root: Path | None = None) -> dict[str, An
 if __name__ == "__main__":
     if sys.argv[1] == "batch-worker":
         batch_worker_main(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), sys.argv[6])
+    elif sys.argv[1] == "batch-paired":
+        print("RESULT " + json.dumps(_paired_worker(sys.argv[2], sys.argv[3], int(sys.argv[4]), float(sys.argv[5]),
+                                                    float(sys.argv[6]), int(sys.argv[7]))), flush=True)
     elif sys.argv[1] == "batch-bare":
         batch_bare_main(sys.argv[2])
     elif sys.argv[1] == "batch-engine":

@@ -1,11 +1,12 @@
-"""The batch workload's benchmark: the bound beside the service sends and answers what the service would."""
+"""The batch workload's benchmark: the bound beside the service sends and answers what the service would,
+and the paired windows alternate fairly between the two."""
 
 from __future__ import annotations
 
 import msgpack
 import numpy as np
 
-from benchmarks.bench_batches import BATCH_STEP, _column_reply_size, _column_request_bytes
+from benchmarks.bench_batches import BATCH_STEP, _column_reply_size, _column_request_bytes, pair_ratios, window_targets
 from engine.world.batch import BatchRows, append_missing
 from service.column_moves import ColumnResults, reply_message
 from service.protocol.column_request import parse_column_request
@@ -56,3 +57,15 @@ def test_the_raw_clients_send_the_bytes_client_move_batch_sends() -> None:
     results = client.move_batch(np.array(ids + ids, dtype=np.uint64), offsets=offsets)
     assert len(results.errors) == 6  # nobody answered: every item failed, and the request went out once
     assert session.payloads == [_column_request_bytes(ids)]
+
+
+def test_each_pair_of_windows_holds_one_of_each_and_the_first_alternates() -> None:
+    targets = window_targets(8)
+    assert targets == ["service", "bare", "bare", "service", "service", "bare", "bare", "service"]
+    assert window_targets(60).count("service") == 30
+
+
+def test_a_pair_s_ratio_is_the_service_over_the_bound_whichever_came_first() -> None:
+    targets = window_targets(4)  # service, bare | bare, service
+    # the service's windows ran at 90 and 60, the bound's at 100 and 80: 90/100 and 60/80
+    assert pair_ratios([90.0, 60.0], [100.0, 80.0], targets) == [0.9, 0.75]
