@@ -55,6 +55,7 @@ log = logging.getLogger("acphys.service")
 _KIND = {"offset": OFFSET, "to": TO, "motion": MOTION}
 _GONE = bytes(MOVER_STATE_BYTES)
 _LE_U64 = np.dtype("<u8")
+_LE_F64 = np.dtype("<f8")
 _MAIN_COLUMN = {"offset": "offset", "to": "to_origin", "motion": "motion"}
 _COLLIDE_COUNT_AT = REPLY_NAMES.index("collide_count")
 _FLAGS_AT = REPLY_NAMES.index("flags")
@@ -103,12 +104,13 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     if core.log is not None:
         rows.states = core.log.row_states()  # each row's mover as it stands after its move, for the state log
     kind = _KIND[req.kind]
-    # the columns as flat lists of Python floats: the map form's values exactly (msgpack float64)
-    vectors = arrays[_MAIN_COLUMN[req.kind]].ravel().tolist()
+    # the real columns as their little-endian float64 bytes, which run_batch reads in place: the map form's
+    # values exactly (msgpack float64), with no Python float made per value
+    vectors = _reals(arrays[_MAIN_COLUMN[req.kind]])
     cells = arrays["to_cell"].tolist() if "to_cell" in arrays else None
-    orientations = arrays["to_orientation"].ravel().tolist() if "to_orientation" in arrays else None
-    velocities = arrays["velocity"].ravel().tolist() if "velocity" in arrays else None
-    dts = arrays["dt"].tolist() if "dt" in arrays else None
+    orientations = _reals(arrays["to_orientation"]) if "to_orientation" in arrays else None
+    velocities = _reals(arrays["velocity"]) if "velocity" in arrays else None
+    dts = _reals(arrays["dt"]) if "dt" in arrays else None
     ownership = core.ownership
     stop_if = None if ownership.everything else (lambda lb: not ownership.owns(lb))
     landscape = core.world.landscape
@@ -137,6 +139,12 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     if req.publish == "columns" and len(out.errors) + out.forwarded < req.n and core.bus.columns_watched():
         core.bus.publish_columns(publication_message(out, req))
     return out, out.packed
+
+
+def _reals(a: np.ndarray[Any, Any]) -> bytes:
+    """A real column's values in item order as little-endian float64 bytes (engine.world.batch.Reals): a
+    request's column is that already (parse_column_request), so this is one copy of its bytes."""
+    return a.tobytes() if a.dtype == _LE_F64 else np.ascontiguousarray(a, _LE_F64).tobytes()
 
 
 def _published(core: ServiceCore, out: ColumnResults, mover_id: int, r: MoveResult) -> None:

@@ -28,9 +28,9 @@ import math
 import struct
 from collections.abc import Callable
 from time import perf_counter
-from typing import Final
+from typing import Final, TypeAlias
 
-from librt.strings import BytesWriter, write_f64_le, write_i32_le, write_i64_le
+from librt.strings import BytesWriter, read_f64_le, write_f64_le, write_i32_le, write_i64_le
 
 from ..cells.landscape import Landscape
 from ..geometry import Position, Quat, Vec3
@@ -44,6 +44,7 @@ from .types import MoveResult
 __all__ = [
     "OFFSET",
     "TO",
+    "Reals",
     "MOTION",
     "RESULT_COLUMNS",
     "TRANSITION_STATES",
@@ -63,6 +64,11 @@ TO: Final = 1  # target = a given cell (0: the mover's own), origin and orientat
 MOTION: Final = 2  # a physics step of dt seconds with the mover's own motion (World.step)
 
 _STATE_INDEX: Final = {name: i for i, name in enumerate(TRANSITION_STATES)}
+
+#: An item's real values in a batch: Python floats in a list, or the same values as little-endian float64
+#: bytes (a request column's bytes as they came, read in place by the compiled loop: no Python float is made
+#: for them, and each value is the double it encodes, bit for bit)
+Reals: TypeAlias = list[float] | bytes
 
 # The values written for missing ones, packed once
 _NO_VECTOR: Final = struct.pack("<3d", *[math.nan] * 3)
@@ -276,12 +282,24 @@ def _transient_bits(names: list[str]) -> int:
     return bits
 
 
-def _target(kind: int, mover: Mover, vectors: list[float], cells: list[int] | None,
-            orientations: list[float] | None, i: int) -> Position:
+def _real(values: Reals, k: int) -> float:
+    """Value `k` of `values`: a list's k-th float, or the k-th little-endian float64 of the bytes."""
+    if isinstance(values, bytes):
+        return read_f64_le(values, 8 * k)
+    return values[k]
+
+
+def _vector(values: Reals, i: int) -> Vec3:
+    """Item `i`'s vector: values 3i, 3i + 1 and 3i + 2."""
+    j = 3 * i
+    return Vec3(_real(values, j), _real(values, j + 1), _real(values, j + 2))
+
+
+def _target(kind: int, mover: Mover, vectors: Reals, cells: list[int] | None,
+            orientations: Reals | None, i: int) -> Position:
     """Item `i`'s target position (kinds OFFSET and TO)."""
     pos = mover.position
-    j = 3 * i
-    origin = Vec3(vectors[j], vectors[j + 1], vectors[j + 2])
+    origin = _vector(vectors, i)
     if kind == OFFSET:
         return pos.moved(origin)
     cell = pos.cell_id
@@ -290,7 +308,8 @@ def _target(kind: int, mover: Mover, vectors: list[float], cells: list[int] | No
     orientation = pos.frame.orientation
     if orientations is not None:
         k = 4 * i
-        w, x, y, z = orientations[k], orientations[k + 1], orientations[k + 2], orientations[k + 3]
+        w, x, y = _real(orientations, k), _real(orientations, k + 1), _real(orientations, k + 2)
+        z = _real(orientations, k + 3)
         if w != 0.0 or x != 0.0 or y != 0.0 or z != 0.0:
             orientation = Quat(w, x, y, z)
     return Position.at(cell, origin, orientation)
@@ -300,14 +319,14 @@ def run_batch(
     landscape: Landscape,
     movers: list[Mover | None],
     kind: int,
-    vectors: list[float],
+    vectors: Reals,
     rows: BatchRows,
     *,
     start: int = 0,
     cells: list[int] | None = None,
-    orientations: list[float] | None = None,
-    velocities: list[float] | None = None,
-    dts: list[float] | None = None,
+    orientations: Reals | None = None,
+    velocities: Reals | None = None,
+    dts: Reals | None = None,
     stop_if: Callable[[int], bool] | None = None,
 ) -> int:
     """Run items `start`, `start + 1`, ... of a batch of one `kind`, appending a row each to `rows`.
@@ -316,7 +335,9 @@ def run_batch(
     holds 3 floats an item: the offset (OFFSET), the target origin (TO) or the motion (MOTION).
     TO may give `cells` (one an item, 0 for the mover's own) and `orientations` (w x y z an item,
     all zero for the mover's own); OFFSET and TO may give `velocities` (3 an item: the mover's
-    velocity for that move only); MOTION needs `dts` (seconds, one an item).
+    velocity for that move only); MOTION needs `dts` (seconds, one an item). Each real argument is a
+    list of floats or the same values as little-endian float64 bytes (`Reals`: a column's bytes as they
+    are, with no Python float made per value).
 
     An item the engine refuses (engine.errors, or any other exception: the mover is then as before
     the item) gets an empty row and an entry in `rows.errors`. `stop_if(landblock id)` is asked of
@@ -339,13 +360,11 @@ def run_batch(
         try:
             if kind == MOTION:
                 assert dts is not None
-                j = 3 * i
-                result = step_checked(landscape, mover, Vec3(vectors[j], vectors[j + 1], vectors[j + 2]), dts[i])
+                result = step_checked(landscape, mover, _vector(vectors, i), _real(dts, i))
             else:
                 velocity: Vec3 | None = None
                 if velocities is not None:
-                    j = 3 * i
-                    velocity = Vec3(velocities[j], velocities[j + 1], velocities[j + 2])
+                    velocity = _vector(velocities, i)
                 result = move_checked(landscape, mover, _target(kind, mover, vectors, cells, orientations, i),
                                       velocity)
         except Exception as e:

@@ -12,7 +12,7 @@ import struct
 from typing import Any
 
 import engine
-from engine import MoverSpec, Plane, Position, Vec3
+from engine import Mover, MoverSpec, Plane, Position, Vec3
 from engine.errors import NonFiniteError, UnknownCellError
 from benchmarks.scenes import PLAYER
 from engine.world.batch import (
@@ -219,3 +219,45 @@ def test_an_empty_batch_runs_nothing() -> None:
     rows = BatchRows()
     assert run_batch(world.landscape, [], OFFSET, [], rows) == 0
     assert set(rows.columns().values()) == {b""} and rows.count == 0 and rows.results == []
+
+
+def _le(values: list[float]) -> bytes:
+    return struct.pack(f"<{len(values)}d", *values)
+
+
+def test_reals_as_little_endian_bytes_run_as_the_same_lists() -> None:
+    """Every real argument may be given as its little-endian float64 bytes (a column's wire bytes): the
+    rows are the lists' bit for bit, for each kind, with a velocity and a given orientation."""
+    turn = (math.cos(0.3), 0.0, 0.0, math.sin(0.3))
+    cases: list[tuple[int, list[int], dict[str, list[float]]]] = [
+        (OFFSET, [0, 1, 0], {"vectors": [0.5, 0.0, 0.0, 1.0, 0.0, -0.5, -0.2, 0.3, 0.0],
+                             "velocities": [0.0, 3.0, 4.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]}),
+        (TO, [0, 1], {"vectors": [21.0, 20.0, 50.0, 101.0, 61.0, 50.0],
+                      "orientations": [0.0, 0.0, 0.0, 0.0, *turn]}),
+        (MOTION, [1, 0], {"vectors": [0.1, 0.0, 0.0, 0.0, 0.2, 0.0], "dts": [1 / 30, 0.5]}),
+    ]
+    for kind, picks, reals in cases:
+        one, other = _world(), _world()
+        ids_one, ids_other = _movers(one), _movers(other)
+        by_list, by_bytes = BatchRows(), BatchRows()
+        movers_one: list[Mover | None] = [one.mover(ids_one[k]) for k in picks]
+        movers_other: list[Mover | None] = [other.mover(ids_other[k]) for k in picks]
+        got = {name: reals.get(name) for name in ("orientations", "velocities", "dts")}
+        run_batch(one.landscape, movers_one, kind, reals["vectors"], by_list, orientations=got["orientations"],
+                  velocities=got["velocities"], dts=got["dts"])
+        le = {name: None if values is None else _le(values) for name, values in got.items()}
+        run_batch(other.landscape, movers_other, kind, _le(reals["vectors"]), by_bytes,
+                  orientations=le["orientations"], velocities=le["velocities"], dts=le["dts"])
+        assert by_list.errors == [] and by_bytes.errors == []
+        assert by_list.count == len(picks) and by_bytes.count == len(picks)
+        assert by_bytes.columns() == by_list.columns()
+        if kind == TO:  # the given orientation read from the bytes is the second item's own
+            assert struct.unpack("<8d", by_bytes.columns()["orientation"])[4:] == turn
+    # a value that is not finite fails its item as in a list, and the bytes stop where they end
+    world = _world()
+    ids = _movers(world)
+    rows = BatchRows()
+    run_batch(world.landscape, [world.mover(ids[0]), world.mover(ids[1])], OFFSET,
+              _le([math.nan, 0.0, 0.0, 0.5]), rows)
+    assert [i for i, _ in rows.errors] == [0, 1] and isinstance(rows.errors[0][1], NonFiniteError)
+    assert rows.results == [None, None]
