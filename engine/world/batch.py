@@ -290,9 +290,12 @@ def _real(values: Reals, k: int) -> float:
 
 
 def _vector(values: Reals, i: int) -> Vec3:
-    """Item `i`'s vector: values 3i, 3i + 1 and 3i + 2."""
+    """Item `i`'s vector: values 3i, 3i + 1 and 3i + 2 (the kind of `values` told once for the three)."""
+    if isinstance(values, bytes):
+        at = 24 * i
+        return Vec3(read_f64_le(values, at), read_f64_le(values, at + 8), read_f64_le(values, at + 16))
     j = 3 * i
-    return Vec3(_real(values, j), _real(values, j + 1), _real(values, j + 2))
+    return Vec3(values[j], values[j + 1], values[j + 2])
 
 
 def _target(kind: int, mover: Mover, vectors: Reals, cells: list[int] | None,
