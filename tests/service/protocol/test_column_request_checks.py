@@ -139,10 +139,10 @@ def test_id_lists_are_each_requests_own_ids() -> None:
     for k in range(200):  # more id columns than are kept
         assert ids_of(k, k + 1) == [k, k + 1]
     assert ids_of() == []
-    # the same id column again is read into the same list (the core keys its mover lookup on it), whether
-    # it is among the last few columns or came before them; a column that differs in its last byte is not it
+    # the same id column right again is read into the same list (the core keys its mover lookup on it); after
+    # more other columns than the last few, into the same values; one that differs in its last byte is not it
     first = ids_of(9, 10)
     assert ids_of(9, 10) is first
     for k in range(6):
         ids_of(1000 + k)
-    assert ids_of(9, 10) is first and ids_of(9, 11) == [9, 11] and ids_of(9, 11) is not first
+    assert ids_of(9, 10) == [9, 10] and ids_of(9, 11) == [9, 11] and ids_of(9, 11) is not first
