@@ -118,7 +118,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
     n = req.n
     i = run_batch(landscape, movers, kind, vectors, rows, cells=cells, orientations=orientations,
                   velocities=velocities, dts=dts, stop_if=stop_if)
-    if i == n and len(rows.finished_at) == n and not (out.publish_each or out.gather):
+    if i == n and rows.resolved == n and not (out.publish_each or out.gather):
         out.settled = n  # the usual run: every item ran in one go and resolved, and nothing is published
     else:
         while i < n:  # item i left this instance's landblocks
@@ -135,7 +135,7 @@ def run_columns(core: ServiceCore, req: ColumnRequest, received: float, *,
         _translate_collisions(core, out)
     # each move's latency, from the request's arrival to its result, is its finishing time shifted by
     # `since - started`: the stats keep the engine's list and the shift, and add them up when asked
-    core.batch_done(since - started, rows.finished_at, rows.engine_seconds)
+    core.batch_done(since - started, rows.finished_at.getvalue(), rows.engine_seconds.getvalue())
     if req.publish == "columns" and len(out.errors) + out.forwarded < req.n and core.bus.columns_watched():
         core.bus.publish_columns(publication_message(out, req))
     return out, out.packed

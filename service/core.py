@@ -420,8 +420,9 @@ class ServiceCore:
     def hand_over(self, rec: MoverRecord, lb: int, state: bytes | None, undo: MoveUndo) -> None:
         self._hand_over(rec, lb, state, undo)
 
-    def batch_done(self, shift: float, finished_at: list[float], engine: list[float]) -> None:
-        """A column batch's moves resolved: each one's latency is its finishing time plus `shift`."""
+    def batch_done(self, shift: float, finished_at: bytes, engine: bytes) -> None:
+        """A column batch's moves resolved: each one's latency is its finishing time plus `shift` (the
+        times as the engine's batch rows write them, little-endian float64s)."""
         self.stats.batch_done(shift, finished_at, engine)
         if monotonic() - self._cache_read_at > 1.0:
             self.refresh()

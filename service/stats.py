@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import struct
 import threading
 import time
 from collections import deque
@@ -22,15 +23,16 @@ _SINGLES_PER_CHUNK = 1024
 class LatencyWindow:
     """The most recent `size` samples (seconds); percentiles are over those.
 
-    Samples are kept in chunks, each a list and a shift to add to every value of it: a column batch
-    hands over the engine's list of its moves' finishing times with the shift that makes them
-    latencies, so that recording a batch costs the same whatever its length, and the values are
-    worked out only when a summary is asked for. Single samples gather in a chunk of their own
+    Samples are kept in chunks, each its values, how many, and a shift to add to every value: a column
+    batch hands over the engine's finishing times of its moves as little-endian float64 bytes (its batch
+    rows', engine.world.batch.BatchRows) with the shift that makes them latencies, so that recording a
+    batch costs the same whatever its length, no Python float is kept per move, and the values are
+    worked out only when a summary is asked for. Single samples gather in a list chunk of their own
     (shift 0). The oldest chunks are dropped once the newer ones hold `size` samples."""
 
     def __init__(self, size: int = 20000) -> None:
         self.size = size
-        self._chunks: deque[tuple[float, list[float]]] = deque()
+        self._chunks: deque[tuple[float, int, list[float] | bytes]] = deque()
         self._kept = 0  # samples in _chunks
         self._singles: list[float] | None = None  # the last chunk, while single samples go into it
         self.count = 0
@@ -39,39 +41,45 @@ class LatencyWindow:
         singles = self._singles
         if singles is None or len(singles) >= _SINGLES_PER_CHUNK:
             singles = self._singles = []
-            self._chunks.append((0.0, singles))
+            self._chunks.append((0.0, 0, singles))  # a list chunk's count is its length, read when needed
         singles.append(seconds)
         self._kept += 1
         self.count += 1
-        if self._kept - len(self._chunks[0][1]) >= self.size:
+        if self._kept - _count(self._chunks[0]) >= self.size:
             self._drop_oldest()
 
     def extend(self, seconds: list[float]) -> None:
-        self.extend_shifted(0.0, list(seconds))
+        values = list(seconds)
+        self._append_chunk((0.0, len(values), values))
 
-    def extend_shifted(self, shift: float, values: list[float]) -> None:
-        """Samples `shift + v` for each v of `values`; the list is kept as it is (the caller must not
-        change it afterwards)."""
+    def extend_shifted(self, shift: float, values: bytes) -> None:
+        """Samples `shift + v` for each little-endian float64 v of `values`."""
+        self._append_chunk((shift, len(values) // 8, values))
+
+    def _append_chunk(self, chunk: tuple[float, int, list[float] | bytes]) -> None:
         chunks = self._chunks
-        chunks.append((shift, values))
+        chunks.append(chunk)
         self._singles = None
-        self._kept += len(values)
-        self.count += len(values)
-        if self._kept - len(chunks[0][1]) >= self.size:
+        self._kept += chunk[1]
+        self.count += chunk[1]
+        if self._kept - _count(chunks[0]) >= self.size:
             self._drop_oldest()
 
     def _drop_oldest(self) -> None:
         """Drop the oldest chunks while the others still hold `size` samples."""
         chunks = self._chunks
-        while len(chunks) > 1 and self._kept - len(chunks[0][1]) >= self.size:
-            _shift, oldest = chunks.popleft()
-            self._kept -= len(oldest)
+        while len(chunks) > 1 and self._kept - _count(chunks[0]) >= self.size:
+            self._kept -= _count(chunks.popleft())
 
     def samples(self) -> list[float]:
         """The latest `size` samples, oldest first."""
         out: list[float] = []
-        for shift, values in self._chunks:
-            out.extend(values if shift == 0.0 else [shift + v for v in values])
+        for shift, n, values in self._chunks:
+            if isinstance(values, bytes):
+                read = struct.unpack(f"<{n}d", values)
+                out.extend(read if shift == 0.0 else [shift + v for v in read])
+            else:
+                out.extend(values)  # a list chunk's shift is 0
         return out[-self.size:] if len(out) > self.size else out
 
     def summary_ms(self) -> dict[str, float | int]:
@@ -92,6 +100,12 @@ class LatencyWindow:
             "max": data[-1] * 1000.0,
             "mean": sum(data) / len(data) * 1000.0,
         }
+
+
+def _count(chunk: tuple[float, int, list[float] | bytes]) -> int:
+    """How many samples a chunk holds (a list chunk grows: its length)."""
+    values = chunk[2]
+    return chunk[1] if isinstance(values, bytes) else len(values)
 
 
 class ServiceStats:
@@ -135,11 +149,11 @@ class ServiceStats:
             self.latency.extend(latency)
             self.engine_time.extend(engine)
 
-    def batch_done(self, shift: float, finished_at: list[float], engine: list[float]) -> None:
+    def batch_done(self, shift: float, finished_at: bytes, engine: bytes) -> None:
         """A column batch's moves resolved: each one's latency is `shift` plus its finishing time, and its
-        time in the engine. The lists are kept as they are (service/column_moves.py hands them over)."""
+        time in the engine, as little-endian float64s (the engine's batch rows', kept as they are)."""
         with self._lock:
-            self.moves += len(engine)
+            self.moves += len(engine) // 8
             self.latency.extend_shifted(shift, finished_at)
             self.engine_time.extend_shifted(0.0, engine)
 

@@ -117,9 +117,12 @@ class BatchRows:
         self.results: list[MoveResult | None] = []
         #: (item index, the exception the engine raised) of items the engine refused
         self.errors: list[tuple[int, Exception]] = []
-        #: per item that ran: seconds in the engine, and perf_counter() when it finished
-        self.engine_seconds: list[float] = []
-        self.finished_at: list[float] = []
+        #: per item the engine resolved, as little-endian float64s: its seconds in the engine, and
+        #: perf_counter() when it finished (doubles, not Python floats: the service's stats keep them)
+        self.engine_seconds = BytesWriter()
+        self.finished_at = BytesWriter()
+        #: items the engine resolved (each has its two times above)
+        self.resolved = 0
         #: when `run_batch` stopped at an item (`stop_if`): what puts that item's mover back as it was
         #: before the item (MoveUndo.restore), should its move be refused after all
         self.undo: MoveUndo | None = None
@@ -376,8 +379,9 @@ def run_batch(
             append_missing(rows)
             continue
         t1 = perf_counter()
-        rows.engine_seconds.append(t1 - t0)
-        rows.finished_at.append(t1)
+        write_f64_le(rows.engine_seconds, t1 - t0)
+        write_f64_le(rows.finished_at, t1)
+        rows.resolved += 1
         results.append(result)
         if stop_if is not None and stop_if((result.position.cell_id >> 16) & 0xFFFF):
             rows.undo = undo

@@ -1,9 +1,11 @@
 """The stats' latency windows (service/stats.py): the latest `size` samples whichever way they came (one at
-a time, a batch's list, a column batch's finishing times and shift), and what the stats key reports of them."""
+a time, a batch's list, a column batch's finishing times as float64 bytes and shift), and what the stats key
+reports of them."""
 
 from __future__ import annotations
 
 import random
+import struct
 
 import pytest
 
@@ -26,9 +28,14 @@ def _fed(window: LatencyWindow, rng: random.Random, rounds: int) -> list[float]:
                 given += values
             else:
                 shift = rng.uniform(-5.0, 5.0)
-                window.extend_shifted(shift, values)
+                window.extend_shifted(shift, _f64(values))
                 given += [shift + v for v in values]
     return given
+
+
+def _f64(values: list[float]) -> bytes:
+    """Values as the engine's batch rows write times: little-endian float64s."""
+    return struct.pack(f"<{len(values)}d", *values)
 
 
 @pytest.mark.parametrize("size", [1, 10, 100, 1000])
@@ -55,7 +62,7 @@ def test_window_of_singles_keeps_a_bounded_number() -> None:
 def test_a_column_batch_reports_its_latencies_and_engine_times() -> None:
     stats = ServiceStats()
     stats.move_done(0.004, 0.001)
-    stats.batch_done(0.5, [0.001, 0.002, 0.003], [0.0005, 0.0006, 0.0007])
+    stats.batch_done(0.5, _f64([0.001, 0.002, 0.003]), _f64([0.0005, 0.0006, 0.0007]))
     assert stats.moves == 4
     got = stats.samples()
     assert got["latency_s"] == [0.004, 0.5 + 0.001, 0.5 + 0.002, 0.5 + 0.003]
