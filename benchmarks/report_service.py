@@ -127,9 +127,9 @@ def _floor_note(lat: dict[str, Any], bound: float) -> str:
     if not all(k in lat for k in ("floor_exact", "floor_wild", "floor_move")):
         return ""
     exact, wild, own = (lat[k]["median"] - bound for k in ("floor_exact", "floor_wild", "floor_move"))
-    return (f"; in a service node's process a lean handler (decode, engine, pack, reply) is {exact:.0f} µs over on "
-            f"a literal key and {wild:.0f} µs on a wildcard key like the service's, and that node's own move key "
-            f"{own:.0f} µs")
+    return (f"; against the bound, in a service node's process, a lean handler (decode, engine, pack, reply) took "
+            f"{exact:+.0f} µs on a literal key and {wild:+.0f} µs on a wildcard key like the service's, and that "
+            f"node's own move key {own:+.0f} µs")
 
 
 def _floor_walk(lat: dict[str, Any], bound: float) -> str:

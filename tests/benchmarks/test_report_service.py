@@ -60,7 +60,7 @@ def test_the_round_trip_row_says_what_bounds_it_when_the_floor_was_measured() ->
                                          floor_move={"median": 472.0})
     trip = _row(service_targets(results), "| one move's round trip")
     # over the bound of 400: 407 -> 7, 419 -> 19, 472 -> 72
-    assert "7 µs over on a literal key and 19 µs on a wildcard key" in trip and "own move key 72 µs" in trip
+    assert "took +7 µs on a literal key and +19 µs on a wildcard key" in trip and "own move key +72 µs" in trip
     assert trip.endswith("| missed |")
 
 
