@@ -23,7 +23,7 @@ _SINGLES_PER_CHUNK = 1024
 class LatencyWindow:
     """The most recent `size` samples (seconds); percentiles are over those.
 
-    Samples are kept in chunks, each its values, how many, and a shift to add to every value: a column
+    Samples are kept in chunks, each its values and a shift to add to every value: a column
     batch hands over the engine's finishing times of its moves as little-endian float64 bytes (its batch
     rows', engine.world.batch.BatchRows) with the shift that makes them latencies, so that recording a
     batch costs the same whatever its length, no Python float is kept per move, and the values are
@@ -32,7 +32,7 @@ class LatencyWindow:
 
     def __init__(self, size: int = 20000) -> None:
         self.size = size
-        self._chunks: deque[tuple[float, int, list[float] | bytes]] = deque()
+        self._chunks: deque[tuple[float, list[float] | bytes]] = deque()
         self._kept = 0  # samples in _chunks
         self._singles: list[float] | None = None  # the last chunk, while single samples go into it
         self.count = 0
@@ -41,42 +41,42 @@ class LatencyWindow:
         singles = self._singles
         if singles is None or len(singles) >= _SINGLES_PER_CHUNK:
             singles = self._singles = []
-            self._chunks.append((0.0, 0, singles))  # a list chunk's count is its length, read when needed
+            self._chunks.append((0.0, singles))
         singles.append(seconds)
         self._kept += 1
         self.count += 1
-        if self._kept - _count(self._chunks[0]) >= self.size:
+        if self._kept - _count(self._chunks[0][1]) >= self.size:
             self._drop_oldest()
 
     def extend(self, seconds: list[float]) -> None:
-        values = list(seconds)
-        self._append_chunk((0.0, len(values), values))
+        self._append_chunk(0.0, list(seconds))
 
     def extend_shifted(self, shift: float, values: bytes) -> None:
         """Samples `shift + v` for each little-endian float64 v of `values`."""
-        self._append_chunk((shift, len(values) // 8, values))
+        self._append_chunk(shift, values)
 
-    def _append_chunk(self, chunk: tuple[float, int, list[float] | bytes]) -> None:
+    def _append_chunk(self, shift: float, values: list[float] | bytes) -> None:
         chunks = self._chunks
-        chunks.append(chunk)
+        chunks.append((shift, values))
         self._singles = None
-        self._kept += chunk[1]
-        self.count += chunk[1]
-        if self._kept - _count(chunks[0]) >= self.size:
+        n = _count(values)
+        self._kept += n
+        self.count += n
+        if self._kept - _count(chunks[0][1]) >= self.size:
             self._drop_oldest()
 
     def _drop_oldest(self) -> None:
         """Drop the oldest chunks while the others still hold `size` samples."""
         chunks = self._chunks
-        while len(chunks) > 1 and self._kept - _count(chunks[0]) >= self.size:
-            self._kept -= _count(chunks.popleft())
+        while len(chunks) > 1 and self._kept - _count(chunks[0][1]) >= self.size:
+            self._kept -= _count(chunks.popleft()[1])
 
     def samples(self) -> list[float]:
         """The latest `size` samples, oldest first."""
         out: list[float] = []
-        for shift, n, values in self._chunks:
+        for shift, values in self._chunks:
             if isinstance(values, bytes):
-                read = struct.unpack(f"<{n}d", values)
+                read = struct.unpack(f"<{len(values) // 8}d", values)
                 out.extend(read if shift == 0.0 else [shift + v for v in read])
             else:
                 out.extend(values)  # a list chunk's shift is 0
@@ -102,10 +102,9 @@ class LatencyWindow:
         }
 
 
-def _count(chunk: tuple[float, int, list[float] | bytes]) -> int:
-    """How many samples a chunk holds (a list chunk grows: its length)."""
-    values = chunk[2]
-    return chunk[1] if isinstance(values, bytes) else len(values)
+def _count(values: list[float] | bytes) -> int:
+    """How many samples a chunk's values hold: a list's floats, or the bytes' float64s."""
+    return len(values) // 8 if isinstance(values, bytes) else len(values)
 
 
 class ServiceStats:
