@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .service_harness import Child, child_env, collect_reports, demo_scene, free_port
+from .service_harness import Child, child_env, collect_reports, demo_scene, free_port, stop_event
 from .common import log
 
 __all__ = ["batch_workload", "batch_spots", "paired_raw_columns", "window_targets", "pair_ratios", "BATCH_MOVERS",
@@ -159,8 +159,6 @@ def batch_bare_main(endpoint: str) -> None:
     """The bound of any service on this bus: a bare Zenoh queryable that, for each request on
     `BARE_KEY/<client index>`, runs that client's batch through run_batch (nothing decoded, checked or
     encoded) and answers with as many bytes as the service's column reply; until SIGINT/SIGTERM."""
-    import signal
-    import threading
 
     import zenoh
 
@@ -173,9 +171,7 @@ def batch_bare_main(endpoint: str) -> None:
     world = load_scene(str(demo_scene()))
     batches = _share_batches(world, [world.add_mover(PLAYER, pos, plane, cell) for pos, plane, cell in batch_spots(world)])
     reply = bytes(_column_reply_size(len(batches[0][0])))
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = stop_event()
     session = zenoh.open(make_config(listen=[endpoint]))
 
     def answer(query: Any) -> None:

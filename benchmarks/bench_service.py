@@ -36,11 +36,9 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -48,7 +46,7 @@ from typing import Any
 from . import common
 from .common import log, summary
 from .service_harness import (Child, bench_walker, child_env, collect_reports, free_port,
-                              scene_file, start_position)
+                              scene_file, start_position, stop_event)
 from .standins import NoEngine, StandInQuery, StandInSession
 
 ECHO_KEY = "acphys-bench/echo"
@@ -62,9 +60,7 @@ def echo_main(port: int) -> None:
 
     from service.bus.zconfig import make_config
 
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = stop_event()
     session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
 
     def handler(query: Any) -> None:
@@ -91,9 +87,7 @@ def engine_echo_main(port: int) -> None:
     from service.world_source import open_world
     from service.bus.zconfig import make_config
 
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = stop_event()
     world = open_world(scene=str(scene_file()))
     engine_id = world.add_mover(bench_walker(), start_position(0), None, None)
     last = [world.mover_state(engine_id).position]
@@ -166,9 +160,7 @@ def watcher_main(endpoint: str) -> None:
     from service.protocol.wire import Keys
     from service.bus.zconfig import make_config
 
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = stop_event()
     count = [0]
 
     def on_sample(_sample: Any) -> None:

@@ -20,9 +20,7 @@ them with the core's records. Listens on 127.0.0.1 only; stops on SIGINT or SIGT
 
 from __future__ import annotations
 
-import signal
 import sys
-import threading
 from typing import Any
 
 __all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main"]
@@ -34,7 +32,6 @@ FLOOR_WILD_QUERY = "acphys-bench/floor-wild/A9B4"
 
 
 def floor_main(port: int) -> None:
-
     from service.bus.node import NodeOptions, ServiceNode
     from service.bus.zconfig import make_config
     from service.protocol.codec import pack_state
@@ -42,11 +39,9 @@ def floor_main(port: int) -> None:
     from service.protocol.move_structs import plain_single_move
     from service.world_source import open_world
 
-    from .service_harness import scene_file
+    from .service_harness import scene_file, stop_event
 
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = stop_event()
     # the options `python -m service` gives its node (service/main.py), the queue as the benchmark's service's
     node = ServiceNode(open_world(scene=str(scene_file())), make_config(listen=[f"tcp/127.0.0.1:{port}"]),
                        NodeOptions(queue_capacity=4096, tune_heap=True))

@@ -2,7 +2,8 @@
 
 `Child` starts a subprocess (a service, an echo, a worker) on this checkout (or another checkout's engine,
 `engine_root`) and stops it; `free_port` gives a loopback port nobody listens on; `collect_reports` reads
-each worker process's `RESULT {json}` line; `process_tree_cpu_seconds` reads a process's CPU time from /proc.
+each worker process's `RESULT {json}` line; `process_tree_cpu_seconds` reads a process's CPU time from /proc;
+`stop_event` is what a child (an echo, a bare queryable) serves until.
 The scenes: `scene_file` (flat terrain around landblock A9B4, written under the output directory),
 `demo_scene` (the client demo's world), `start_position` (mover i's spot on a 15 m grid) and `bench_walker`
 (the mover every benchmark registers).
@@ -100,6 +101,16 @@ class Child:
 
     def stop(self) -> None:
         interrupt(self.proc)
+
+
+def stop_event() -> threading.Event:
+    """An event SIGINT or SIGTERM sets (the service's own `stop_on_signals`): a benchmark's child process
+    serves until it is set, as `Child.stop` asks."""
+    import logging
+
+    from service.command import stop_on_signals
+
+    return stop_on_signals(logging.getLogger("acphys.bench"), "stopping")
 
 
 def interrupt(proc: subprocess.Popen[str]) -> None:
