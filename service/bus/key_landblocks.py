@@ -7,6 +7,8 @@ query's and each push's landblock before it decodes anything (service/bus/node.p
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from service.protocol.errors import ProtocolError
 from service.protocol.wire import ErrorKind, Keys, parse_lb_hex
 
@@ -22,6 +24,8 @@ class KeyLandblocks:
     def __init__(self, keys: Keys) -> None:
         self.keys = keys
         self._key_lbs: dict[str, int | None] = {}  # request keys already checked: their landblock
+        #: told each new key that names one landblock (service/bus/route_keys.py declares it on the session)
+        self.learned: Callable[[str], None] | None = None
 
     def landblock(self, key: str, op: str) -> int | None:
         """The landblock of `<prefix>/lb/<XXYY>/<op>`; None for a wildcard where the op needs none.
@@ -32,6 +36,8 @@ class KeyLandblocks:
         except KeyError:
             pass
         lb = self._read(key, op)
+        if lb is not None and self.learned is not None:
+            self.learned(key)
         if len(self._key_lbs) >= _LB_KEY_CACHE:
             self._key_lbs.clear()
         self._key_lbs[key] = lb

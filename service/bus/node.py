@@ -35,6 +35,7 @@ from service import heap
 from service.protocol.frames import pack
 from service.bus.jobqueue import JobQueue
 from service.bus.key_landblocks import KeyLandblocks
+from service.bus.route_keys import RouteKeys
 from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
 from service.bus.publication import ZenohBus
@@ -132,7 +133,10 @@ class ServiceNode:
         self._engine_lock: threading.Lock = shared_with._engine_lock if shared_with is not None else threading.Lock()
         self._inline = self.options.inline and self.options.ownership.everything
         #: the landblock of a request key, read once per key (service/bus/key_landblocks.py)
-        self._key_lb: Callable[[str, str], int | None] = KeyLandblocks(self.keys).landblock
+        self._key_lbs = KeyLandblocks(self.keys)
+        self._key_lb: Callable[[str, str], int | None] = self._key_lbs.landblock
+        #: the literal request keys declared on the session, so that Zenoh keeps their routes (set at start)
+        self._route_keys: RouteKeys | None = None
         self.bus: ZenohBus | None = None  # what the core puts on the bus (service/bus/publication.py)
         self._last_arrival = time.monotonic()  # when a callback last took a request (shutdown waits for quiet)
 
@@ -159,6 +163,11 @@ class ServiceNode:
             self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
             self._thread.start()
         s = self.session
+        if not self.options.direct_callbacks:
+            # keys are declared from the callbacks' own Python thread; with direct callbacks that would be
+            # Zenoh's network thread calling back into its session, which zenoh-python does not promise to allow
+            self._route_keys = RouteKeys(s)
+            self._key_lbs.learned = self._route_keys.learn
         for part in self.options.ownership.key_parts():
             for op in LB_OPS:
                 if op == "handover" and not self.options.accept_handovers:
@@ -202,6 +211,10 @@ class ServiceNode:
             except Exception:  # already gone with the session: nothing to undo
                 pass
         self._declared.clear()
+        if self._route_keys is not None:
+            self._key_lbs.learned = None
+            self._route_keys.close()
+            self._route_keys = None
         if self.bus is not None:
             self.bus.close()
         if self.session is not None and self._host is None:

@@ -1,0 +1,130 @@
+"""The literal request keys a node declares on its session (service/bus/route_keys.py): each new key that
+names one landblock, once, up to the limit; none for a wildcard or refused key; all undeclared at shutdown;
+and the requests on them answered as before."""
+
+from __future__ import annotations
+
+
+import msgpack
+import pytest
+import zenoh
+
+from clients.demo.world import global_to_cell
+from engine import load_scene
+from engine.geometry import Position, Vec3
+from service.bus.key_landblocks import KeyLandblocks
+from service.bus.node import NodeOptions, ServiceNode
+from service.bus.route_keys import RouteKeys
+from service.bus.zconfig import make_config
+from service.protocol.codec import encode_mover_spec, encode_position
+from service.protocol.errors import ProtocolError
+from service.protocol.requests import parse_register
+from service.protocol.wire import Keys
+from support.service_harness import DEMO_SCENE, endpoint, free_port, human, raw_query, raw_session
+
+
+class RecordingSession:
+    """What RouteKeys asks of a session, recorded; `fail` makes every declaration raise."""
+
+    def __init__(self, fail: bool = False) -> None:
+        self.fail = fail
+        self.declared: list[str] = []
+        self.undeclared: list[str] = []
+
+    def declare_keyexpr(self, key: str) -> str:
+        if self.fail:
+            raise RuntimeError("session closed")
+        self.declared.append(key)
+        return f"kx:{key}"
+
+    def undeclare(self, kx: str) -> None:
+        self.undeclared.append(kx)
+
+
+def test_each_key_is_declared_once_and_never_past_the_limit() -> None:
+    s = RecordingSession()
+    rk = RouteKeys(s, limit=2)
+    for key in ("p/lb/0101/move", "p/lb/0101/move", "p/lb/0102/move", "p/lb/0103/move", "p/lb/0101/move"):
+        rk.learn(key)
+    assert s.declared == ["p/lb/0101/move", "p/lb/0102/move"]  # the third new key is past the limit
+    rk.close()
+    assert sorted(s.undeclared) == ["kx:p/lb/0101/move", "kx:p/lb/0102/move"] and rk.declared == {}
+
+
+def test_a_declaration_that_fails_is_not_an_error_and_is_tried_again() -> None:
+    s = RecordingSession(fail=True)
+    rk = RouteKeys(s)
+    rk.learn("p/lb/0101/move")  # nothing raised: the key is served by matching, as without it
+    assert rk.declared == {}
+    s.fail = False
+    rk.learn("p/lb/0101/move")
+    assert s.declared == ["p/lb/0101/move"]
+
+
+def test_only_new_keys_naming_one_landblock_are_learned() -> None:
+    learned: list[str] = []
+    kl = KeyLandblocks(Keys("acphys"))
+    kl.learned = learned.append
+    for _ in range(2):  # a remembered key is not learned again
+        assert kl.landblock("acphys/lb/A9B4/move", "move") == 0xA9B4
+        assert kl.landblock("acphys/lb/*/get", "get") is None  # a wildcard names no landblock
+        with pytest.raises(ProtocolError):
+            kl.landblock("acphys/lb/ZZ00/move", "move")  # refused
+    assert learned == ["acphys/lb/A9B4/move"]
+
+
+def _register(node: ServiceNode) -> int:
+    cell, x, y = global_to_cell(40.0, 40.0)
+    assert node.core is not None
+    req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
+                          "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
+    return int(node.core.register(req)["state"]["id"])
+
+
+def _started(options: NodeOptions) -> tuple[ServiceNode, str]:
+    where = endpoint(free_port())
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), options)
+    n.start()
+    return n, where
+
+
+def test_a_node_declares_the_keys_it_is_asked_on_and_answers_as_before() -> None:
+    node, where = _started(NodeOptions())
+    client = raw_session(where)
+    try:
+        mid = _register(node)
+        cell, _x, _y = global_to_cell(40.0, 40.0)
+        key = f"acphys/lb/{cell >> 16:04X}/move"
+        route_keys = node._route_keys
+        assert route_keys is not None and route_keys.declared == {}
+        seqs = []
+        for _ in range(3):  # the first on an undeclared key, the others on the declared one
+            ok, reply = raw_query(client, key, msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
+            assert ok, reply
+            seqs.append(reply["state"]["seq"])
+        assert seqs == [1, 2, 3]
+        ok, reply = raw_query(client, "acphys/lb/*/get", msgpack.packb({"v": 1, "id": mid}))
+        assert ok and reply["state"]["id"] == mid
+        assert list(route_keys.declared) == [key]  # the wildcard `get` declared nothing
+        assert isinstance(route_keys.declared[key], zenoh.KeyExpr)
+    finally:
+        client.close()
+        node.shutdown(timeout=5.0)
+    assert node._route_keys is None and route_keys.declared == {}  # undeclared before the session closed
+
+
+def test_a_node_on_direct_callbacks_declares_nothing() -> None:
+    node, where = _started(NodeOptions(direct_callbacks=True))
+    client = raw_session(where)
+    try:
+        mid = _register(node)
+        cell, _x, _y = global_to_cell(40.0, 40.0)
+        ok, reply = raw_query(client, f"acphys/lb/{cell >> 16:04X}/move",
+                              msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
+        assert ok and reply["state"]["seq"] == 1
+        assert node._route_keys is None
+    finally:
+        client.close()
+        node.shutdown(timeout=5.0)
+
+
