@@ -11,8 +11,9 @@ own `P/lb/*/move` in the same process, queried the same way.
 
 - `FLOOR_EXACT_KEY` is declared as it is queried, a literal key, as the bare engine queryable's is;
 - `FLOOR_WILD_KEY` is declared with a `*` chunk and queried on a literal one, as the service's
-  per-landblock keys are (`P/lb/*/move`): the difference is what Zenoh's dispatch of a wildcard
-  declaration costs each query.
+  per-landblock keys are (`P/lb/*/move`), and that literal key is declared on the session as the node
+  declares each key it is asked on (service/bus/route_keys.py): the difference is what Zenoh's dispatch
+  of a wildcard declaration still costs each query.
 
 Movers are registered through the node's own `register` (the client library); the floor handlers move
 them with the core's records. Listens on 127.0.0.1 only; stops on SIGINT or SIGTERM.
@@ -33,6 +34,7 @@ FLOOR_WILD_QUERY = "acphys-bench/floor-wild/A9B4"
 
 def floor_main(port: int) -> None:
     from service.bus.node import NodeOptions, ServiceNode
+    from service.bus.route_keys import RouteKeys
     from service.bus.zconfig import make_config
     from service.protocol.codec import pack_state
     from service.protocol.frames import STATE_HEAD
@@ -61,8 +63,11 @@ def floor_main(port: int) -> None:
         query.reply(query.key_expr, STATE_HEAD + pack_state(rec.id, r.seq, r, [], item.tag))
 
     declared = [session.declare_queryable(key, lean_move) for key in (FLOOR_EXACT_KEY, FLOOR_WILD_KEY)]
+    route_keys = RouteKeys(session)  # the query key declared, as the node's are
+    route_keys.learn(FLOOR_WILD_QUERY)
     print("floor ready", flush=True)
     stop.wait()
+    route_keys.close()
     for d in declared:
         d.undeclare()
     node.shutdown()
