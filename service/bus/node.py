@@ -152,8 +152,12 @@ class ServiceNode:
                 raise RuntimeError("start the host node before its tenants")
         instance = str(self.session.zid())
         o = self.options
+        if not o.direct_callbacks:  # keys are declared from Python's threads only (service/bus/route_keys.py)
+            self._route_keys = RouteKeys(self.session)
+            self._key_lbs.learned = self._route_keys.learn
         self.bus = ZenohBus(self.session, self.keys, self, publish_states=o.publish_states,
-                            skip_unwatched_states=o.skip_unwatched_states, handover_timeout=o.handover_timeout)
+                            skip_unwatched_states=o.skip_unwatched_states, handover_timeout=o.handover_timeout,
+                            route_keys=self._route_keys)
         self.core = ServiceCore(self.world, self.bus, ownership=o.ownership, instance=instance, stats=self.stats)
         self.core.foreign_movers_in = self._foreign_movers_in
         self.core.world_changed = self._tenants_read_snapshots
@@ -163,11 +167,6 @@ class ServiceNode:
             self._thread = threading.Thread(target=self._engine_loop, name="acphys-engine", daemon=True)
             self._thread.start()
         s = self.session
-        if not self.options.direct_callbacks:
-            # keys are declared from the callbacks' own Python thread; with direct callbacks that would be
-            # Zenoh's network thread calling back into its session, which zenoh-python does not promise to allow
-            self._route_keys = RouteKeys(s)
-            self._key_lbs.learned = self._route_keys.learn
         for part in self.options.ownership.key_parts():
             for op in LB_OPS:
                 if op == "handover" and not self.options.accept_handovers:
@@ -211,12 +210,12 @@ class ServiceNode:
             except Exception:  # already gone with the session: nothing to undo
                 pass
         self._declared.clear()
+        if self.bus is not None:
+            self.bus.close()  # publishes nothing from here on: the State keys may go
         if self._route_keys is not None:
             self._key_lbs.learned = None
             self._route_keys.close()
             self._route_keys = None
-        if self.bus is not None:
-            self.bus.close()
         if self.session is not None and self._host is None:
             self.session.close()  # a tenant's session is its host's, closed by it
         self.session = None

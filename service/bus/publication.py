@@ -25,6 +25,7 @@ import zenoh
 
 from service.protocol.errors import ProtocolError
 from service.bus.request_log import ERRORS
+from service.bus.route_keys import RouteKeys
 from service.protocol.frames import pack, state_message, states_message
 from service.protocol.wire import ErrorKind, Keys
 
@@ -85,8 +86,11 @@ class ZenohBus:
     """The core's view of the bus (BusPort), on `session` under `keys`'s prefix."""
 
     def __init__(self, session: zenoh.Session, keys: Keys, wait: HandoverWait, *, publish_states: bool,
-                 skip_unwatched_states: bool, handover_timeout: float) -> None:
+                 skip_unwatched_states: bool, handover_timeout: float, route_keys: RouteKeys | None = None) -> None:
         self.session = session
+        #: declares each mover's State key on the session, so that a put on it takes a cached route
+        #: (service/bus/route_keys.py); None: keys parsed only (direct callbacks)
+        self.route_keys = route_keys
         self.keys = keys
         self.publish_states = publish_states
         self.skip_unwatched_states = skip_unwatched_states
@@ -151,10 +155,12 @@ class ZenohBus:
         if not self.publish_states or not self._open:
             return
         key = self._state_keys.get(mover_id)
-        if key is None:  # parsing the key expression costs more than the put itself
+        if key is None:  # parsing (or declaring) the key expression costs more than the put itself
             if len(self._state_keys) >= _KEY_CACHE:
                 self._state_keys.clear()
-            key = self._state_keys[mover_id] = zenoh.KeyExpr(self.keys.state(mover_id))
+            text = self.keys.state(mover_id)
+            rk = self.route_keys
+            key = self._state_keys[mover_id] = zenoh.KeyExpr(text) if rk is None else rk.key_expr(text)
         self.session.put(key, state_message(packed_state))
 
     def publish_batch(self, packed_states: list[bytes]) -> None:

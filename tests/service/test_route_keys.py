@@ -1,9 +1,12 @@
-"""The literal request keys a node declares on its session (service/bus/route_keys.py): each new key that
-names one landblock, once, up to the limit; none for a wildcard or refused key; all undeclared at shutdown;
-and the requests on them answered as before."""
+"""The literal keys a node declares on its session (service/bus/route_keys.py): each new request key that
+names one landblock and each mover's State key, once, up to the limit; none for a wildcard or refused key;
+all undeclared at shutdown; the requests on them answered and the States on them received as before."""
 
 from __future__ import annotations
 
+
+import threading
+from typing import Any
 
 import msgpack
 import pytest
@@ -20,7 +23,7 @@ from service.protocol.codec import encode_mover_spec, encode_position
 from service.protocol.errors import ProtocolError
 from service.protocol.requests import parse_register
 from service.protocol.wire import Keys
-from support.service_harness import DEMO_SCENE, endpoint, free_port, human, raw_query, raw_session
+from support.service_harness import DEMO_SCENE, endpoint, free_port, human, raw_query, raw_session, wait_until
 
 
 class RecordingSession:
@@ -61,6 +64,16 @@ def test_a_declaration_that_fails_is_not_an_error_and_is_tried_again() -> None:
     assert s.declared == ["p/lb/0101/move"]
 
 
+def test_a_key_to_put_on_is_the_declared_one_or_past_the_limit_a_parsed_one() -> None:
+    s = RecordingSession()
+    rk = RouteKeys(s, limit=1)
+    first = rk.key_expr("p/obj/1/state")
+    assert first == "kx:p/obj/1/state" and rk.key_expr("p/obj/1/state") is first  # declared once
+    past = rk.key_expr("p/obj/2/state")
+    assert isinstance(past, zenoh.KeyExpr) and str(past) == "p/obj/2/state"
+    assert s.declared == ["p/obj/1/state"]
+
+
 def test_only_new_keys_naming_one_landblock_are_learned() -> None:
     learned: list[str] = []
     kl = KeyLandblocks(Keys("acphys"))
@@ -96,7 +109,12 @@ def test_a_node_declares_the_keys_it_is_asked_on_and_answers_as_before() -> None
         cell, _x, _y = global_to_cell(40.0, 40.0)
         key = f"acphys/lb/{cell >> 16:04X}/move"
         route_keys = node._route_keys
-        assert route_keys is not None and route_keys.declared == {}
+        assert route_keys is not None
+
+        def request_keys() -> list[str]:
+            return [k for k in route_keys.declared if k.startswith("acphys/lb/")]
+
+        assert request_keys() == []
         seqs = []
         for _ in range(3):  # the first on an undeclared key, the others on the declared one
             ok, reply = raw_query(client, key, msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
@@ -105,7 +123,7 @@ def test_a_node_declares_the_keys_it_is_asked_on_and_answers_as_before() -> None
         assert seqs == [1, 2, 3]
         ok, reply = raw_query(client, "acphys/lb/*/get", msgpack.packb({"v": 1, "id": mid}))
         assert ok and reply["state"]["id"] == mid
-        assert list(route_keys.declared) == [key]  # the wildcard `get` declared nothing
+        assert request_keys() == [key]  # the wildcard `get` declared nothing
         assert isinstance(route_keys.declared[key], zenoh.KeyExpr)
     finally:
         client.close()
@@ -128,3 +146,34 @@ def test_a_node_on_direct_callbacks_declares_nothing() -> None:
         node.shutdown(timeout=5.0)
 
 
+
+
+def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> None:
+    node, where = _started(NodeOptions())
+    watcher = raw_session(where)
+    got: list[tuple[str, int]] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: Any) -> None:
+        state = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]
+        with lock:
+            got.append((str(sample.key_expr), state["seq"]))
+
+    try:
+        mid = _register(node)
+        state_key = f"acphys/obj/{mid:X}/state"
+        sub = watcher.declare_subscriber(state_key, on_sample)
+        bus = node.bus
+        assert bus is not None and wait_until(bus.states_watched, timeout=10.0)
+        cell, _x, _y = global_to_cell(40.0, 40.0)
+        for _ in range(2):  # the first put declares the key, the second takes its route
+            ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
+                                   msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
+            assert ok
+        assert wait_until(lambda: len(got) == 2, timeout=10.0)
+        assert got == [(state_key, 1), (state_key, 2)]
+        assert node._route_keys is not None and state_key in node._route_keys.declared
+        sub.undeclare()
+    finally:
+        watcher.close()
+        node.shutdown(timeout=5.0)
