@@ -135,7 +135,7 @@ class ServiceNode:
         #: the landblock of a request key, read once per key (service/bus/key_landblocks.py)
         self._key_lbs = KeyLandblocks(self.keys)
         self._key_lb: Callable[[str, str], int | None] = self._key_lbs.landblock
-        #: the literal request keys declared on the session, so that Zenoh keeps their routes (set at start)
+        #: the literal keys declared on the session (requests' and States'), so that Zenoh keeps their routes (set at start)
         self._route_keys: RouteKeys | None = None
         self.bus: ZenohBus | None = None  # what the core puts on the bus (service/bus/publication.py)
         self._last_arrival = time.monotonic()  # when a callback last took a request (shutdown waits for quiet)
