@@ -29,6 +29,10 @@ class BusPort(Protocol):
 
     def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
 
+    def forget_mover(self, mover_id: int) -> None:
+        """The mover left this instance (removed, or handed over): what the bus keeps for its key may go."""
+        ...
+
     def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
         """Put a fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
         ...

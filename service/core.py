@@ -213,6 +213,7 @@ class ServiceCore:
 
     def _drop(self, rec: MoverRecord) -> None:
         self.world.remove_mover(rec.engine_id)
+        self.bus.forget_mover(rec.id)
         self.movers.pop(rec.id, None)
         self.engine_movers.pop(rec.id, None)
         self.movers_version += 1

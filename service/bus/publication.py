@@ -163,6 +163,11 @@ class ZenohBus:
             key = self._state_keys[mover_id] = zenoh.KeyExpr(text) if rk is None else rk.key_expr(text)
         self.session.put(key, state_message(packed_state))
 
+    def forget_mover(self, mover_id: int) -> None:
+        """The mover left: its State key is let go (undeclared, when it was declared, which frees its slot)."""
+        if self._state_keys.pop(mover_id, None) is not None and self.route_keys is not None:
+            self.route_keys.forget(self.keys.state(mover_id))
+
     def publish_batch(self, packed_states: list[bytes]) -> None:
         """One request's States as one message on P/states."""
         pub = self._batch_pub

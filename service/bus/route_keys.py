@@ -15,7 +15,8 @@ routing tables. A declaration is not free: 4,096 of them raised a process's RSS 
 each), and each new one takes longer the more there are (10 µs with a thousand, 13 µs with four
 thousand, 41 µs with sixteen thousand: Zenoh looks its name up among the session's). So at most
 `MAX_ROUTE_KEYS` keys are declared, the first ones met; keys past that are served as before, by
-matching. An instance with more movers than that publishes the States of the others on parsed keys.
+matching. A mover's State key is undeclared when the mover leaves the instance (removed or handed
+over); an instance with more movers than that publishes the States of the others on parsed keys.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ MAX_ROUTE_KEYS = 4096
 
 class RouteKeys:
     """The keys declared on `session` so far: `key_expr(key)` (declaring a new one), `learn(key)` (the same,
-    for a key only received on), `close()` undeclaring them all.
+    for a key only received on), `forget(key)` undeclaring one, `close()` undeclaring them all.
 
     Called from the callbacks' Python threads and the engine thread, never from Zenoh's own network
     thread (direct callbacks): that would be Zenoh's thread calling back into its session, which
@@ -59,6 +60,15 @@ class RouteKeys:
         if kx is None:
             kx = self._declare(key)
         return kx if kx is not None else zenoh.KeyExpr(key)
+
+    def forget(self, key: str) -> None:
+        """Undeclare `key` (a mover's State key when the mover leaves), freeing its place under the limit."""
+        kx = self.declared.pop(key, None)
+        if kx is not None:
+            try:
+                self.session.undeclare(kx)
+            except Exception:  # already gone with the session
+                pass
 
     def _declare(self, key: str) -> Any:
         if len(self.declared) >= self.limit:

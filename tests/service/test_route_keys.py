@@ -74,6 +74,16 @@ def test_a_key_to_put_on_is_the_declared_one_or_past_the_limit_a_parsed_one() ->
     assert s.declared == ["p/obj/1/state"]
 
 
+def test_a_forgotten_key_is_undeclared_and_frees_its_place() -> None:
+    s = RecordingSession()
+    rk = RouteKeys(s, limit=1)
+    rk.key_expr("p/obj/1/state")
+    rk.forget("p/obj/1/state")
+    rk.forget("p/obj/9/state")  # never declared: nothing to undo
+    assert s.undeclared == ["kx:p/obj/1/state"] and rk.declared == {}
+    assert rk.key_expr("p/obj/2/state") == "kx:p/obj/2/state"  # the freed place is taken
+
+
 def test_only_new_keys_naming_one_landblock_are_learned() -> None:
     learned: list[str] = []
     kl = KeyLandblocks(Keys("acphys"))
@@ -173,6 +183,9 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
         assert wait_until(lambda: len(got) == 2, timeout=10.0)
         assert got == [(state_key, 1), (state_key, 2)]
         assert node._route_keys is not None and state_key in node._route_keys.declared
+        assert node.core is not None
+        node.core.remove(mid)  # the mover leaves: its State key is let go
+        assert state_key not in node._route_keys.declared
         sub.undeclare()
     finally:
         watcher.close()
