@@ -164,8 +164,10 @@ class ZenohBus:
         self.session.put(key, state_message(packed_state))
 
     def forget_mover(self, mover_id: int) -> None:
-        """The mover left: its State key is let go (undeclared, when it was declared, which frees its slot)."""
-        if self._state_keys.pop(mover_id, None) is not None and self.route_keys is not None:
+        """The mover left: its State key is let go (undeclared, when it was declared, which frees its slot).
+        Asked of the route keys themselves: the parsed-key cache may have been emptied since the declaration."""
+        self._state_keys.pop(mover_id, None)
+        if self.route_keys is not None:
             self.route_keys.forget(self.keys.state(mover_id))
 
     def publish_batch(self, packed_states: list[bytes]) -> None:
