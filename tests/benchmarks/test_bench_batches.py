@@ -10,6 +10,7 @@ from benchmarks.bench_batches import BATCH_STEP, _column_reply_size, _column_req
 from engine.world.batch import BatchRows, append_missing
 from service.column_moves import ColumnResults, reply_message
 from service.protocol.column_request import parse_column_request
+from support.sessions import SessionDouble
 
 
 def test_the_bound_replies_with_as_many_bytes_as_the_service() -> None:
@@ -30,18 +31,16 @@ def test_the_bound_is_sent_the_request_a_client_sends() -> None:
     assert np.array_equal(req.arrays["offset"], expected)
 
 
-class _CapturingSession:
+class _CapturingSession(SessionDouble):
     """What Client uses of a zenoh.Session to send a batch: `get`, whose payload is kept; no reply comes."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.payloads: list[bytes] = []
 
     def get(self, key: object, payload: bytes, timeout: float) -> list[object]:
         self.payloads.append(payload)
         return []
-
-    def is_closed(self) -> bool:
-        return False
 
 
 def test_the_raw_clients_send_the_bytes_client_move_batch_sends() -> None:

@@ -17,6 +17,7 @@ import pytest
 from clients.batch import move_batch
 from service.protocol.columns import REPLY_BY_NAME, REPLY_COLUMNS, REQUEST_BY_NAME, Flag, pack_columns, unpack_column
 from service.protocol.wire import Keys
+from support.sessions import SessionDouble
 
 RESOLVED = Flag.RESOLVED | Flag.OK
 
@@ -167,11 +168,12 @@ class _LoggedReplies:
         return iter([reply])
 
 
-class _LoggedSession:
+class _LoggedSession(SessionDouble):
     """What Client uses of a zenoh.Session for a map batch: `get`, answered with every move resolved (its
     id as seq) by the landblock the key names."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.log: list[str] = []
 
     def get(self, key: Any, payload: bytes, timeout: float) -> _LoggedReplies:
@@ -180,9 +182,6 @@ class _LoggedSession:
         moves = msgpack.unpackb(payload)["moves"]
         results = [{"id": m["id"], "landblock": lb, "seq": m["id"]} for m in moves]
         return _LoggedReplies(self.log, lb, msgpack.packb({"v": 1, "results": results}))
-
-    def is_closed(self) -> bool:
-        return False
 
 
 def test_a_map_batch_sends_every_landblocks_request_before_reading_a_reply() -> None:

@@ -20,6 +20,7 @@ from engine.geometry import Position, Vec3
 from service.protocol.codec import pack_state
 from service.protocol.frames import state_message
 from support.service_harness import StandInReply as _Reply
+from support.sessions import SessionDouble
 
 CELL = 0xA9B40001
 HERE, THERE = "acphys/lb/A9B4/move", "acphys/lb/A9B5/move"
@@ -36,11 +37,12 @@ def _error(kind: str, **details: Any) -> bytes:
     return msgpack.packb({"v": 1, "error": {"kind": kind, "message": kind, **details}})
 
 
-class _Session:
+class _Session(SessionDouble):
     """A zenoh.Session's `get` for a client: `answer(key, payload, asked_before)` says the replies; every
     request is recorded."""
 
     def __init__(self, answer: Callable[[str, bytes, int], list[_Reply]]) -> None:
+        super().__init__()
         self.answer = answer
         self.sent: list[str] = []
         self.payloads: list[bytes] = []
@@ -51,9 +53,6 @@ class _Session:
         self.sent.append(key)
         self.payloads.append(payload)
         return iter(self.answer(key, payload, asked_before))
-
-    def is_closed(self) -> bool:
-        return False
 
 
 def _client(answer: Callable[[str, bytes, int], list[_Reply]], *, located: bool = True,

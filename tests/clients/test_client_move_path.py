@@ -24,6 +24,7 @@ from service.protocol.codec import pack_state
 from service.protocol.errors import ProtocolError
 from service.protocol.frames import state_message
 from support.service_harness import StandInReply as _Reply
+from support.sessions import SessionDouble
 
 CELL = 0xA9B40001
 
@@ -126,19 +127,17 @@ def test_any_other_reply_is_left_to_the_usual_reader(reply: Any) -> None:
     assert decode_state_reply(payload + b"\x00") is None
 
 
-class _Session:
+class _Session(SessionDouble):
     """What a Client uses of a zenoh.Session for one request: `get`, answered by `answer(key, payload)`."""
 
     def __init__(self, answer: Callable[[str, bytes], list[_Reply]]) -> None:
+        super().__init__()
         self.answer = answer
         self.sent: list[tuple[str, bytes]] = []
 
     def get(self, key: Any, *, payload: bytes, timeout: float) -> Any:
         self.sent.append((str(key), payload))
         return iter(self.answer(str(key), payload))
-
-    def is_closed(self) -> bool:
-        return False
 
 
 def _client(answer: Callable[[str, bytes], list[_Reply]]) -> tuple[Client, _Session]:
