@@ -114,10 +114,17 @@ def run(quick: bool, against: Path | None = None) -> dict[str, Any]:
     client_move = [count_client_move(_python_of(root), root) for root in roots]
     for root, counted_call in zip(roots, client_move):
         log(f"instructions: one Client.move in the client library ({root.name}) {counted_call['per_call']:9.0f} per call")
+    from .instructions_round_trip import count_round_trip
+
+    round_trip = [count_round_trip(_python_of(root), root) for root in roots]
+    for root, counted_trip in zip(roots, round_trip):
+        log(f"instructions: one move's round trip, whole stack ({root.name}): the bound {counted_trip['bound']:9.0f}, "
+            f"the service asked raw {counted_trip['service_raw']:9.0f}, Client.move {counted_trip['client']:9.0f} "
+            f"(+{counted_trip['client_over_bound']:.0f} over the bound)")
     return {"rows": rows, "against": str(against) if against is not None else None,
             "against_commit": common.short_commit(roots[1]) if against is not None else None,
             "symbols": list(ENTRY_SYMBOLS), "moves_each": max_moves or None, "column_path": column_path,
-            "single_move": single_move, "client_move": client_move}
+            "single_move": single_move, "client_move": client_move, "round_trip": round_trip}
 
 
 def section(data: dict[str, Any], meta: str) -> list[str]:
@@ -143,7 +150,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
         out += [f"| {r['name']} | {r['calls']:,} | {r['per_call']:,.0f} |" for r in data["rows"]]
     return (out + _column_path_lines(data.get("column_path"), data.get("against_commit"))
             + _single_move_lines(data.get("single_move"), data.get("against_commit"))
-            + _client_move_lines(data.get("client_move"), data.get("against_commit")))
+            + _client_move_lines(data.get("client_move"), data.get("against_commit"))
+            + _round_trip_lines(data.get("round_trip"), data.get("against_commit")))
 
 
 def _column_path_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
@@ -187,6 +195,26 @@ def _client_move_lines(counts: list[dict[str, Any]] | None, against_commit: str 
             "send and receive are not counted): the Move packed, its key found, the State read into a MoverState, "
             f"as the difference of a {calls[0]}-call and a {calls[1]}-call run."), "",
            *_count_table(("Client.move",), counts, ("per_call",), against_commit)]
+    return out + [""]
+
+
+def _round_trip_lines(counts: list[dict[str, Any]] | None, against_commit: str | None) -> list[str]:
+    """One move's round trip, the whole stack in one process (benchmarks/instructions_round_trip.py)."""
+    if not counts:
+        return []
+    trips = counts[0]["round_trips"]
+    out = [("One move's round trip, instructions per round trip, the whole stack in one process "
+            "(benchmarks/instructions_round_trip.py): both Zenoh sessions over loopback TCP, the server's callback "
+            "and the client's call, every thread counted (the kernel's side is not), as the difference of a "
+            f"{trips[0]}- and a {trips[1]}-round-trip run. The bound is the engine alone behind a bare queryable "
+            "asked by a plain `get` (the timed bound), once on its key's text and once on the key declared; "
+            "\"service, raw get\" is a service node asked the same request by a plain `get` on its declared "
+            "`P/lb/XXYY/move` key; \"Client.move\" the same node asked by the client library. Zenoh's timers "
+            "tick in wall time, so a count moves by about 2,000 between runs."), "",
+           *_count_table(("the bound", "the bound, key declared", "service, raw get", "Client.move",
+                          "the service's own", "the client library's own", "Client.move over the bound"), counts,
+                         ("bound", "bound_declared", "service_raw", "client", "service_over_bound",
+                          "client_over_service_raw", "client_over_bound"), against_commit)]
     return out + [""]
 
 
