@@ -11,7 +11,7 @@ import statistics
 import subprocess
 import sys
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -127,3 +127,26 @@ def fmt(x: float, digits: int = 1) -> str:
 
 def log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
+
+
+def rotated_round_trips(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, dict[str, float]]:
+    """Each series asked `requests` times, one request at a time in rotation (`a b c`, then `b c a`, ...),
+    each timed on its own (µs): the service benchmark's comparison of one move with its bound. A series
+    is called with the request's index; a list it returns is Zenoh's replies, and must hold an answer.
+
+    Why not in blocks, as the other series: a block of one series runs with its own processes' code warm and
+    the scheduler settled on where they run, and the block before it is always the same one, so each series
+    carries its own offset (seen as two series on the same key 30 µs apart in one run). In rotation every
+    series follows every other equally often, and each request finds the caches as the others left them."""
+    names = list(series)
+    samples: dict[str, list[float]] = {name: [] for name in names}
+    clock = time.perf_counter
+    for i in range(requests):
+        first = i % len(names)
+        for name in names[first:] + names[:first]:
+            t0 = clock()
+            got = series[name](i)
+            samples[name].append(clock() - t0)
+            if isinstance(got, list) and (not got or got[0].ok is None):
+                raise RuntimeError(f"{name}: request {i} was not answered")
+    return {name: summary(v, 1e6) for name, v in samples.items()}

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import pytest
+
 from benchmarks.report_service import service_targets
 
 
@@ -91,3 +93,48 @@ def test_the_column_target_is_read_from_the_paired_windows_when_measured() -> No
     assert "rounds, seconds apart: 0.90, 0.80, 0.80" in row and row.endswith("| missed |")
     results["service"]["batch_workload"]["paired"]["ratio"] = 0.96
     assert _row(service_targets(results), "| column batches with raw clients").endswith("| met |")
+
+
+def test_the_round_trip_verdict_is_the_rotations_when_it_was_measured() -> None:
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    results["service"]["latency"]["rotated"] = {"engine_echo": {"median": 420.0}, "raw_move": {"median": 441.0},
+                                                "move": {"median": 455.0}}
+    trip = _row(service_targets(results), "| one move's round trip")
+    # rotation: 455 - 420 = 35 over (the service 441 - 420 = 21, the client library 455 - 441 = 14): within 40;
+    # the blocks' 530 - 400 = 130 over is given beside it
+    assert "455 vs 420 µs, one request at a time in rotation: 35 µs over (the service 21 µs, the client library 14 µs)" in trip
+    assert "in blocks of the same run, 530 vs 400 µs: 130 µs over" in trip
+    assert trip.endswith("| met |")
+    results["service"]["latency"]["rotated"]["move"] = {"median": 461.0}  # 41 over
+    assert _row(service_targets(results), "| one move's round trip").endswith("| missed |")
+
+
+def test_the_round_trip_row_gives_the_count_when_the_run_counted_it() -> None:
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    results["instructions"]["round_trip"] = [{"bound": 218_000.0, "client": 296_500.0, "client_over_bound": 78_500.0}]
+    trip = _row(service_targets(results), "| one move's round trip")
+    assert "whole round trip is 296,500 instructions against the bound's 218,000: +78,500" in trip
+
+
+def test_rotation_puts_each_series_first_in_turn_and_times_every_request() -> None:
+    from benchmarks.common import rotated_round_trips
+
+    calls: list[tuple[str, int]] = []
+
+    def series(name: str) -> Any:
+        def ask(i: int) -> object:
+            calls.append((name, i))
+            return object()
+        return ask
+
+    out = rotated_round_trips({n: series(n) for n in "abc"}, 3)
+    assert calls == [("a", 0), ("b", 0), ("c", 0), ("b", 1), ("c", 1), ("a", 1), ("c", 2), ("a", 2), ("b", 2)]
+    assert {n: out[n]["n"] for n in "abc"} == {"a": 3, "b": 3, "c": 3}
+    assert all(out[n]["median"] >= 0.0 for n in "abc")
+
+
+def test_rotation_stops_at_a_request_nobody_answered() -> None:
+    from benchmarks.common import rotated_round_trips
+
+    with pytest.raises(RuntimeError, match="b: request 0 was not answered"):
+        rotated_round_trips({"a": lambda i: object(), "b": lambda i: []}, 2)
