@@ -209,7 +209,9 @@ def _round_trip_lines(counts: list[dict[str, Any]] | None, against_commit: str |
             f"{trips[0]}- and a {trips[1]}-round-trip run. The bound is the engine alone behind a bare queryable "
             "asked by a plain `get` (the timed bound), once on its key's text and once on the key declared; "
             "\"service, raw get\" is a service node asked the same request by a plain `get` on its declared "
-            "`P/lb/XXYY/move` key; \"Client.move\" the same node asked by the client library. Zenoh's timers "
+            "`P/lb/XXYY/move` key, its reply read by msgpack; \"Client.move\" the same node asked by the client "
+            "library (whose own share is below zero when it costs less than that plain `get` and msgpack: it "
+            "reads the State with msgspec, building no dict). Zenoh's timers "
             "tick in wall time, so a count moves by about 2,000 between runs."), "",
            *_count_table(("the bound", "the bound, key declared", "service, raw get", "Client.move",
                           "the service's own", "the client library's own", "Client.move over the bound"), counts,
