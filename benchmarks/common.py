@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gzip
+import itertools
 import json
 import math
 import os
@@ -130,20 +131,22 @@ def log(msg: str) -> None:
 
 
 def rotated_round_trips(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, dict[str, float]]:
-    """Each series asked `requests` times, one request at a time in rotation (`a b c`, then `b c a`, ...),
-    each timed on its own (µs): the service benchmark's comparison of one move with its bound. A series
-    is called with the request's index; a list it returns is Zenoh's replies, and must hold an answer.
+    """Each series asked `requests` times, one request of each at a time, the order of the series going
+    through all their permutations in turn (`a b c`, `a c b`, `b a c`, ...); each request timed on its own
+    (µs): the service benchmark's comparison of one move with its bound. A series is called with the
+    request's index; a list it returns is Zenoh's replies, and must hold an answer.
 
     Why not in blocks, as the other series: a block of one series runs with its own processes' code warm and
     the scheduler settled on where they run, and the block before it is always the same one, so each series
-    carries its own offset (seen as two series on the same key 30 µs apart in one run). In rotation every
-    series follows every other equally often, and each request finds the caches as the others left them."""
+    carries its own offset (seen as two series on the same key 30 µs apart in one run). Why every
+    permutation and not one order rotated: in a rotation (`a b c`, `b c a`, ...) each series always follows
+    the same one; over the permutations each follows each of the others equally often."""
     names = list(series)
+    orders = list(itertools.permutations(names))
     samples: dict[str, list[float]] = {name: [] for name in names}
     clock = time.perf_counter
     for i in range(requests):
-        first = i % len(names)
-        for name in names[first:] + names[:first]:
+        for name in orders[i % len(orders)]:
             t0 = clock()
             got = series[name](i)
             samples[name].append(clock() - t0)

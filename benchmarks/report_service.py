@@ -138,8 +138,9 @@ def _rotation_note(lat: dict[str, Any]) -> str:
     if not all(k in rotated for k in ("engine_echo", "raw_move", "move")):
         return ""
     bound, raw, move = (rotated[k]["median"] for k in ("engine_echo", "raw_move", "move"))
-    return (f" Asked one request at a time in rotation instead (the bound, the raw request, `Client.move`, each "
-            f"following each of the others equally often), the same three took {bound:.0f}, {raw:.0f} and {move:.0f} "
+    return (f" Asked one request at a time in rotation instead (the bound, the raw request and `Client.move`, their "
+            f"order going through all six permutations, so that each follows each of the others equally often), the "
+            f"same three took {bound:.0f}, {raw:.0f} and {move:.0f} "
             f"µs: the service {raw - bound:+.0f} µs over the bound and the client library {move - raw:+.0f} µs more. "
             "In blocks each series keeps its own offset (its code warm, the scheduler settled, always the same "
             "block before it); the rotation removes it, and the bound, no longer run 100 times in a row, comes "

@@ -116,7 +116,7 @@ def test_the_round_trip_row_gives_the_count_when_the_run_counted_it() -> None:
     assert "whole round trip is 296,500 instructions against the bound's 218,000: +78,500" in trip
 
 
-def test_rotation_puts_each_series_first_in_turn_and_times_every_request() -> None:
+def test_the_series_go_through_every_order_and_every_request_is_timed() -> None:
     from benchmarks.common import rotated_round_trips
 
     calls: list[tuple[str, int]] = []
@@ -127,9 +127,13 @@ def test_rotation_puts_each_series_first_in_turn_and_times_every_request() -> No
             return object()
         return ask
 
-    out = rotated_round_trips({n: series(n) for n in "abc"}, 3)
-    assert calls == [("a", 0), ("b", 0), ("c", 0), ("b", 1), ("c", 1), ("a", 1), ("c", 2), ("a", 2), ("b", 2)]
-    assert {n: out[n]["n"] for n in "abc"} == {"a": 3, "b": 3, "c": 3}
+    out = rotated_round_trips({n: series(n) for n in "abc"}, 7)
+    orders = ["abc", "acb", "bac", "bca", "cab", "cba", "abc"]  # the six orders of three, then the first again
+    assert calls == [(name, i) for i, order in enumerate(orders) for name in order]
+    # over the six orders each series comes right after each other one twice
+    pairs = [order[k:k + 2] for order in orders[:6] for k in (0, 1)]
+    assert sorted(pairs) == sorted(["ab", "ac", "ba", "bc", "ca", "cb"] * 2)
+    assert {n: out[n]["n"] for n in "abc"} == {"a": 7, "b": 7, "c": 7}
     assert all(out[n]["median"] >= 0.0 for n in "abc")
 
 
