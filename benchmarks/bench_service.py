@@ -540,7 +540,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                 f"(n={out[k]['n']})")
     for k, v in (out.get("rotated") or {}).items():
         log(f"service: round trip {k:13s} median {v['median']:9.0f} µs  p99 {v['p99']:9.0f} µs  "
-            f"(n={v['n']}, one request at a time in rotation)")
+            f"(n={v['n']}, one request at a time in every order)")
     log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} (health / echo {out['ratio_health_to_echo']:.2f}, "
         f"raw_move / echo {out['ratio_raw_move_to_echo']:.2f})")
     return out

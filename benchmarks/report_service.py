@@ -195,7 +195,7 @@ def _bus_floor_targets(results: dict[str, Any]) -> list[str]:
             # the verdict is the rotation's: blocks carry each series' own offset (benchmarks/common.py, rotated_round_trips)
             r_bound, r_raw, r_move = (rotated[k]["median"] for k in ("engine_echo", "raw_move", "move"))
             over = r_move - r_bound
-            measured = (f"{r_move:.0f} vs {r_bound:.0f} µs, one request at a time in rotation: {over:.0f} µs over (the "
+            measured = (f"{r_move:.0f} vs {r_bound:.0f} µs, one request at a time in every order: {over:.0f} µs over (the "
                         f"service {r_raw - r_bound:.0f} µs, the client library {r_move - r_raw:.0f} µs); in blocks of "
                         f"the same run, {blocks}")
         else:

@@ -102,7 +102,7 @@ def test_the_round_trip_verdict_is_the_rotations_when_it_was_measured() -> None:
     trip = _row(service_targets(results), "| one move's round trip")
     # rotation: 455 - 420 = 35 over (the service 441 - 420 = 21, the client library 455 - 441 = 14): within 40;
     # the blocks' 530 - 400 = 130 over is given beside it
-    assert "455 vs 420 µs, one request at a time in rotation: 35 µs over (the service 21 µs, the client library 14 µs)" in trip
+    assert "455 vs 420 µs, one request at a time in every order: 35 µs over (the service 21 µs, the client library 14 µs)" in trip
     assert "in blocks of the same run, 530 vs 400 µs: 130 µs over" in trip
     assert trip.endswith("| met |")
     results["service"]["latency"]["rotated"]["move"] = {"median": 461.0}  # 41 over
