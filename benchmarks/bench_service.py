@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from . import common
-from .common import log, rotated_round_trips, summary
+from .common import log, round_trips_in_every_order, summary
 from .service_harness import (Child, bench_walker, child_env, collect_reports, free_port,
                               scene_file, start_position, stop_event)
 from .standins import NoEngine, StandInQuery, StandInSession
@@ -506,7 +506,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                         t0 = clock()
                         c.move_many(ms)
                         samples[key].append(clock() - t0)
-            rotated = rotated_round_trips(
+            every_order = round_trips_in_every_order(
                 {"engine_echo": lambda i: list(engine_echo.get(ENGINE_ECHO_KEY, payload=raw_moves[i % 2], timeout=10.0)),
                  "raw_move": lambda i: list(c.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0)),
                  "move": lambda i: c.move(mid, offset=(0.2 if i % 2 == 0 else -0.2, 0.0, 0.0))}
@@ -520,8 +520,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
         if floor:
             fc.remove(floor_mid)
     out: dict[str, Any] = {k: summary(v, 1e6) for k, v in samples.items() if v}
-    if rotated:
-        out["rotated"] = rotated
+    if every_order:
+        out["every_order"] = every_order
     out["ratio_move_to_echo"] = out["move"]["median"] / out["echo"]["median"]
     out["ratio_move_to_echo_p99"] = out["move"]["p99"] / out["echo"]["p99"]
     out["service_engine_ms"] = stats.get("engine_ms")
@@ -538,7 +538,7 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
         if k in out:
             log(f"service: round trip {k:13s} median {out[k]['median']:9.0f} µs  p99 {out[k]['p99']:9.0f} µs  "
                 f"(n={out[k]['n']})")
-    for k, v in (out.get("rotated") or {}).items():
+    for k, v in (out.get("every_order") or {}).items():
         log(f"service: round trip {k:13s} median {v['median']:9.0f} µs  p99 {v['p99']:9.0f} µs  "
             f"(n={v['n']}, one request at a time in every order)")
     log(f"service: move / echo = {out['ratio_move_to_echo']:.2f} (health / echo {out['ratio_health_to_echo']:.2f}, "

@@ -130,7 +130,7 @@ def log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def rotated_round_trips(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, dict[str, float]]:
+def round_trips_in_every_order(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, dict[str, float]]:
     """Each series asked `requests` times, one request of each at a time, the order of the series going
     through all their permutations in turn (`a b c`, `a c b`, `b a c`, ...); each request timed on its own
     (µs): the service benchmark's comparison of one move with its bound. A series is called with the

@@ -132,18 +132,18 @@ def _floor_note(lat: dict[str, Any], bound: float) -> str:
             f"node's own move key {own:+.0f} µs")
 
 
-def _rotation_note(lat: dict[str, Any]) -> str:
-    """The bound, the raw request and one move asked one request at a time in rotation, in the same run."""
-    rotated = lat.get("rotated") or {}
-    if not all(k in rotated for k in ("engine_echo", "raw_move", "move")):
+def _every_order_note(lat: dict[str, Any]) -> str:
+    """The bound, the raw request and one move asked one request at a time in every order, in the same run."""
+    every_order = lat.get("every_order") or {}
+    if not all(k in every_order for k in ("engine_echo", "raw_move", "move")):
         return ""
-    bound, raw, move = (rotated[k]["median"] for k in ("engine_echo", "raw_move", "move"))
-    return (f" Asked one request at a time in rotation instead (the bound, the raw request and `Client.move`, their "
+    bound, raw, move = (every_order[k]["median"] for k in ("engine_echo", "raw_move", "move"))
+    return (f" Asked one request at a time instead (the bound, the raw request and `Client.move`, their "
             f"order going through all six permutations, so that each follows each of the others equally often), the "
             f"same three took {bound:.0f}, {raw:.0f} and {move:.0f} "
             f"µs: the service {raw - bound:+.0f} µs over the bound and the client library {move - raw:+.0f} µs more. "
             "In blocks each series keeps its own offset (its code warm, the scheduler settled, always the same "
-            "block before it); the rotation removes it, and the bound, no longer run 100 times in a row, comes "
+            "block before it); asking in every order removes it, and the bound, no longer run 100 times in a row, comes "
             "out slower.")
 
 
@@ -190,10 +190,10 @@ def _bus_floor_targets(results: dict[str, Any]) -> list[str]:
         over = move - bound
         blocks = (f"{move:.0f} vs {bound:.0f} µs: {over:.0f} µs over (the service {raw - bound:.0f} µs, raw Zenoh to it "
                   f"{raw:.0f} µs; the client library {move - raw:.0f} µs)")
-        rotated = lat.get("rotated") or {}
-        if all(k in rotated for k in ("engine_echo", "raw_move", "move")):
-            # the verdict is the rotation's: blocks carry each series' own offset (benchmarks/common.py, rotated_round_trips)
-            r_bound, r_raw, r_move = (rotated[k]["median"] for k in ("engine_echo", "raw_move", "move"))
+        every_order = lat.get("every_order") or {}
+        if all(k in every_order for k in ("engine_echo", "raw_move", "move")):
+            # the verdict is the every-order figure's: blocks carry each series' own offset (benchmarks/common.py, round_trips_in_every_order)
+            r_bound, r_raw, r_move = (every_order[k]["median"] for k in ("engine_echo", "raw_move", "move"))
             over = r_move - r_bound
             measured = (f"{r_move:.0f} vs {r_bound:.0f} µs, one request at a time in every order: {over:.0f} µs over (the "
                         f"service {r_raw - r_bound:.0f} µs, the client library {r_move - r_raw:.0f} µs); in blocks of "
@@ -514,7 +514,7 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                     f"The service and the client library add {lat['move']['median'] - ee:.0f} µs to that (the "
                     "request's checks, the record, seq and stats, the State packed and decoded, the publication check).")
             txt += _floor_walk(lat, ee)
-            txt += _rotation_note(lat)
+            txt += _every_order_note(lat)
         out.append(txt)
         if best and best.get("service_cpu_us_per_move"):
             cpu = best["service_cpu_us_per_move"]

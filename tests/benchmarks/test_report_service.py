@@ -95,17 +95,17 @@ def test_the_column_target_is_read_from_the_paired_windows_when_measured() -> No
     assert _row(service_targets(results), "| column batches with raw clients").endswith("| met |")
 
 
-def test_the_round_trip_verdict_is_the_rotations_when_it_was_measured() -> None:
+def test_the_round_trip_verdict_is_the_every_order_figure_when_it_was_measured() -> None:
     results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
-    results["service"]["latency"]["rotated"] = {"engine_echo": {"median": 420.0}, "raw_move": {"median": 441.0},
+    results["service"]["latency"]["every_order"] = {"engine_echo": {"median": 420.0}, "raw_move": {"median": 441.0},
                                                 "move": {"median": 455.0}}
     trip = _row(service_targets(results), "| one move's round trip")
-    # rotation: 455 - 420 = 35 over (the service 441 - 420 = 21, the client library 455 - 441 = 14): within 40;
+    # every order: 455 - 420 = 35 over (the service 441 - 420 = 21, the client library 455 - 441 = 14): within 40;
     # the blocks' 530 - 400 = 130 over is given beside it
     assert "455 vs 420 µs, one request at a time in every order: 35 µs over (the service 21 µs, the client library 14 µs)" in trip
     assert "in blocks of the same run, 530 vs 400 µs: 130 µs over" in trip
     assert trip.endswith("| met |")
-    results["service"]["latency"]["rotated"]["move"] = {"median": 461.0}  # 41 over
+    results["service"]["latency"]["every_order"]["move"] = {"median": 461.0}  # 41 over
     assert _row(service_targets(results), "| one move's round trip").endswith("| missed |")
 
 
@@ -117,7 +117,7 @@ def test_the_round_trip_row_gives_the_count_when_the_run_counted_it() -> None:
 
 
 def test_the_series_go_through_every_order_and_every_request_is_timed() -> None:
-    from benchmarks.common import rotated_round_trips
+    from benchmarks.common import round_trips_in_every_order
 
     calls: list[tuple[str, int]] = []
 
@@ -127,7 +127,7 @@ def test_the_series_go_through_every_order_and_every_request_is_timed() -> None:
             return object()
         return ask
 
-    out = rotated_round_trips({n: series(n) for n in "abc"}, 7)
+    out = round_trips_in_every_order({n: series(n) for n in "abc"}, 7)
     orders = ["abc", "acb", "bac", "bca", "cab", "cba", "abc"]  # the six orders of three, then the first again
     assert calls == [(name, i) for i, order in enumerate(orders) for name in order]
     # over the six orders each series comes right after each other one twice
@@ -137,8 +137,8 @@ def test_the_series_go_through_every_order_and_every_request_is_timed() -> None:
     assert all(out[n]["median"] >= 0.0 for n in "abc")
 
 
-def test_rotation_stops_at_a_request_nobody_answered() -> None:
-    from benchmarks.common import rotated_round_trips
+def test_asking_in_every_order_stops_at_a_request_nobody_answered() -> None:
+    from benchmarks.common import round_trips_in_every_order
 
     with pytest.raises(RuntimeError, match="b: request 0 was not answered"):
-        rotated_round_trips({"a": lambda i: object(), "b": lambda i: []}, 2)
+        round_trips_in_every_order({"a": lambda i: object(), "b": lambda i: []}, 2)
