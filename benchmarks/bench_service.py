@@ -41,6 +41,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from . import common
@@ -74,24 +75,15 @@ def echo_main(port: int) -> None:
     session.close()
 
 
-def engine_echo_main(port: int) -> None:
-    """Run a bare queryable that moves one mover per query, until SIGINT/SIGTERM: the least any service of
-    this engine does for one move over this bus (the one-move round trip's bound). The request is the
-    service's own one-move message, read with msgpack and nothing checked; the engine is the working
-    tree's, on the service benchmark's scene, one mover of the service's; the answer is the result's cell,
-    origin, orientation and contact bits in one msgpack array (a State says more)."""
+def engine_echo_handler(world: Any, engine_id: int) -> Callable[[Any], None]:
+    """The bound's answer to one move query: the request (the service's own one-move message) read with
+    msgpack and nothing checked, `World.move` of mover `engine_id` from where it last ended, and the result's
+    cell, origin, orientation and contact bits in one msgpack array (a State says more)."""
     import msgpack
-    import zenoh
 
     from engine.geometry import Vec3
-    from service.world_source import open_world
-    from service.bus.zconfig import make_config
 
-    stop = stop_event()
-    world = open_world(scene=str(scene_file()))
-    engine_id = world.add_mover(bench_walker(), start_position(0), None, None)
     last = [world.mover_state(engine_id).position]
-    session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
 
     def handler(query: Any) -> None:
         x, y, z = msgpack.unpackb(query.payload.to_bytes())["move"]["offset"]
@@ -100,6 +92,24 @@ def engine_echo_main(port: int) -> None:
         o, q = p.frame.origin, p.frame.orientation
         query.reply(query.key_expr, msgpack.packb([p.cell_id, o.x, o.y, o.z, q.w, q.x, q.y, q.z, r.contact,
                                                    r.on_walkable]))
+
+    return handler
+
+
+def engine_echo_main(port: int) -> None:
+    """Run a bare queryable that moves one mover per query, until SIGINT/SIGTERM: the least any service of
+    this engine does for one move over this bus (the one-move round trip's bound). The engine is the working
+    tree's, on the service benchmark's scene, one mover of the service's; the answer `engine_echo_handler`'s."""
+    import zenoh
+
+    from service.world_source import open_world
+    from service.bus.zconfig import make_config
+
+    stop = stop_event()
+    world = open_world(scene=str(scene_file()))
+    engine_id = world.add_mover(bench_walker(), start_position(0), None, None)
+    session = zenoh.open(make_config(listen=[f"tcp/127.0.0.1:{port}"]))
+    handler = engine_echo_handler(world, engine_id)
 
     q = session.declare_queryable(ENGINE_ECHO_KEY, handler)
     print("engine echo ready", flush=True)

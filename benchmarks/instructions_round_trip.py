@@ -9,7 +9,7 @@ after 50 unmeasured ones:
 
 - `bound`: the engine alone behind a bare queryable on a literal key (msgpack in, `World.move`, msgpack
   out, nothing checked), asked with a plain `get` on the key's text: the timed bound's own server and
-  client (bench_service.engine_echo_main);
+  client (bench_service.engine_echo_handler);
 - `bound_declared`: the same, the key declared on the asking session first, as the client library
   declares its keys (clients/client.py, `Client._lb_key`);
 - `service_raw`: a service node as `python -m service` starts one, asked the same request bytes by a plain
@@ -51,10 +51,10 @@ sys.path.insert(0, root)
 import msgpack
 import zenoh
 from clients import Client, Move
-from engine.geometry import Vec3
 from service.bus.zconfig import make_config
 from service.world_source import open_world
 sys.path.insert(0, bench_root)
+from benchmarks.bench_service import ENGINE_ECHO_KEY, engine_echo_handler
 from benchmarks.service_harness import bench_walker, scene_file, start_position
 
 with socket.socket() as s:
@@ -69,20 +69,10 @@ def request(mover_id, i):
 
 if series.startswith("bound"):
     engine_id = world.add_mover(bench_walker(), start, None, None)
-    last = [world.mover_state(engine_id).position]
     server = zenoh.open(make_config(listen=[endpoint]))
-
-    def handler(query):
-        x, y, z = msgpack.unpackb(query.payload.to_bytes())["move"]["offset"]
-        r = world.move(engine_id, last[0].moved(Vec3(x, y, z)))
-        p = last[0] = r.position
-        o, q = p.frame.origin, p.frame.orientation
-        query.reply(query.key_expr, msgpack.packb([p.cell_id, o.x, o.y, o.z, q.w, q.x, q.y, q.z, r.contact,
-                                                   r.on_walkable]))
-
-    queryable = server.declare_queryable("acphys-bench/engine-echo", handler)
+    queryable = server.declare_queryable(ENGINE_ECHO_KEY, engine_echo_handler(world, engine_id))
     session = zenoh.open(make_config(connect=[endpoint]))
-    key = "acphys-bench/engine-echo"
+    key = ENGINE_ECHO_KEY
     if series == "bound_declared":
         key = session.declare_keyexpr(key)
     payloads = [request(1, i) for i in range(2)]
