@@ -84,7 +84,7 @@ def handling_child(scene: str) -> None:
                                             "position": encode_position(start)}))["state"]["id"]
         core.world = NoEngine(core.world, core.movers[mid].last)
         key = node.keys.move(start.landblock)
-        handler: Any = node._query_handler("move")
+        handler: Any = node.lb_queryable("*")
         payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
         result = MoveResult(True, Position.at(start.cell_id, Vec3(20.0, 20.0, 50.0)), "OK", True, True, None,
                             start.cell_id, None, None, False, 0, ["Contact", "OnWalkable"], [])

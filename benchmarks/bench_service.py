@@ -345,7 +345,7 @@ def handling_main(moves: int) -> None:
         mid = core.register(parse_register({"v": 1, "mover": encode_mover_spec(bench_walker()),
                                             "position": encode_position(start)}))["state"]["id"]
         key = node.keys.move(start.landblock)
-        handler: Any = node._query_handler("move")  # called with stand-ins for zenoh.Query
+        handler: Any = node.lb_queryable("*")  # called with stand-ins for zenoh.Query
         payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
         for i in range(200):
             handler(StandInQuery(key, payloads[i % 2]))

@@ -6,7 +6,7 @@ State packed and replied. Timed, that part swings with the machine's load and wi
 are; counted, it is the same every run. A child process builds the service node on the service
 benchmark's flat scene (its bus a stand-in nobody subscribes to, so no Zenoh session runs: Zenoh's own
 receive, reply and matching status are not counted), registers one mover, and calls the move handler
-(`ServiceNode._query_handler("move")`) with stand-in queries, as `bench_service.handling_main` does.
+(`ServiceNode.lb_queryable`, the callback of the queryable on `P/lb/*/*`) with stand-in queries, as `bench_service.handling_main` does.
 Two runs that differ only in the number of moves give the instructions per move as their difference,
 start-up and loading cancelled out. Run once with the engine replaced by benchmarks/standins.py's
 `NoEngine` (every move resolves to the mover's current state) and once with the real engine: the first
@@ -63,7 +63,7 @@ if engine == "none":
 # that is: under callgrind's slowdown that would count the machine's speed, so it is left out
 core._cache_read_at = float("inf")
 key = node.keys.move(start.landblock)
-handler = node._query_handler("move")
+handler = node.lb_queryable("*")
 payloads = [msgpack.packb({"v": 1, "move": {"id": mid, "offset": [d, 0.0, 0.0]}}) for d in (0.2, -0.2)]
 heap.tune()
 heap.settle()  # as a serving process does after loading its world

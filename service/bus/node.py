@@ -35,6 +35,7 @@ from service import heap
 from service.protocol.frames import pack
 from service.bus.jobqueue import JobQueue
 from service.bus.key_landblocks import KeyLandblocks
+from service.bus.lb_queryable import LandblockQueryable, QueryHandler
 from service.bus.route_keys import RouteKeys
 from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
@@ -168,12 +169,10 @@ class ServiceNode:
             self._thread.start()
         s = self.session
         for part in self.options.ownership.key_parts():
-            for op in LB_OPS:
-                if op == "handover" and not self.options.accept_handovers:
-                    continue
-                # the handler stamps `_last_arrival` itself (no wrapper call per request)
-                handler = zenoh.handlers.Callback(self._query_handler(op), indirect=not self.options.direct_callbacks)
-                self._declared.append(s.declare_queryable(self.keys.lb(part, op), handler))
+            # one queryable for all of the part's operations (service/bus/lb_queryable.py); its handlers stamp
+            # `_last_arrival` themselves (no wrapper call per request)
+            handler = zenoh.handlers.Callback(self.lb_queryable(part), indirect=not self.options.direct_callbacks)
+            self._declared.append(s.declare_queryable(self.keys.lb(part, "*"), handler))
             self._declared.append(s.declare_subscriber(self.keys.push(part), self._callback(self._on_push)))
         info = Keys(self.options.info_prefix) if self.options.info_prefix else self.keys
         self._declared.append(s.declare_queryable(info.health, self._callback(self._on_health)))
@@ -331,13 +330,21 @@ class ServiceNode:
         return p.to_bytes()
 
     # -- per-landblock queries -----------------------------------------------------
-    def _query_handler(self, op: str) -> Callable[[zenoh.Query], None]:
+    def lb_queryable(self, part: str) -> LandblockQueryable:
+        """The callback of the queryable on `P/lb/<part>/*`: every per-landblock operation this instance serves
+        (the hand-over only in a cluster), each query handed to its operation's handler."""
+        ops = [op for op in LB_OPS if op != "handover" or self.options.accept_handovers]
+        return LandblockQueryable({op: self._query_handler(op) for op in ops},
+                                  {op: self.keys.lb(part, op) for op in ops})
+
+    def _query_handler(self, op: str) -> QueryHandler:
+        """`op`'s handler: the query with its key expression and the key's text (read once, by the caller)."""
         operation = OPERATIONS[op]  # looked up once per handler, not per request
         world_op = operation.changes_world
         forbidden = world_op and not self.options.world_admin
         moves = op == "move"
 
-        def handler(query: zenoh.Query) -> None:
+        def handler(query: zenoh.Query, key_expr: zenoh.KeyExpr, key: str) -> None:
             received = self._last_arrival = time.monotonic()  # stamped here: see `_callback`
             self.stats.request(op)
             logged = None
@@ -345,8 +352,7 @@ class ServiceNode:
                 logged = LoggedQuery(query, op, received)
                 query = cast(zenoh.Query, logged)
             try:
-                key_expr = query.key_expr  # read once: Zenoh makes a new KeyExpr at each read
-                lb = self._key_lb(str(key_expr), op)
+                lb = self._key_lb(key, op)
                 if forbidden:
                     raise ProtocolError(ErrorKind.FORBIDDEN, f"{op} changes the world every user shares: only "
                                         "the service's --admin users may send it")

@@ -66,7 +66,7 @@ def _register(node: ServiceNode, gx: float = 40.0) -> int:
 
 def _ask(node: ServiceNode, content: dict[str, Any], key: str = MOVE_KEY) -> StandInQuery:
     q = StandInQuery(key, {"v": 1, **content})
-    node._query_handler("move")(q)  # type: ignore[arg-type]
+    node.lb_queryable("*")(q)
     # a single move runs in the callback when the engine is idle; anything queued is waited for
     assert wait_until(lambda: len(q.ok) + len(q.err) == 1, timeout=10.0)
     assert q.dropped == 1  # every query is finished (Zenoh's final answer) exactly once
@@ -208,7 +208,7 @@ def test_a_single_move_waits_behind_queued_work_and_is_refused_once_closed() -> 
     order: list[str] = []
     assert n.queue.offer(lambda: order.append("queued first"))
     q = StandInQuery(MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.1, 0.0, 0.0]}})
-    n._query_handler("move")(q)  # type: ignore[arg-type]
+    n.lb_queryable("*")(q)
     assert not q.ok and not q.err and n.queue.unfinished == 2  # queued behind the first job, not run
     for _ in range(2):
         job = n.queue.get(timeout=1.0)
@@ -218,5 +218,5 @@ def test_a_single_move_waits_behind_queued_work_and_is_refused_once_closed() -> 
     assert order == ["queued first", "answered 0", "answered 1"] and q.ok[0]["state"]["seq"] == 1
     n.queue.close()
     closed = StandInQuery(MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.1, 0.0, 0.0]}})
-    n._query_handler("move")(closed)  # type: ignore[arg-type]
+    n.lb_queryable("*")(closed)
     assert closed.err[0]["error"]["kind"] == ErrorKind.SHUTTING_DOWN and closed.dropped == 1

@@ -56,7 +56,7 @@ def nodes() -> Iterator[tuple[ServiceNode, ServiceNode]]:
 def ask(node: ServiceNode, op: str, body: dict[str, Any]) -> StandInQuery:
     """One request on A9B4's key, answered (queued work included) before this returns."""
     q = StandInQuery(node.keys.lb("A9B4", op), {"v": 1, **body})
-    node._query_handler(op)(q)
+    node.lb_queryable("*")(q)
     deadline = time.monotonic() + 10.0
     while len(q.ok) + len(q.err) == 0 and time.monotonic() < deadline:
         time.sleep(0.002)

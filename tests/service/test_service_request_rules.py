@@ -11,9 +11,11 @@
 
 from __future__ import annotations
 
+import re
 import struct
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import msgpack
@@ -111,14 +113,60 @@ def test_a_put_on_a_key_that_is_not_a_push_key_runs_nothing(session: zenoh.Sessi
     assert errors.on(f"{P}/obj/{mover_id:X}/error") == []
 
 
+def served_queryable_ops() -> set[str]:
+    """The per-landblock operations docs/protocol.md's key table lists as queryables, but for those served in a
+    cluster only: what a lone instance answers on `P/lb/XXYY/<op>` (read from the contract, not the code)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "protocol.md").read_text()
+    rows = re.findall(r"^\| `P/lb/XXYY/(\w+)` \| queryable \| ([^|]*)\|", text, flags=re.M)
+    return {op for op, served_by in rows if "cluster only" not in served_by}
+
+
+def refusals(session: zenoh.Session, key: str, mover_id: int) -> list[str]:
+    """The kinds of the replies to a `get`-shaped query on `key`, each of which must be an error."""
+    replies = list(session.get(key, payload=pk({"v": 1, "id": mover_id}), timeout=5.0,
+                               consolidation=zenoh.ConsolidationMode.NONE))
+    errs = [r.err for r in replies if r.err is not None]
+    assert len(errs) == len(replies), [r.ok for r in replies]
+    return [msgpack.unpackb(e.payload.to_bytes())["error"]["kind"] for e in errs]
+
+
+def stats_requests(session: zenoh.Session) -> dict[str, int]:
+    ok, got = raw_query(session, f"{P}/stats", b"")
+    assert ok, got
+    return dict(got["requests"])
+
+
 @pytest.mark.parametrize("key", [f"{P}/lb/A9B4/*", f"{P}/lb/**"])
-def test_a_query_on_a_key_that_names_no_operation_is_refused(session: zenoh.Session, key: str) -> None:
+def test_a_query_on_a_key_that_names_no_operation_is_refused_by_every_operation(session: zenoh.Session,
+                                                                                 key: str) -> None:
+    """Each operation's handler refuses it, as each of a queryable per operation did: one `bad_value` per
+    operation, and each operation counts one request."""
+    ops = served_queryable_ops()
+    assert len(ops) == 13 and "move" in ops and "handover" not in ops  # the table read as meant
     mover_id = register(session, 31.0)
-    replies = list(session.get(key, payload=pk({"v": 1, "id": mover_id}), timeout=5.0))
-    assert replies
-    for r in replies:
-        assert r.err is not None
-        assert msgpack.unpackb(r.err.payload.to_bytes())["error"]["kind"] == "bad_value"
+    before = stats_requests(session)
+    assert refusals(session, key, mover_id) == ["bad_value"] * len(ops)
+    after = stats_requests(session)
+    for op in ops:
+        assert after[op] - before[op] == 1, op
+    assert after["push"] == before["push"]
+
+
+def test_a_wildcard_within_the_last_chunk_reaches_the_operations_it_meets(session: zenoh.Session) -> None:
+    mover_id = register(session, 31.5)
+    assert refusals(session, f"{P}/lb/A9B4/mo$*", mover_id) == ["bad_value"]  # `move` alone
+    ending_in_e = [op for op in served_queryable_ops() if op.endswith("e")]
+    assert "move" in ending_in_e and "get" not in ending_in_e
+    assert refusals(session, f"{P}/lb/A9B4/$*e", mover_id) == ["bad_value"] * len(ending_in_e)
+
+
+@pytest.mark.parametrize("op", ["push", "handover", "nothing"])
+def test_a_query_on_a_key_no_queryable_serves_gets_no_reply(session: zenoh.Session, op: str) -> None:
+    """`push` is a subscriber's key and a lone instance takes no hand-over: Zenoh ends the query with no reply."""
+    mover_id = register(session, 31.8)
+    assert refusals(session, f"{P}/lb/A9B4/{op}", mover_id) == []
+    ok, got = raw_query(session, f"{P}/lb/A9B4/get", pk({"v": 1, "id": mover_id}))  # still serving
+    assert ok and got["state"]["id"] == mover_id
 
 
 # -- ids ------------------------------------------------------------------------------------------------
