@@ -5,8 +5,9 @@ the request decoded and checked, the engine lock and queue checks, the move appl
 State packed and replied. Timed, that part swings with the machine's load and with how cold the caches
 are; counted, it is the same every run. A child process builds the service node on the service
 benchmark's flat scene (its bus a stand-in nobody subscribes to, so no Zenoh session runs: Zenoh's own
-receive, reply and matching status are not counted), registers one mover, and calls the move handler
-(`ServiceNode.lb_queryable`, the callback of the queryable on `P/lb/*/*`) with stand-in queries, as `bench_service.handling_main` does.
+receive, reply and matching status are not counted), registers one mover, and calls the callback of
+the queryable on `P/lb/*/*` (`ServiceNode.lb_queryable`, which hands a move to its handler) with
+stand-in queries, as `bench_service.handling_main` does.
 Two runs that differ only in the number of moves give the instructions per move as their difference,
 start-up and loading cancelled out. Run once with the engine replaced by benchmarks/standins.py's
 `NoEngine` (every move resolves to the mover's current state) and once with the real engine: the first
