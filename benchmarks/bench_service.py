@@ -600,7 +600,10 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
                 child.stop()
         users_dir.cleanup()
     from .bench_batches import batch_workload
+    from .round_trip_launches import LAUNCHES, REQUESTS, round_trip_launches
 
+    # the round trip against its bound again, in fresh launches of every process, the others stopped
+    lat["launches"] = round_trip_launches(engine_root, 3 if quick else LAUNCHES, 300 if quick else REQUESTS)
     batches = batch_workload(quick, engine_root)
     workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
     from .bench_spanning import spanning_batch

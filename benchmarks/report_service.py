@@ -147,6 +147,20 @@ def _every_order_note(lat: dict[str, Any]) -> str:
             "out slower.")
 
 
+def _launches_note(lat: dict[str, Any]) -> str:
+    """The same three asked again in several fresh launches of every process (benchmarks/round_trip_launches.py)."""
+    launches = lat.get("launches")
+    if not launches:
+        return ""
+    each = ", ".join(f"{e['over_bound']:+.0f}" for e in launches["over_bound_each"])
+    m = launches["over_bound"]
+    return (f" Asked the same way in {len(launches['launches'])} fresh launches of the service, the bound and the "
+            f"asking process, one after the other, `Client.move` took {each} µs over each launch's bound: "
+            f"median {m['median']:+.0f} µs (the service {launches['service']['median']:+.0f}, the client library "
+            f"{launches['client']['median']:+.0f}). Where the scheduler puts a launch's processes stays for the "
+            "whole launch, so one launch's figure is one draw of these.")
+
+
 def _floor_walk(lat: dict[str, Any], bound: float) -> str:
     """From the bound to one move, step by step, as measured in the same run (benchmarks/service_floor.py)."""
     if not all(k in lat for k in ("floor_exact", "floor_wild", "floor_move", "raw_move", "move")):
@@ -200,6 +214,15 @@ def _bus_floor_targets(results: dict[str, Any]) -> list[str]:
                         f"the same run, {blocks}")
         else:
             measured = blocks
+        launches = lat.get("launches")
+        if launches:
+            # and of several launches, when measured: one launch's figure is one draw (benchmarks/round_trip_launches.py)
+            m, svc_share, client_share = launches["over_bound"], launches["service"], launches["client"]
+            over = m["median"]
+            measured = (f"{over:.0f} µs over, the median of {len(launches['launches'])} fresh launches of every process, "
+                        f"each asked one request at a time in every order (launches {m['min']:.0f} to {m['max']:.0f} µs; "
+                        f"the service {svc_share['median']:.0f} µs, the client library {client_share['median']:.0f} µs); "
+                        f"in the run's own launch, {measured}")
         out.append(f"| one move's round trip: the service and the client library add ≤ {ROUND_TRIP_MAX_OVER_BOUND_US:.0f} "
                    f"µs over the engine behind a bare queryable, interleaved | {measured}{_floor_note(lat, bound)}"
                    f"{_counted_note(results)} | {'met' if over <= ROUND_TRIP_MAX_OVER_BOUND_US else 'missed'} |")
@@ -515,6 +538,7 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                     "request's checks, the record, seq and stats, the State packed and decoded, the publication check).")
             txt += _floor_walk(lat, ee)
             txt += _every_order_note(lat)
+            txt += _launches_note(lat)
         out.append(txt)
         if best and best.get("service_cpu_us_per_move"):
             cpu = best["service_cpu_us_per_move"]

@@ -142,3 +142,47 @@ def test_asking_in_every_order_stops_at_a_request_nobody_answered() -> None:
 
     with pytest.raises(RuntimeError, match="b: request 0 was not answered"):
         round_trips_in_every_order({"a": lambda i: object(), "b": lambda i: []}, 2)
+
+
+def test_the_round_trip_verdict_is_the_median_of_the_launches_when_they_were_measured() -> None:
+    from benchmarks.round_trip_launches import summarise
+
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    results["service"]["latency"]["every_order"] = {"engine_echo": {"median": 420.0}, "raw_move": {"median": 441.0},
+                                                "move": {"median": 455.0}}  # 35 over in the run's own launch
+    # three launches, move - bound: 350 - 300 = 50, 345 - 310 = 35, 352 - 305 = 47; their median 47 (by hand)
+    results["service"]["latency"]["launches"] = summarise([
+        {"engine_echo": 300.0, "raw_move": 320.0, "move": 350.0},
+        {"engine_echo": 310.0, "raw_move": 322.0, "move": 345.0},
+        {"engine_echo": 305.0, "raw_move": 330.0, "move": 352.0}])
+    trip = _row(service_targets(results), "| one move's round trip")
+    # the service: 20, 12, 25 -> median 20; the client library: 30, 23, 22 -> median 23
+    assert "47 µs over, the median of 3 fresh launches" in trip and "(launches 35 to 50 µs" in trip
+    assert "the service 20 µs, the client library 23 µs" in trip
+    assert "in the run's own launch, 455 vs 420 µs, one request at a time in every order: 35 µs over" in trip
+    assert trip.endswith("| missed |")  # 47 > 40, though the run's own launch said 35
+
+
+def test_the_launches_summary_is_each_launch_over_its_own_bound() -> None:
+    from benchmarks.round_trip_launches import summarise
+
+    out = summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0},
+                     {"engine_echo": 280.0, "raw_move": 310.0, "move": 330.0}])
+    assert out["over_bound_each"] == [{"over_bound": 38.0, "service": 20.0, "client": 18.0},
+                                      {"over_bound": 50.0, "service": 30.0, "client": 20.0}]
+    assert out["over_bound"] == {"median": 44.0, "min": 38.0, "max": 50.0}
+    assert out["client"] == {"median": 19.0, "min": 18.0, "max": 20.0}
+
+
+def test_the_launches_note_lists_each_launch_and_their_median() -> None:
+    from benchmarks.report_service import _launches_note
+    from benchmarks.round_trip_launches import summarise
+
+    assert _launches_note({}) == ""  # a run without launches says nothing of them
+    lat = {"launches": summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0},
+                                  {"engine_echo": 280.0, "raw_move": 310.0, "move": 330.0},
+                                  {"engine_echo": 290.0, "raw_move": 300.0, "move": 335.0}])}
+    note = _launches_note(lat)
+    # over each bound: 38, 50, 45 -> median 45; the service 20, 30, 10 -> 20; the client library 18, 20, 35 -> 20
+    assert "in 3 fresh launches" in note and "took +38, +50, +45 µs over each launch's bound" in note
+    assert "median +45 µs (the service +20, the client library +20)" in note
