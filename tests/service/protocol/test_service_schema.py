@@ -244,3 +244,13 @@ def test_register_errors_name_the_field(value: dict[str, object], kind: str, pat
     with pytest.raises(ProtocolError) as e:
         REGISTER.read(value, "")
     assert (e.value.kind, e.value.path) == (kind, path)
+
+
+def test_the_key_table_has_a_row_for_every_per_landblock_operation() -> None:
+    """"Key expressions": a queryable row `P/lb/XXYY/<op>` for each operation the service serves there, and the
+    push key's subscriber row; no row for an operation the service does not have."""
+    from service.protocol import LB_OPS
+
+    rows = dict(re.findall(r"^\| `P/lb/XXYY/(\w+)` \| (queryable|subscriber) \|", DOC, flags=re.M))
+    assert rows.pop("push") == "subscriber"
+    assert rows == {op: "queryable" for op in LB_OPS}
