@@ -35,7 +35,7 @@ from service import heap
 from service.protocol.frames import pack
 from service.bus.jobqueue import JobQueue
 from service.bus.key_landblocks import KeyLandblocks
-from service.bus.lb_queryable import LandblockQueryable, QueryHandler
+from service.bus.lb_queryable import QueryHandler, landblock_queryable
 from service.bus.route_keys import RouteKeys
 from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
@@ -330,12 +330,12 @@ class ServiceNode:
         return p.to_bytes()
 
     # -- per-landblock queries -----------------------------------------------------
-    def lb_queryable(self, part: str) -> LandblockQueryable:
+    def lb_queryable(self, part: str) -> Callable[[zenoh.Query], None]:
         """The callback of the queryable on `P/lb/<part>/*`: every per-landblock operation this instance serves
         (the hand-over only in a cluster), each query handed to its operation's handler."""
         ops = [op for op in LB_OPS if op != "handover" or self.options.accept_handovers]
-        return LandblockQueryable({op: self._query_handler(op) for op in ops},
-                                  {op: self.keys.lb(part, op) for op in ops})
+        return landblock_queryable({op: self._query_handler(op) for op in ops},
+                                   {op: self.keys.lb(part, op) for op in ops})
 
     def _query_handler(self, op: str) -> QueryHandler:
         """`op`'s handler: the query with its key expression and the key's text (read once, by the caller)."""

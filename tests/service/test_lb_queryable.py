@@ -4,9 +4,10 @@ and a query naming no operation to every operation its key meets, ending it once
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from typing import Any
 
-from service.bus.lb_queryable import LandblockQueryable
+from service.bus.lb_queryable import landblock_queryable
 
 P = "acphys"
 OPS = ("move", "get", "remove", "place", "path")
@@ -35,7 +36,7 @@ class Query:
 
 
 def dispatcher(calls: list[tuple[str, str]], *, later: str | None = None,
-               threads: list[threading.Thread] | None = None) -> LandblockQueryable:
+               threads: list[threading.Thread] | None = None) -> Callable[[Any], None]:
     """Handlers that record (op, key) and refuse at once; `later`'s refuses from another thread."""
     def handler_of(op: str) -> Any:
         def handler(query: Any, _key_expr: Any, key: str) -> None:
@@ -51,7 +52,7 @@ def dispatcher(calls: list[tuple[str, str]], *, later: str | None = None,
             answer()
         return handler
 
-    return LandblockQueryable({op: handler_of(op) for op in OPS}, {op: f"{P}/lb/A9B4/{op}" for op in OPS})
+    return landblock_queryable({op: handler_of(op) for op in OPS}, {op: f"{P}/lb/A9B4/{op}" for op in OPS})
 
 
 def test_a_key_naming_an_operation_goes_to_that_handler_alone() -> None:
