@@ -46,7 +46,7 @@ class KeyLandblocks:
     def _read(self, key: str, op: str) -> int | None:
         part = key.rsplit("/", 2)[-2]
         if key != self.keys.lb(part, op):
-            # one request, one operation: `P/lb/XXYY/*` would reach every operation's queryable at once. And
+            # one request, one operation: `P/lb/XXYY/*` would reach every operation's handler at once. And
             # Zenoh's access control matches a query's key by inclusion, so a wildcard query is not caught by
             # the rule on `P/lb/*/handover`: a hand-over also needs a literal landblock (below)
             raise ProtocolError(ErrorKind.BAD_VALUE, f"key {key!r}: the operation must be named: {self.keys.lb('XXYY', op)}")
