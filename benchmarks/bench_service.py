@@ -96,6 +96,28 @@ def engine_echo_handler(world: Any, engine_id: int) -> Callable[[Any], None]:
     return handler
 
 
+def move_requests(mover_id: int) -> list[bytes]:
+    """The service's one-move message for `mover_id`, packed: 0.2 m east, and back (requests alternate them)."""
+    import msgpack
+
+    from clients import Move
+
+    return [msgpack.packb({"v": 1, "move": Move(mover_id, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
+            for d in (0.2, -0.2)]
+
+
+def one_move_series(bound: Any, client: Any, mover_id: int, move_key: str,
+                    raw_moves: list[bytes]) -> dict[str, Callable[[int], Any]]:
+    """The one-move comparison's three series, for common.round_trips_in_every_order: the bound (a plain `get`
+    on `bound`, a session to engine_echo_main's queryable), the raw move request (a plain `get` of `raw_moves`,
+    the service's one-move messages, on the client's session) and `Client.move` of `mover_id`, each request
+    alternately 0.2 m east and back."""
+    offsets = [(0.2, 0.0, 0.0), (-0.2, 0.0, 0.0)]
+    return {"engine_echo": lambda i: list(bound.get(ENGINE_ECHO_KEY, payload=raw_moves[i % 2], timeout=10.0)),
+            "raw_move": lambda i: list(client.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0)),
+            "move": lambda i: client.move(mover_id, offset=offsets[i % 2])}
+
+
 def engine_echo_main(port: int) -> None:
     """Run a bare queryable that moves one mover per query, until SIGINT/SIGTERM: the least any service of
     this engine does for one move over this bus (the one-move round trip's bound). The engine is the working
@@ -326,9 +348,6 @@ def handling_main(moves: int) -> None:
     """Time the service's move callback with stand-in queries: back to back, then with idle gaps; then back
     to back with the engine replaced by a stand-in (the service's own handling alone: decode, checks,
     stats, publication check, pack, reply); and the client library's part of a move."""
-    import msgpack
-
-    from clients import Move
     from service.protocol.codec import encode_mover_spec, encode_position
     from service.bus.node import NodeOptions, ServiceNode
     from service.protocol.requests import parse_register
@@ -346,7 +365,7 @@ def handling_main(moves: int) -> None:
                                             "position": encode_position(start)}))["state"]["id"]
         key = node.keys.move(start.landblock)
         handler: Any = node.lb_queryable("*")  # called with stand-ins for zenoh.Query
-        payloads = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}) for d in (0.2, -0.2)]
+        payloads = move_requests(mid)
         for i in range(200):
             handler(StandInQuery(key, payloads[i % 2]))
         out: dict[str, Any] = {}
@@ -448,14 +467,12 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
 
             fc = stack.enter_context(Client([floor_endpoint], timeout=30.0))
             floor_mid = fc.register(bench_walker(), start_position(0)).id
-            floor_moves = [msgpack.packb({"v": 1, "move": Move(floor_mid, offset=(d, 0.0, 0.0)).to_wire()},
-                                         use_bin_type=True) for d in (0.2, -0.2)]
+            floor_moves = move_requests(floor_mid)
             floor = [("floor_exact", FLOOR_EXACT_KEY, floor_moves), ("floor_wild", FLOOR_WILD_QUERY, floor_moves),
                      ("floor_move", fc.keys.move(start_position(0).landblock), floor_moves)]
         # what one move request looks like on the wire: the echo carries as many bytes
-        probe = msgpack.packb({"v": 1, "move": Move(mid, offset=(0.2, 0.0, 0.0)).to_wire()}, use_bin_type=True)
-        raw_moves = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
-                     for d in (0.2, -0.2)]
+        raw_moves = move_requests(mid)
+        probe = raw_moves[0]
         move_key, health_key, health_probe = c.keys.move(start_position(0).landblock), c.keys.health, msgpack.packb({"v": 1})
         echo = zenoh.open(make_config(connect=[echo_endpoint]))
         engine_echo = None if engine_echo_endpoint is None else stack.enter_context(
@@ -517,10 +534,8 @@ def latency(endpoint: str, echo_endpoint: str, rounds: int, block: int,
                         c.move_many(ms)
                         samples[key].append(clock() - t0)
             every_order = round_trips_in_every_order(
-                {"engine_echo": lambda i: list(engine_echo.get(ENGINE_ECHO_KEY, payload=raw_moves[i % 2], timeout=10.0)),
-                 "raw_move": lambda i: list(c.session.get(move_key, payload=raw_moves[i % 2], timeout=10.0)),
-                 "move": lambda i: c.move(mid, offset=(0.2 if i % 2 == 0 else -0.2, 0.0, 0.0))}
-                if engine_echo is not None else {}, rounds * block)
+                one_move_series(engine_echo, c, mid, move_key, raw_moves) if engine_echo is not None else {},
+                rounds * block)
         finally:
             echo.close()
         (stats,) = c.stats()

@@ -53,7 +53,7 @@ def over_bound(launch: dict[str, float]) -> dict[str, float]:
 def summarise(launches: list[dict[str, float]]) -> dict[str, Any]:
     """The launches' medians, each one's figures over the bound, and the median and range of those."""
     each = [over_bound(m) for m in launches]
-    out: dict[str, Any] = {"launches": launches, "over_bound_each": each, "requests": REQUESTS}
+    out: dict[str, Any] = {"launches": launches, "over_bound_each": each}
     for key in ("over_bound", "service", "client"):
         values = [e[key] for e in each]
         out[key] = {"median": statistics.median(values), "min": min(values), "max": max(values)}
@@ -62,13 +62,12 @@ def summarise(launches: list[dict[str, float]]) -> dict[str, Any]:
 
 def launch_main(requests: int) -> None:
     """One launch: the service and the bound started, the three series asked in every order, both stopped."""
-    import msgpack
     import zenoh
 
-    from clients import Client, Move
+    from clients import Client
     from service.bus.zconfig import make_config
 
-    from .bench_service import ENGINE_ECHO_KEY
+    from .bench_service import move_requests, one_move_series
     from .service_harness import Child, bench_walker, free_port, scene_file, start_position
 
     endpoint, bound_endpoint = f"tcp/127.0.0.1:{free_port()}", f"tcp/127.0.0.1:{free_port()}"
@@ -80,13 +79,7 @@ def launch_main(requests: int) -> None:
                        bound_endpoint.rsplit(":", 1)[1]], "engine echo ready")
         with Client([endpoint], timeout=30.0) as c, zenoh.open(make_config(connect=[bound_endpoint])) as b:
             mid = c.register(bench_walker(), start_position(0)).id
-            key = c.keys.move(start_position(0).landblock)
-            raw = [msgpack.packb({"v": 1, "move": Move(mid, offset=(d, 0.0, 0.0)).to_wire()}, use_bin_type=True)
-                   for d in (0.2, -0.2)]
-            offsets = [(0.2, 0.0, 0.0), (-0.2, 0.0, 0.0)]
-            series = {"engine_echo": lambda i: list(b.get(ENGINE_ECHO_KEY, payload=raw[i % 2], timeout=10.0)),
-                      "raw_move": lambda i: list(c.session.get(key, payload=raw[i % 2], timeout=10.0)),
-                      "move": lambda i: c.move(mid, offset=offsets[i % 2])}
+            series = one_move_series(b, c, mid, c.keys.move(start_position(0).landblock), move_requests(mid))
             for i in range(100):  # every route warm; the bound's session meets its queryable after it opens
                 for name in series:
                     series[name](i)
@@ -119,6 +112,7 @@ def round_trip_launches(engine_root: Path | None = None, launches: int = LAUNCHE
         log(f"service: round trip, launch {i + 1} of {launches}: Client.move {e['over_bound']:+.1f} µs over the bound "
             f"(the service {e['service']:+.1f}, the client library {e['client']:+.1f})")
     out = summarise(got)
+    out["requests"] = requests  # of each series in each launch
     m = out["over_bound"]
     log(f"service: round trip over the bound, median of {launches} launches {m['median']:+.1f} µs "
         f"(launches {m['min']:+.1f} to {m['max']:+.1f})")

@@ -44,7 +44,8 @@ def landblock_queryable(handlers: Mapping[str, QueryHandler], op_keys: Mapping[s
         if handler is not None:
             handler(query, key_expr, key)
             return
-        met = [op for op, op_key in keys if zenoh.KeyExpr(key).intersects(op_key)]
+        asked = zenoh.KeyExpr(key)
+        met = [op for op, op_key in keys if asked.intersects(op_key)]
         if not met:
             query.drop()  # no operation here: answered with no reply, as if no queryable matched
             return
