@@ -15,8 +15,22 @@ series in every order are the design whose rule is plain (each follows each of t
 Each launch is a child process (`python3 -m benchmarks.round_trip_launches launch`) that starts its own
 `python -m service` and bound (bench_service.engine_echo_main) on free loopback ports, asks the bound, the raw
 move request and `Client.move` one request at a time in every order (common.round_trips_in_every_order),
-stops both and prints the three medians. The figure is each launch's `move - bound`, and its median over the
-launches; the raw request splits it into the service's and the client library's share.
+stops the service, then measures its floor (below). The figure is each launch's `move - bound`, and its median
+over the launches; the raw request splits it into the service's and the client library's share.
+
+What bounds that figure from below is measured in the same launch, in a second phase of the same design:
+the service stopped, the bound and the protocol's floor asked one request at a time in every order, three
+series as in the first phase. The floor is one move as docs/protocol.md alone makes any service and client
+do it, in Python, with the libraries this project uses (benchmarks/service_floor.py):
+- `floor_raw`: the first phase's raw request sent to a bare queryable on a literal key, in a service
+  node's process, that only reads and checks the request with the service's own reader, runs `World.move`
+  and writes the State with the service's packer (no stats, queue, engine lock, records or publication);
+- `floor_move`: the same queryable asked by the least client (`floor_client_move`: the move map packed by
+  msgspec, the key declared on the session, the State read by the client library's own reader).
+`floor_move - floor_bound` is what the protocol itself costs over the bound; `move - bound` less that is
+what the service's and the client library's own work add. The phase runs after the first, so that the
+target's three series are asked as before with nothing of the floor's running beside them; the launch then
+stops everything and prints the six medians.
 
     python3 -m benchmarks.round_trip_launches [LAUNCHES]
 """
@@ -27,6 +41,7 @@ import json
 import statistics
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,55 +55,85 @@ __all__ = ["LAUNCHES", "REQUESTS", "over_bound", "round_trip_launches"]
 LAUNCHES = 7
 #: requests of each series in a launch (a multiple of the six orders of three series)
 REQUESTS = 1200
-#: the longest a launch may take (start-up, warm-up, 3 x REQUESTS round trips, stop)
+#: the longest a launch may take (start-ups, warm-ups, 6 x REQUESTS round trips, stops)
 LAUNCH_TIMEOUT_S = 300
 
 
 def over_bound(launch: dict[str, float]) -> dict[str, float]:
-    """One launch's medians (µs) as what the service and the client library add over the bound."""
+    """One launch's medians (µs) as what the service and the client library add over the bound, and (when
+    the launch measured it) what the protocol's floor adds over the bound of its own phase."""
     bound, raw, move = launch["engine_echo"], launch["raw_move"], launch["move"]
-    return {"over_bound": move - bound, "service": raw - bound, "client": move - raw}
+    out = {"over_bound": move - bound, "service": raw - bound, "client": move - raw}
+    if "floor_move" in launch:
+        floor_bound, floor_raw, floor_move = launch["floor_bound"], launch["floor_raw"], launch["floor_move"]
+        out.update({"floor_over_bound": floor_move - floor_bound, "floor_service": floor_raw - floor_bound,
+                    "floor_client": floor_move - floor_raw})
+    return out
 
 
 def summarise(launches: list[dict[str, float]]) -> dict[str, Any]:
     """The launches' medians, each one's figures over the bound, and the median and range of those."""
     each = [over_bound(m) for m in launches]
     out: dict[str, Any] = {"launches": launches, "over_bound_each": each}
-    for key in ("over_bound", "service", "client"):
-        values = [e[key] for e in each]
+    for key in ("over_bound", "service", "client", "floor_over_bound", "floor_service", "floor_client"):
+        values = [e[key] for e in each if key in e]
+        if len(values) < len(each):  # launches recorded before the floor was measured
+            continue
         out[key] = {"median": statistics.median(values), "min": min(values), "max": max(values)}
     return out
 
 
 def launch_main(requests: int) -> None:
-    """One launch: the service and the bound started, the three series asked in every order, both stopped."""
+    """One launch: the service and the bound started, the three series asked in every order; then, the service
+    stopped, the protocol's floor started and asked against the same bound in every order; everything stopped."""
     import zenoh
 
     from clients import Client
     from service.bus.zconfig import make_config
 
     from .bench_service import move_requests, one_move_series
+    from .service_floor import FLOOR_EXACT_KEY, floor_client_move
     from .service_harness import Child, bench_walker, free_port, scene_file, start_position
 
     endpoint, bound_endpoint = f"tcp/127.0.0.1:{free_port()}", f"tcp/127.0.0.1:{free_port()}"
+    floor_port = free_port()
     service = Child([sys.executable, "-m", "service", "--scene", str(scene_file()), "--listen", endpoint,
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
     bound: Child | None = None
+    floor: Child | None = None
     try:
         bound = Child([sys.executable, "-m", "benchmarks.bench_service", "engine-echo",
                        bound_endpoint.rsplit(":", 1)[1]], "engine echo ready")
-        with Client([endpoint], timeout=30.0) as c, zenoh.open(make_config(connect=[bound_endpoint])) as b:
-            mid = c.register(bench_walker(), start_position(0)).id
-            series = one_move_series(b, c, mid, c.keys.move(start_position(0).landblock), move_requests(mid))
-            for i in range(100):  # every route warm; the bound's session meets its queryable after it opens
-                for name in series:
-                    series[name](i)
-            got = common.round_trips_in_every_order(series, requests)
+        with zenoh.open(make_config(connect=[bound_endpoint])) as b:
+            with Client([endpoint], timeout=30.0) as c:
+                mid = c.register(bench_walker(), start_position(0)).id
+                got = _asked(one_move_series(b, c, mid, c.keys.move(start_position(0).landblock), move_requests(mid)),
+                             requests)
+            # the second phase alone with the bound, as the first was: the service's process gone
+            service.stop()
+            floor = Child([sys.executable, "-m", "benchmarks.service_floor", str(floor_port)], "floor ready")
+            with Client([f"tcp/127.0.0.1:{floor_port}"], timeout=30.0) as fc:
+                floor_mid = fc.register(bench_walker(), start_position(0)).id
+                # the first phase's bound and raw request, the raw request sent to the floor's literal key
+                lean = one_move_series(b, fc, floor_mid, FLOOR_EXACT_KEY, move_requests(floor_mid))
+                floor_got = _asked({"engine_echo": lean["engine_echo"], "floor_raw": lean["raw_move"],
+                                    "floor_move": floor_client_move(fc.session, FLOOR_EXACT_KEY, floor_mid)}, requests)
     finally:
-        service.stop()
-        if bound is not None:
-            bound.stop()
-    print("LAUNCH " + json.dumps({name: s["median"] for name, s in got.items()}), flush=True)
+        for child in (service, bound, floor):
+            if child is not None:
+                child.stop()
+    medians = {name: s["median"] for name, s in got.items()}
+    medians.update({"floor_bound": floor_got["engine_echo"]["median"], "floor_raw": floor_got["floor_raw"]["median"],
+                    "floor_move": floor_got["floor_move"]["median"]})
+    print("LAUNCH " + json.dumps(medians), flush=True)
+
+
+def _asked(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, dict[str, float]]:
+    """`series` warmed (every route; a session meets a queryable only after it opens), then asked in every order."""
+    for i in range(100):
+        for ask in series.values():
+            ask(i)
+    return common.round_trips_in_every_order(series, requests)
 
 
 def _launch(engine_root: Path | None, requests: int) -> dict[str, float]:

@@ -17,14 +17,20 @@ own `P/lb/*/move` in the same process, queried the same way.
 
 Movers are registered through the node's own `register` (the client library); the floor handlers move
 them with the core's records. Listens on 127.0.0.1 only; stops on SIGINT or SIGTERM.
+
+`floor_client_move` is the floor's other half, the least a client does for one move: the move map encoded,
+the request on a key declared on the session, the State read into typed values by the client library's own
+reader. Asked of `FLOOR_EXACT_KEY`, the two halves are one move as the protocol alone costs it
+(benchmarks/round_trip_launches.py).
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
-__all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main"]
+__all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main", "floor_client_move"]
 
 FLOOR_EXACT_KEY = "acphys-bench/floor-exact/A9B4"
 #: declared with a wildcard chunk; queried as FLOOR_WILD_QUERY
@@ -71,6 +77,34 @@ def floor_main(port: int) -> None:
     for d in declared:
         d.undeclare()
     node.shutdown()
+
+
+def floor_client_move(session: Any, key: str, mover_id: int) -> Callable[[int], Any]:
+    """A series for common.round_trips_in_every_order: one move of `mover_id` asked on `key` as the least client
+    would ask it, alternately 0.2 m east and back, each answer its MoverState.
+
+    What `Client.move` does and this leaves out: the Move object and its generated writer, the landblock the
+    mover was last seen in, the redirects and errors of a reply that is not a State. What it keeps: the move
+    map (docs/protocol.md, "Move request") packed by msgspec, the key declared on the session as the client
+    library declares its keys, and the reply read by the client library's own State reader."""
+    import msgspec
+
+    from clients.state_reply import decode_state_reply
+    from service.protocol.wire import PROTOCOL_VERSION
+
+    encode = msgspec.msgpack.Encoder().encode
+    declared = session.declare_keyexpr(key)
+    offsets = ([0.2, 0.0, 0.0], [-0.2, 0.0, 0.0])
+
+    def move(i: int) -> Any:
+        request = {"v": PROTOCOL_VERSION, "move": {"id": mover_id, "offset": offsets[i % 2]}}
+        replies = list(session.get(declared, payload=encode(request), timeout=10.0))
+        state = decode_state_reply(replies[0].ok.payload.to_bytes()) if replies and replies[0].ok is not None else None
+        if state is None:
+            raise RuntimeError(f"move {i} on {key}: no State in the reply")
+        return state
+
+    return move
 
 
 if __name__ == "__main__":

@@ -186,3 +186,40 @@ def test_the_launches_note_lists_each_launch_and_their_median() -> None:
     # over each bound: 38, 50, 45 -> median 45; the service 20, 30, 10 -> 20; the client library 18, 20, 35 -> 20
     assert "in 3 fresh launches" in note and "took +38, +50, +45 µs over each launch's bound" in note
     assert "median +45 µs (the service +20, the client library +20)" in note
+
+
+def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
+    from benchmarks.report_service import _launches_note, service_targets
+    from benchmarks.round_trip_launches import summarise
+
+    launches = summarise([
+        {"engine_echo": 300.0, "raw_move": 320.0, "move": 350.0, "floor_bound": 310.0, "floor_raw": 305.0,
+         "floor_move": 322.0},
+        {"engine_echo": 310.0, "raw_move": 322.0, "move": 345.0, "floor_bound": 300.0, "floor_raw": 302.0,
+         "floor_move": 315.0},
+        {"engine_echo": 305.0, "raw_move": 330.0, "move": 352.0, "floor_bound": 330.0, "floor_raw": 320.0,
+         "floor_move": 340.0}])
+    # the floor over its own phase's bound: 322 - 310 = 12, 315 - 300 = 15, 340 - 330 = 10 -> median 12;
+    # its server 305 - 310 = -5, 2, -10 -> -5; its client 17, 13, 20 -> 17
+    assert [e["floor_over_bound"] for e in launches["over_bound_each"]] == [12.0, 15.0, 10.0]
+    assert launches["floor_over_bound"] == {"median": 12.0, "min": 10.0, "max": 15.0}
+    assert launches["floor_service"]["median"] == -5.0 and launches["floor_client"]["median"] == 17.0
+    note = _launches_note({"launches": launches})
+    # the round trip's median over the bound: 50, 35, 47 -> 47, of which 47 - 12 = 35 beyond the floor
+    assert "that floor took +12, +15, +10 µs over each launch's bound, median +12 µs (its server -5, its client +17)" in note
+    assert "The rest of the 47 µs, 35 µs, is what the service's own work" in note
+
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    results["service"]["latency"]["launches"] = launches
+    trip = _row(service_targets(results), "| one move's round trip")
+    assert "the protocol's own floor, in the same launches, 12 µs over (section 3)" in trip
+    assert trip.endswith("| missed |")
+
+
+def test_launches_recorded_before_the_floor_say_nothing_of_it() -> None:
+    from benchmarks.report_service import _launches_note
+    from benchmarks.round_trip_launches import summarise
+
+    launches = summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0}])
+    assert "floor_over_bound" not in launches
+    assert "floor" not in _launches_note({"launches": launches})
