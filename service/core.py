@@ -138,6 +138,18 @@ class ServiceCore:
         else:
             self.bus.publish_state(mover_id, packed)
 
+    @property
+    def publishes_after_reply(self) -> bool:
+        """Whether a single move's State may be published after its reply has gone (`publish_if_watched`):
+        when this instance owns every landblock (no hand-over can take the mover, whose new owner would then
+        publish its later States) and States are not held for a sync (`--state-sync always`)."""
+        return self._owns_all and self._deferred is None
+
+    def publish_if_watched(self, mover_id: int, packed: bytes) -> None:
+        """Publish a State when anyone subscribes to the state keys now: a single move's, after its reply."""
+        if self.bus.states_watched():
+            self.bus.publish_state(mover_id, packed)
+
     def commit(self) -> None:
         """The request's changes are done: its records go to the log (synced under `always`), then the
         States held back for it are published."""

@@ -56,8 +56,12 @@ def run_single(node: ServiceNode, query: zenoh.Query, key_expr: zenoh.KeyExpr, i
     caller): its State, or its error."""
     core = node.core
     assert core is not None
+    # Its State is published after the reply when it may be: asking Zenoh whether anyone subscribes reads its
+    # routing tables and lets go of the GIL, a few µs of every round trip otherwise. Still under the engine
+    # lock, so a mover's States keep their seq order.
+    later = not batch_mode and core.publishes_after_reply
     try:
-        packed = core.move_one(item, received, batch_mode=batch_mode)
+        packed = core.move_one(item, received, False if later else None, batch_mode)
     except ProtocolError as e:
         node._reply_err(query, e)
         return
@@ -70,3 +74,5 @@ def run_single(node: ServiceNode, query: zenoh.Query, key_expr: zenoh.KeyExpr, i
         query.reply(key_expr, STATE_HEAD + packed)  # frames.state_message, inlined
     finally:
         query.drop()
+    if later:
+        core.publish_if_watched(item.id, packed)

@@ -9,6 +9,7 @@ key read once (and remembered) is still refused when it is not a landblock's key
 from __future__ import annotations
 
 import threading
+from types import SimpleNamespace
 from collections.abc import Iterator
 from typing import Any
 
@@ -23,6 +24,7 @@ from engine.geometry import Position, Vec3
 from service.protocol.codec import encode_mover_spec, encode_position
 from service.protocol.errors import ProtocolError
 from service.bus.node import NodeOptions, ServiceNode
+from service.ownership import Ownership
 from service.core import ServiceCore
 from service.protocol.requests import parse_register
 from service.protocol.wire import ErrorKind
@@ -220,3 +222,70 @@ def test_a_single_move_waits_behind_queued_work_and_is_refused_once_closed() -> 
     closed = StandInQuery(MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.1, 0.0, 0.0]}})
     n.lb_queryable("*")(closed)
     assert closed.err[0]["error"]["kind"] == ErrorKind.SHUTTING_DOWN and closed.dropped == 1
+
+
+class _RecordingBus(SilentBus):
+    """A bus someone always watches, writing down when it is asked and when it publishes."""
+
+    def __init__(self, events: list[str]) -> None:
+        self.events = events
+
+    def states_watched(self) -> bool:
+        self.events.append("watched?")
+        return True
+
+    def publish_state(self, mover_id: int, packed_state: bytes) -> None:
+        self.events.append(f"published {msgpack.unpackb(packed_state)['seq']}")
+
+
+class _RecordingQuery(StandInQuery):
+    def __init__(self, events: list[str], content: dict[str, Any]) -> None:
+        super().__init__(MOVE_KEY, content)
+        self.events = events
+
+    def reply(self, key: Any, payload: bytes) -> None:
+        super().reply(key, payload)
+        self.events.append(f"replied {self.ok[-1]['state']['seq']}")
+
+    def drop(self) -> None:
+        super().drop()
+        self.events.append("dropped")
+
+
+@pytest.mark.parametrize("ownership", [Ownership(), Ownership(frozenset({LB}))], ids=["everything", "one landblock"])
+def test_a_single_moves_state_is_published_after_its_reply_only_where_nothing_can_take_the_mover(
+        ownership: Ownership) -> None:
+    """Owning every landblock, the State goes out after the reply (the question "does anyone subscribe"
+    costs the round trip nothing), the moves' States still in seq order; owning only some, a move may hand
+    the mover over, and the State is published (or handed over) before the reply, as a batch's are."""
+    events: list[str] = []
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), zenoh.Config(), NodeOptions(ownership=ownership))
+    n.core = ServiceCore(n.world, _RecordingBus(events), ownership=ownership, instance="t", stats=n.stats)
+    mid = _register(n)
+    events.clear()  # the register's own publication
+    for dx in (0.1, -0.1):
+        q = _RecordingQuery(events, {"v": 1, "move": {"id": mid, "offset": [dx, 0.0, 0.0]}})
+        n.lb_queryable("*")(q)
+        if not ownership.everything:  # run on the engine thread, whose part is played here (as above)
+            job = n.queue.get(timeout=1.0)
+            assert job is not None
+            n._run_job(job)
+        assert q.dropped == 1 and len(q.ok) == 1
+    if ownership.everything:
+        assert events == ["replied 1", "dropped", "watched?", "published 1",
+                          "replied 2", "dropped", "watched?", "published 2"]
+    else:
+        assert events == ["watched?", "published 1", "replied 1", "dropped",
+                          "watched?", "published 2", "replied 2", "dropped"]
+
+
+def test_states_held_for_a_sync_are_not_published_after_the_reply() -> None:
+    """Under `--state-sync always` a State waits for its records' sync, which comes before the reply: a
+    single move's State is then published the way a batch's is, not after the reply."""
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), zenoh.Config(), NodeOptions())
+    core = ServiceCore(n.world, SilentBus(), ownership=n.options.ownership, instance="t", stats=n.stats)
+    assert core.publishes_after_reply
+    core.attach_log(SimpleNamespace(always=True))  # type: ignore[arg-type]  # all attach_log reads of a log
+    assert not core.publishes_after_reply
+    core.attach_log(SimpleNamespace(always=False))  # type: ignore[arg-type]  # `--state-sync` every/never
+    assert core.publishes_after_reply
