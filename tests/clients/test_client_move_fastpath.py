@@ -5,7 +5,7 @@ timeout replies, a State in another shape), with a stand-in session answering wi
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import msgpack
@@ -178,3 +178,27 @@ def test_gather_state_gives_the_replies_of_anything_but_a_state() -> None:
     replies = [_Reply(err=_error("busy"))]
     assert gather_state(_Session(lambda _k, _p, _n: replies), HERE, b"p", 1.0) == replies  # type: ignore[arg-type]
     assert gather_state(_Session(lambda _k, _p, _n: []), HERE, b"p", 1.0) == []  # type: ignore[arg-type]
+
+
+def test_a_state_is_returned_without_waiting_for_the_querys_end() -> None:
+    """The first reply a State: the replies are not read on (Zenoh's iterator would wait there for the
+    query's final message); anything else: every reply, read to the end."""
+    read_on: list[bool] = []
+
+    class _Replies(SessionDouble):
+        """A `get` whose replies after the first are read only on demand, and noted when they are."""
+
+        def __init__(self, first: _Reply, rest: list[_Reply]) -> None:
+            super().__init__()
+            self.first, self.rest = first, rest
+
+        def get(self, key: Any, *, payload: bytes, timeout: float, **_options: Any) -> Iterator[_Reply]:
+            yield self.first
+            read_on.append(True)
+            yield from self.rest
+
+    st = gather_state(_Replies(_Reply(ok=_state()), []), HERE, b"p", 1.0)  # type: ignore[arg-type]
+    assert type(st) is MoverState and st.id == 7 and read_on == []
+    busy, late = _Reply(err=_error("busy")), _Reply(ok=_state())
+    assert gather_state(_Replies(busy, [late]), HERE, b"p", 1.0) == [busy, late]  # type: ignore[arg-type]
+    assert read_on == [True]
