@@ -86,7 +86,8 @@ def floor_client_move(session: Any, key: str, mover_id: int) -> Callable[[int], 
     What `Client.move` does and this leaves out: the Move object and its generated writer, the landblock the
     mover was last seen in, the redirects and errors of a reply that is not a State. What it keeps: the move
     map (docs/protocol.md, "Move request") packed by msgspec, the key declared on the session as the client
-    library declares its keys, and the reply read by the client library's own State reader."""
+    library declares its keys, the first reply taken as it comes (without waiting for the query's end, as
+    `Client.move` takes it) and read by the client library's own State reader."""
     import msgspec
 
     from clients.state_reply import decode_state_reply
@@ -98,8 +99,8 @@ def floor_client_move(session: Any, key: str, mover_id: int) -> Callable[[int], 
 
     def move(i: int) -> Any:
         request = {"v": PROTOCOL_VERSION, "move": {"id": mover_id, "offset": offsets[i % 2]}}
-        replies = list(session.get(declared, payload=encode(request), timeout=10.0))
-        state = decode_state_reply(replies[0].ok.payload.to_bytes()) if replies and replies[0].ok is not None else None
+        first = next(iter(session.get(declared, payload=encode(request), timeout=10.0)), None)  # as Client.move
+        state = decode_state_reply(first.ok.payload.to_bytes()) if first is not None and first.ok is not None else None
         if state is None:
             raise RuntimeError(f"move {i} on {key}: no State in the reply")
         return state
