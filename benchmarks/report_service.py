@@ -174,7 +174,8 @@ def _protocol_floor_note(launches: dict[str, Any]) -> str:
             f"floor took {each} µs over each launch's bound, median {floor['median']:+.0f} µs (its server "
             f"{launches['floor_service']['median']:+.0f}, its client {launches['floor_client']['median']:+.0f}). "
             f"The rest of the {over:.0f} µs, {over - floor['median']:.0f} µs, is what the service's own work (its "
-            "key dispatch, checks, stats, queue and engine lock, records, publication check) and the client "
+            "key dispatch, checks, stats, queue and engine lock, records; a single move's publication check "
+            "comes after its reply) and the client "
             "library's (the Move object, the landblock it routes by, its redirects) add to the protocol's.")
 
 
@@ -189,7 +190,7 @@ def _floor_walk(lat: dict[str, Any], bound: float) -> str:
             f"wildcard, as the service's `P/lb/*/move` is (Zenoh's dispatch, the queried key declared on the session "
             f"as the node declares the keys it is asked on); that node's own move path took "
             f"{own - wild:+.0f} µs more than the lean handler in the same process (the key's check, the stats, "
-            f"the queue and the engine lock, the publication check, the error handling: small steps each, which "
+            f"the queue and the engine lock, the error handling: small steps each, which "
             f"after an idle gap cost far more than their instructions); the `python -m service` process answered "
             f"the same raw request in {raw - bound:+.0f} µs over the bound, and the client library added "
             f"{move - raw:+.0f} µs (the Move packed, the State read into a MoverState).")
@@ -555,7 +556,8 @@ def service_limits(results: dict[str, Any]) -> list[str]:
                     f"checked) took {ee:.0f} µs, {lat['ratio_engine_echo_to_echo']:.2f}x the echo, in the same run: "
                     f"{ee - lat['echo']['median']:.0f} µs over the echo for one engine call and two msgpack calls. "
                     f"The service and the client library add {lat['move']['median'] - ee:.0f} µs to that (the "
-                    "request's checks, the record, seq and stats, the State packed and decoded, the publication check).")
+                    "request's checks, the record, seq and stats, the State packed and decoded; a single move's "
+                    "publication check comes after its reply).")
             txt += _floor_walk(lat, ee)
             txt += _every_order_note(lat)
             txt += _launches_note(lat)
