@@ -217,6 +217,17 @@ def _round_trip_lines(counts: list[dict[str, Any]] | None, against_commit: str |
                           "the service's own", "the client library's own", "Client.move over the bound"), counts,
                          ("bound", "bound_declared", "service_raw", "client", "service_over_bound",
                           "client_over_service_raw", "client_over_bound"), against_commit)]
+    floors = [c for c in counts if "floor" in c]
+    if len(floors) == len(counts):  # counts made before the floor was counted have no floor
+        out += ["", ("The protocol's own floor in the same process (benchmarks/service_floor.py's lean handler "
+                     "declared on the same node's session on a literal key: the service's reader, `World.move`, its "
+                     "State packer, the reply; nothing else): \"floor, raw get\" asked as \"service, raw get\" is, "
+                     "\"floor, least client\" by the floor's least client (the move map packed by msgspec, the key "
+                     "declared, the first reply read by the client library's State reader). What the service's and "
+                     "the client library's own work add beyond the protocol's is `Client.move` over the floor."), "",
+                *_count_table(("floor, raw get", "floor, least client", "the floor over the bound",
+                               "Client.move over the floor"), floors,
+                              ("floor_raw", "floor", "floor_over_bound", "client_over_floor"), against_commit)]
     return out + [""]
 
 

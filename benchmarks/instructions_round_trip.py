@@ -14,11 +14,18 @@ after 50 unmeasured ones:
   declares its keys (clients/client.py, `Client._lb_key`);
 - `service_raw`: a service node as `python -m service` starts one, asked the same request bytes by a plain
   `get` on its `P/lb/XXYY/move` key, declared as in `bound_declared`, the reply read by msgpack;
-- `client`: the same node asked by the client library's `Client.move`: the timed `move`.
+- `client`: the same node asked by the client library's `Client.move`: the timed `move`;
+- `floor_raw`: the same node with the protocol's floor declared on its session (benchmarks/service_floor.py's
+  lean handler on a literal key: the request read by the service's reader, `World.move`, the State packed
+  by the service's packer, the reply; nothing else), asked the raw request as in `service_raw`;
+- `floor`: that handler asked by the floor's least client (`floor_client_move`): one move as the protocol
+  alone makes a service and a client do it, the timed launches' `floor_move`.
 
 `service_raw - bound_declared` is what the service adds (its checks, stats, record, State, and the dispatch
 of its wildcard queryable), `client - service_raw` what the client library adds, and `client - bound` the
-two together against the timed bound. Zenoh's timers tick in wall time, which callgrind slows some fifty
+two together against the timed bound. `floor - bound` is what the protocol itself costs over the bound, so
+`client - floor` is the service's and the client library's own work beyond it (`floor_raw` splits the floor
+between its server and its client, as `service_raw` splits the target's series). Zenoh's timers tick in wall time, which callgrind slows some fifty
 times, so a count moves by about 2,000 a round trip between runs.
 
     python3 -m benchmarks.instructions_round_trip [ROOT]
@@ -40,7 +47,7 @@ __all__ = ["count_round_trip", "ROUND_TRIPS", "SERIES"]
 
 #: round trips of the short and the long run; their difference is what is counted
 ROUND_TRIPS = (200, 1200)
-SERIES = ("bound", "bound_declared", "service_raw", "client")
+SERIES = ("bound", "bound_declared", "service_raw", "client", "floor_raw", "floor")
 
 # The measured checkout's service, client library and engine are imported first, then this checkout's
 # scene and walker. Both sessions listen and connect on 127.0.0.1 only; every loop is bounded.
@@ -96,8 +103,17 @@ else:
 
         def one(i):
             return client.move(mid, offset=offsets[i % 2])
+    elif series == "floor":
+        from benchmarks.service_floor import FLOOR_EXACT_KEY, floor_client_move, lean_move_handler
+        floor = node.session.declare_queryable(FLOOR_EXACT_KEY, lean_move_handler(node.core))
+        one = floor_client_move(client.session, FLOOR_EXACT_KEY, mid)
     else:
-        key = client.session.declare_keyexpr(client.keys.move(start.landblock))
+        if series == "floor_raw":
+            from benchmarks.service_floor import FLOOR_EXACT_KEY, lean_move_handler
+            floor = node.session.declare_queryable(FLOOR_EXACT_KEY, lean_move_handler(node.core))
+            key = client.session.declare_keyexpr(FLOOR_EXACT_KEY)
+        else:
+            key = client.session.declare_keyexpr(client.keys.move(start.landblock))
         payloads = [request(mid, i) for i in range(2)]
 
         def one(i):
@@ -140,6 +156,10 @@ def count_round_trip(python: str, root: Path | None = None) -> dict[str, Any]:
     out["service_over_bound"] = out["service_raw"] - out["bound_declared"]
     out["client_over_service_raw"] = out["client"] - out["service_raw"]
     out["client_over_bound"] = out["client"] - out["bound"]
+    out["floor_over_bound"] = out["floor"] - out["bound"]
+    out["floor_service_over_bound"] = out["floor_raw"] - out["bound_declared"]
+    out["floor_client_over_raw"] = out["floor"] - out["floor_raw"]
+    out["client_over_floor"] = out["client"] - out["floor"]
     out["round_trips"] = list(ROUND_TRIPS)
     return out
 

@@ -30,7 +30,8 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main", "floor_client_move"]
+__all__ = ["FLOOR_EXACT_KEY", "FLOOR_WILD_KEY", "FLOOR_WILD_QUERY", "floor_main", "floor_client_move",
+           "lean_move_handler"]
 
 FLOOR_EXACT_KEY = "acphys-bench/floor-exact/A9B4"
 #: declared with a wildcard chunk; queried as FLOOR_WILD_QUERY
@@ -42,9 +43,6 @@ def floor_main(port: int) -> None:
     from service.bus.node import NodeOptions, ServiceNode
     from service.bus.route_keys import RouteKeys
     from service.bus.zconfig import make_config
-    from service.protocol.codec import pack_state
-    from service.protocol.frames import STATE_HEAD
-    from service.protocol.move_structs import plain_single_move
     from service.world_source import open_world
 
     from .service_harness import scene_file, stop_event
@@ -54,19 +52,9 @@ def floor_main(port: int) -> None:
     node = ServiceNode(open_world(scene=str(scene_file())), make_config(listen=[f"tcp/127.0.0.1:{port}"]),
                        NodeOptions(queue_capacity=4096, tune_heap=True))
     node.start()
-    core, session = node.core, node.session
-    assert core is not None and session is not None
-    world = core.world
-
-    def lean_move(query: Any) -> None:
-        """One plain move request answered with its State: decode, engine, pack, reply."""
-        plain = plain_single_move(query.payload.to_bytes())
-        assert plain is not None, "the floor takes only a plain one-move request"
-        item = plain[0]
-        assert item.offset is not None, "the floor takes only an offset move"
-        rec = core.mover_record(item.id)
-        r = world.move(rec.engine_id, rec.last.position.moved(item.offset), item.velocity)
-        query.reply(query.key_expr, STATE_HEAD + pack_state(rec.id, r.seq, r, [], item.tag))
+    session = node.session
+    assert node.core is not None and session is not None
+    lean_move = lean_move_handler(node.core)
 
     declared = [session.declare_queryable(key, lean_move) for key in (FLOOR_EXACT_KEY, FLOOR_WILD_KEY)]
     route_keys = RouteKeys(session)  # the query key declared, as the node's are
@@ -77,6 +65,27 @@ def floor_main(port: int) -> None:
     for d in declared:
         d.undeclare()
     node.shutdown()
+
+
+def lean_move_handler(core: Any) -> Callable[[Any], None]:
+    """The floor's queryable callback on `core`'s world and records: one plain move request answered with its
+    State (decode, engine, pack, reply), nothing else."""
+    from service.protocol.codec import pack_state
+    from service.protocol.frames import STATE_HEAD
+    from service.protocol.move_structs import plain_single_move
+
+    world = core.world
+
+    def lean_move(query: Any) -> None:
+        plain = plain_single_move(query.payload.to_bytes())
+        assert plain is not None, "the floor takes only a plain one-move request"
+        item = plain[0]
+        assert item.offset is not None, "the floor takes only an offset move"
+        rec = core.mover_record(item.id)
+        r = world.move(rec.engine_id, rec.last.position.moved(item.offset), item.velocity)
+        query.reply(query.key_expr, STATE_HEAD + pack_state(rec.id, r.seq, r, [], item.tag))
+
+    return lean_move
 
 
 def floor_client_move(session: Any, key: str, mover_id: int) -> Callable[[int], Any]:
