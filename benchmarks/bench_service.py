@@ -382,6 +382,7 @@ def handling_main(moves: int) -> None:
                 assert q.replies == 1
             engine = node.stats.engine_time.samples()[engine0 - node.stats.engine_time.count:]
             out[f"gap_{gap * 1e6:.0f}us"] = {"handler": summary(times, 1e6), "engine": summary(engine, 1e6)}
+        out["versus_floor"] = _versus_floor(handler, core, key, payloads, moves)
         # the engine replaced: every move resolves to the mover's current state (what the service adds)
         real_world = core.world
         core.world = NoEngine(real_world, core.movers[mid].last)
@@ -400,6 +401,35 @@ def handling_main(moves: int) -> None:
     print("HANDLING " + json.dumps(out), flush=True)
 
 
+#: the idle gaps `_versus_floor` asks after: none, and about a round trip's own
+VERSUS_FLOOR_GAPS_S = (0.0, 0.0004)
+
+
+def _versus_floor(handler: Callable[[Any], None], core: Any, key: str, payloads: list[bytes],
+                  moves: int) -> dict[str, Any]:
+    """The node's move callback and the protocol's floor (benchmarks/service_floor.py's lean handler on the same
+    core: read, `World.move`, pack, reply) asked one after the other, alternately first, back to back and after an
+    idle gap before each: what the service's own steps cost over the floor's, warm and as a round trip runs them."""
+    from .service_floor import lean_move_handler
+
+    lean = lean_move_handler(core)
+    out: dict[str, Any] = {}
+    for gap in VERSUS_FLOOR_GAPS_S:
+        times: dict[str, list[float]] = {"service": [], "floor": []}
+        for i in range(moves):
+            pair = (("service", handler), ("floor", lean))
+            for name, call in pair if i % 2 == 0 else pair[::-1]:
+                if gap:
+                    time.sleep(gap)
+                q = StandInQuery(key, payloads[i % 2])
+                t0 = time.perf_counter()
+                call(q)
+                times[name].append(time.perf_counter() - t0)
+                assert q.replies == 1
+        out[f"gap_{gap * 1e6:.0f}us"] = {name: summary(t, 1e6) for name, t in times.items()}
+    return out
+
+
 def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
     p = subprocess.run([sys.executable, "-m", "benchmarks.bench_service", "handling", str(moves)],
                        cwd=engine_root or common.ROOT, env=child_env(engine_root), capture_output=True, text=True,
@@ -415,6 +445,10 @@ def handling(engine_root: Path | None, moves: int) -> dict[str, Any]:
         elif k == "client":
             log(f"service: the client library's part of one move (Client.move, stand-in session): median "
                 f"{v['handler']['median']:6.1f} µs")
+        elif k == "versus_floor":
+            for gap, both in v.items():
+                log(f"service: one move, the service's callback against the protocol's floor, {gap}: "
+                    f"{both['service']['median']:6.1f} vs {both['floor']['median']:6.1f} µs")
         else:
             log(f"service: one move handled without the network, {k:9s}: median {v['handler']['median']:6.0f} µs "
                 f"(engine {v['engine']['median']:5.0f} µs)")

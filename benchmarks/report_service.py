@@ -368,7 +368,30 @@ def _handling(lat: dict[str, Any]) -> list[str]:
         h = hd["client"]["handler"]
         out.append(f"| none: the client library's part (`Client.move`, stand-in session) | {h['median']:.1f} | - | "
                    f"{h['p99']:.0f} |")
-    return out
+    return out + _versus_floor(hd.get("versus_floor"))
+
+
+def _versus_floor(vf: dict[str, Any] | None) -> list[str]:
+    """The service's callback against the protocol's floor in the same process, warm and after an idle gap."""
+    if not vf or "gap_0us" not in vf or "gap_400us" not in vf:
+        return []
+    warm, idle = vf["gap_0us"], vf["gap_400us"]
+
+    def over(both: dict[str, Any]) -> float:
+        return float(both["service"]["median"] - both["floor"]["median"])
+
+    return ["", (f"The same callback and the protocol's floor (benchmarks/service_floor.py's lean handler on the same "
+                 f"records: the request read, `World.move`, the State packed, the reply; nothing else), asked one "
+                 f"after the other, each first in turn: back to back {warm['service']['median']:.1f} against "
+                 f"{warm['floor']['median']:.1f} µs, the service's own steps {over(warm):+.1f} µs; with 0.4 ms of "
+                 f"idling before each, as in a round trip, {idle['service']['median']:.1f} against "
+                 f"{idle['floor']['median']:.1f} µs, {over(idle):+.1f} µs. The same steps cost "
+                 f"{over(idle) / over(warm):.1f} times as much after the gap: what they cost a round trip is "
+                 "set by how much code and data they touch, fetched again each time, more than by their "
+                 "instructions." if over(warm) > 0 else
+                 f"The same callback and the protocol's floor, asked one after the other: back to back "
+                 f"{warm['service']['median']:.1f} against {warm['floor']['median']:.1f} µs; with 0.4 ms of "
+                 f"idling before each, {idle['service']['median']:.1f} against {idle['floor']['median']:.1f} µs.")]
 
 
 def _run_batch_note(eng: dict[str, Any]) -> str:

@@ -223,3 +223,19 @@ def test_launches_recorded_before_the_floor_say_nothing_of_it() -> None:
     launches = summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0}])
     assert "floor_over_bound" not in launches
     assert "floor" not in _launches_note({"launches": launches})
+
+
+def test_the_handling_table_says_what_the_service_s_steps_cost_over_the_floor_warm_and_after_a_gap() -> None:
+    from benchmarks.report_service import _handling
+
+    def both(service: float, floor: float) -> dict[str, Any]:
+        return {"service": {"median": service}, "floor": {"median": floor}}
+
+    lines = _handling({"handling_us": {"versus_floor": {"gap_0us": both(8.0, 5.0), "gap_400us": both(35.0, 20.0)}}})
+    (note,) = [line for line in lines if line.startswith("The same callback and the protocol's floor")]
+    # by hand: warm 8.0 - 5.0 = +3.0; after the gap 35.0 - 20.0 = +15.0, five times as much
+    assert "back to back 8.0 against 5.0 µs, the service's own steps +3.0 µs" in note
+    assert "35.0 against 20.0 µs, +15.0 µs" in note and "cost 5.0 times as much after the gap" in note
+    # a run made before the floor was asked says nothing of it
+    assert not any("protocol's floor" in line for line in _handling({"handling_us": {"gap_0us": {
+        "handler": {"median": 9.0, "p99": 20.0}, "engine": {"median": 3.0}}}}))
