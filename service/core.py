@@ -366,6 +366,33 @@ class ServiceCore:
             self.bus.publish_batch([packed])
         return packed
 
+    def move_single(self, item: MoveItem, received: float) -> bytes:
+        """`move_one` of a single move whose State is published after its reply (`publishes_after_reply` holds:
+        nothing hands the mover over, nothing is held for a sync): its State packed, nothing published.
+
+        The usual case (a mover held here, no state log, an offset or a target) is `_move` and `move_one`
+        written out in one call: run after the idle gap between one move and the next, as in a round trip,
+        each step of the service's costs several times its instructions (benchmarks/bench_service.py,
+        `handling`), and this is every single move's path. Anything else is `move_one`'s."""
+        rec = self.movers.get(item.id)
+        if rec is None or self.log is not None or item.motion is not None:
+            return self.move_one(item, received, False)
+        pos = rec.mover.last.position  # type: ignore[union-attr]  # rec.last without its property: set at add
+        t0 = perf_counter()
+        try:
+            target = pos.moved(item.offset) if item.offset is not None else item.to.resolve(pos)  # type: ignore[union-attr]
+            result = self.world.move(rec.engine_id, target, item.velocity)
+        except Exception as e:
+            raise self._engine_error(e, rec, item) from None
+        engine = perf_counter() - t0
+        packed = pack_state(rec.id, result.seq, result, self._collide_ids(result) if result.collide_objects else [],
+                            item.tag)
+        now = monotonic()
+        self.stats.move_done(now - received, engine)
+        if now - self._cache_read_at > 1.0:
+            self.refresh()
+        return packed
+
     def moves(self, batch: MoveBatch, received: float) -> list[bytes | ItemError]:
         """Every item in order, each a packed State or its error; an item's failure is its own result only."""
         out: list[bytes | ItemError] = []

@@ -41,7 +41,7 @@ from service.protocol.messages import HEALTH, LANDBLOCK_LIST, STATS
 from service.ownership import Ownership
 from service.bus.publication import ZenohBus
 from service.bus.request_log import ERRORS, LoggedQuery, log_request, requests_logged
-from service.bus.single_move import submit_single
+from service.bus.single_move import move_handler, submit_single
 from service.protocol.move_structs import plain_single_move
 from service.protocol.requests import (
     ItemError,
@@ -402,7 +402,7 @@ class ServiceNode:
             elif not self._submit(job, small):
                 self._refuse(query)
 
-        return handler
+        return move_handler(self, handler) if moves else handler
 
     def _prepare(self, operation: Operation, lb: int | None, msg: dict[str, Any],
                  received: float) -> tuple[Work, bool]:

@@ -8,6 +8,7 @@ key read once (and remembered) is still refused when it is not a landblock's key
 
 from __future__ import annotations
 
+import logging
 import threading
 from types import SimpleNamespace
 from collections.abc import Iterator
@@ -289,3 +290,142 @@ def test_states_held_for_a_sync_are_not_published_after_the_reply() -> None:
     assert not core.publishes_after_reply
     core.attach_log(SimpleNamespace(always=False))  # type: ignore[arg-type]  # `--state-sync` every/never
     assert core.publishes_after_reply
+
+
+class _Oversized:
+    """A payload one byte over the limit, as Zenoh's ZBytes shows it: its length, and bytes only if asked."""
+
+    def __len__(self) -> int:
+        from service.protocol.wire import MAX_PAYLOAD
+
+        return MAX_PAYLOAD + 1
+
+    def to_bytes(self) -> bytes:
+        raise AssertionError("an oversized payload is refused by its length, before it is copied")
+
+
+def _query(key: str, content: dict[str, Any] | None) -> StandInQuery:
+    q = StandInQuery(key, content or {})
+    if content is None:
+        q.payload = _Oversized()  # type: ignore[assignment]
+    return q
+
+
+#: requests the move handler leaves to the general one: the request log on is tried apart
+_NOT_PLAIN = {
+    "a move with a field the protocol ignores": (MOVE_KEY, {"v": 1, "move": {"id": 1, "offset": [0.1, 0, 0]}, "note": 1}),
+    "a batch": (MOVE_KEY, {"v": 1, "moves": [{"id": 1, "offset": [0.1, 0, 0]}]}),
+    "a key that is not the landblock's": ("acphys/lb/a9b4/move", {"v": 1, "move": {"id": 1, "offset": [0.1, 0, 0]}}),
+    "an oversized payload": (MOVE_KEY, None),
+}
+
+
+def test_the_move_handler_takes_only_a_plain_move_and_leaves_the_rest_to_the_general_handler(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import service.bus.single_move as single_move
+
+    n = ServiceNode(None, zenoh.Config(), NodeOptions())  # nothing runs: the general handler is a recorder
+    given: list[Any] = []
+    taken: list[Any] = []
+    monkeypatch.setattr(single_move, "submit_single",
+                        lambda node, query, key_expr, item, batch_mode, received: taken.append((query, item)))
+    handler = single_move.move_handler(n, lambda q, key_expr, key: given.append((q, key)))
+    for what, (key, content) in _NOT_PLAIN.items():
+        q = _query(key, content)
+        handler(q, key, key)
+        assert given[-1] == (q, key) and not taken, what
+    given.clear()
+    q = _query(MOVE_KEY, {"v": 1, "move": {"id": 7, "offset": [0.1, 0.0, 0.0]}})
+    handler(q, MOVE_KEY, MOVE_KEY)
+    assert not given and taken[0][0] is q and taken[0][1].id == 7
+    # counted once, by the handler that took it: the general handler counts what it is given itself
+    assert n.stats.snapshot()["requests"]["move"] == 1
+
+
+def test_a_single_move_is_answered_alike_with_the_request_log_on_and_off(caplog: pytest.LogCaptureFixture) -> None:
+    """The request log on sends every request through the general handler: each answer, error and count must
+    be what the short way gives, on two nodes over the same world, asked the same requests."""
+    answers: list[list[Any]] = []
+    counts: list[dict[str, Any]] = []
+    for debug in (False, True):
+        caplog.set_level(logging.DEBUG if debug else logging.INFO, logger="acphys.requests")
+        n, _ = _node(NodeOptions())
+        try:
+            mid = _register(n)
+            cell, x, y = global_to_cell(41.0, 40.0)
+            requests: list[tuple[str, dict[str, Any] | None]] = [
+                (MOVE_KEY, {"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0], "tag": "east"}}),
+                (MOVE_KEY, {"v": 1, "move": {"id": mid, "to": encode_position(Position.at(cell, Vec3(x, y, 60.0)))}}),
+                (MOVE_KEY, {"v": 1, "move": {"id": mid, "motion": [0.0, 0.8, 0.0], "dt": 0.2}}),
+                (MOVE_KEY, {"v": 1, "move": {"id": mid + 1000, "offset": [0.5, 0.0, 0.0]}}),
+                ("acphys/lb/a9b4/move", {"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}),
+                (MOVE_KEY, None),
+            ]
+            before = n.stats.snapshot()
+            got: list[tuple[Any, ...]] = []
+            for key, content in requests:
+                q = _query(key, content)
+                n.lb_queryable("*")(q)
+                assert wait_until(lambda q=q: len(q.ok) + len(q.err) == 1, timeout=10.0) and q.dropped == 1
+                if q.ok:
+                    state = dict(q.ok[0]["state"])
+                    assert state.pop("id") == mid
+                    got.append(("ok", state))
+                else:
+                    err = q.err[0]["error"]
+                    got.append(("err", err["kind"], err.get("path")))
+            after = n.stats.snapshot()
+            answers.append(got)
+            counts.append({"moves": after["moves"] - before["moves"],
+                           "requests": after["requests"]["move"] - before["requests"]["move"],
+                           "errors": {k: v - before["errors"].get(k, 0) for k, v in after["errors"].items()
+                                      if v != before["errors"].get(k, 0)}})
+        finally:
+            n.shutdown(timeout=5.0)
+    short, general = answers
+    assert short == general
+    assert counts[0] == counts[1]
+    # what both must be, by the protocol: three moves (seq 1, 2, 3), then the three errors
+    assert [a[0] for a in short] == ["ok", "ok", "ok", "err", "err", "err"]
+    assert [a[1]["seq"] for a in short[:3]] == [1, 2, 3] and short[0][1]["tag"] == "east"
+    assert [a[1] for a in short[3:]] == [ErrorKind.UNKNOWN_MOVER, ErrorKind.BAD_VALUE, ErrorKind.TOO_LARGE]
+    assert counts[0]["moves"] == 3 and counts[0]["requests"] == 6
+
+
+def test_a_single_move_written_out_gives_what_move_one_gives() -> None:
+    """`ServiceCore.move_single` against `move_one` (nothing published), on two cores over two copies of one world:
+    every move kind gives the same State bytes and the same counts, and a move either refuses, the same error."""
+    from service.stats import ServiceStats
+
+    cores = [ServiceCore(load_scene(str(DEMO_SCENE)), SilentBus(), ownership=Ownership(), instance=name,
+                         stats=ServiceStats()) for name in ("written-out", "move-one")]
+    cell, x, y = global_to_cell(40.0, 40.0)
+    ids = []
+    for core in cores:
+        core._id_base = 1 << 32  # the same ids on both, so that their States compare bytewise
+        ids.append(core.register(parse_register({"v": 1, "mover": encode_mover_spec(human()),
+                                                 "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))}))
+                   ["state"]["id"])
+    assert ids[0] == ids[1]
+    mid = ids[0]
+    tcell, tx, ty = global_to_cell(41.5, 40.0)
+    moves = [{"id": mid, "offset": [0.5, 0.0, 0.0], "tag": 1},
+             {"id": mid, "to": encode_position(Position.at(tcell, Vec3(tx, ty, 60.0))), "tag": "to"},
+             {"id": mid, "motion": [0.0, 0.8, 0.0], "dt": 0.2},  # a step: `move_one`'s own way on both
+             {"id": mid, "offset": [500.0, 0.0, 0.0]},  # beyond the move's limit: refused by the engine
+             {"id": mid + 1, "offset": [0.5, 0.0, 0.0]}]  # no such mover
+    from service.protocol.requests import parse_single_move
+
+    for m in moves:
+        item, _ = parse_single_move({"v": 1, "move": m})
+        got: list[Any] = []
+        for core, run in zip(cores, (lambda c, i: c.move_single(i, 0.0), lambda c, i: c.move_one(i, 0.0, False))):
+            try:
+                got.append(run(core, item))
+            except ProtocolError as e:
+                got.append((e.kind, e.path))
+        assert got[0] == got[1], m
+    a, b = (c.stats.snapshot() for c in cores)
+    assert a["moves"] == b["moves"] == 3
+    assert a["engine_ms"]["count"] == b["engine_ms"]["count"] == 3
+    assert [c.movers[mid].seq for c in cores] == [3, 3]
