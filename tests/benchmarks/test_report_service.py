@@ -114,6 +114,13 @@ def test_the_round_trip_row_gives_the_count_when_the_run_counted_it() -> None:
     results["instructions"]["round_trip"] = [{"bound": 218_000.0, "client": 296_500.0, "client_over_bound": 78_500.0}]
     trip = _row(service_targets(results), "| one move's round trip")
     assert "whole round trip is 296,500 instructions against the bound's 218,000: +78,500" in trip
+    assert "protocol's floor" not in trip  # counted before the floor was
+    # with the floor counted: 241,000 - 218,000 = +23,000 over the bound; 296,500 - 241,000 = +55,500 own work
+    results["instructions"]["round_trip"][0].update({"floor": 241_000.0, "floor_over_bound": 23_000.0,
+                                                     "client_over_floor": 55_500.0})
+    trip = _row(service_targets(results), "| one move's round trip")
+    assert "the protocol's floor, counted the same way, +23,000 over the bound" in trip
+    assert "own work is +55,500" in trip
 
 
 def test_the_series_go_through_every_order_and_every_request_is_timed() -> None:
