@@ -388,10 +388,11 @@ def _versus_floor(vf: dict[str, Any] | None) -> list[str]:
                  f"after the other, each first in turn: back to back {warm['service']['median']:.1f} against "
                  f"{warm['floor']['median']:.1f} µs, the service's own steps {over(warm):+.1f} µs; with 0.4 ms of "
                  f"idling before each, as in a round trip, {idle['service']['median']:.1f} against "
-                 f"{idle['floor']['median']:.1f} µs, {over(idle):+.1f} µs. The same steps cost "
-                 f"{over(idle) / over(warm):.1f} times as much after the gap: what they cost a round trip is "
-                 "set by how much code and data they touch, fetched again each time, more than by their "
-                 "instructions." if over(warm) > 0 else
+                 f"{idle['floor']['median']:.1f} µs, {over(idle):+.1f} µs. After the gap the floor ran "
+                 f"{idle['floor']['median'] / warm['floor']['median']:.1f} times slower and the service's callback "
+                 f"{idle['service']['median'] / warm['service']['median']:.1f} times: every step runs several times "
+                 "slower after idling, so each step the service adds over the protocol's costs a round trip several "
+                 f"times its warm cost ({over(idle) / over(warm):.1f} times, all told)." if over(warm) > 0 else
                  f"The same callback and the protocol's floor, asked one after the other: back to back "
                  f"{warm['service']['median']:.1f} against {warm['floor']['median']:.1f} µs; with 0.4 ms of "
                  f"idling before each, {idle['service']['median']:.1f} against {idle['floor']['median']:.1f} µs.")]

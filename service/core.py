@@ -372,8 +372,8 @@ class ServiceCore:
 
         The usual case (a mover held here, no state log, an offset or a target) is `_move` and `move_one`
         written out in one call: run after the idle gap between one move and the next, as in a round trip,
-        each step of the service's costs several times its instructions (benchmarks/bench_service.py,
-        `handling`), and this is every single move's path. Anything else is `move_one`'s."""
+        each step costs several times what it costs back to back (benchmarks/bench_service.py, `handling`),
+        and this is every single move's path. Anything else is `move_one`'s."""
         rec = self.movers.get(item.id)
         if rec is None or self.log is not None or item.motion is not None:
             return self.move_one(item, received, False)

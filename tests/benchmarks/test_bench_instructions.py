@@ -154,13 +154,13 @@ def test_the_whole_round_trip_is_counted() -> None:
     c = count_round_trip(bi._python_of(common.ROOT))  # raises unless every round trip was answered
     assert c["round_trips"] == [200, 1200]
     # the service reads, checks, records and packs more than the bare queryable's msgpack and engine call,
-    # by far more than the ~2,000 a count moves between runs
-    assert c["service_raw"] > c["bound_declared"] + 10_000
+    # by far more than the ~20,000 a count moves between runs
+    assert c["service_raw"] > c["bound_declared"] + 30_000
     assert c["client_over_bound"] == c["client"] - c["bound"]
     assert c["service_over_bound"] == c["service_raw"] - c["bound_declared"]
     # the floor's server reads, moves and packs as the service does, nothing more; its client packs the map and
     # reads the State as the client library does, nothing more: the whole stack does more than the floor by far
-    # more than the ~2,000 a count moves between runs
-    assert c["client"] > c["floor"] + 10_000
+    # more than the ~20,000 a count moves between runs
+    assert c["client"] > c["floor"] + 30_000
     assert c["client_over_floor"] == c["client"] - c["floor"]
     assert c["floor_over_bound"] == c["floor"] - c["bound"]
