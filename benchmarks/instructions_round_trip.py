@@ -25,8 +25,8 @@ after 50 unmeasured ones:
 of its wildcard queryable), `client - service_raw` what the client library adds, and `client - bound` the
 two together against the timed bound. `floor - bound` is what the protocol itself costs over the bound, so
 `client - floor` is the service's and the client library's own work beyond it (`floor_raw` splits the floor
-between its server and its client, as `service_raw` splits the target's series). Zenoh's timers tick in wall time, which callgrind slows some fifty
-times, so a count moves between runs: `client` counted 287,069 and 307,244 in two runs of one tree on this
+between its server and its client, as `service_raw` splits the target's series). Zenoh's timers tick in
+wall time, which callgrind slows some fifty times, so a count moves between runs: `client` counted 287,069 and 307,244 in two runs of one tree on this
 project's 2-core machine, where two counted runs share it.
 
     python3 -m benchmarks.instructions_round_trip [ROOT]
@@ -99,22 +99,19 @@ else:
             break
         except Exception:
             time.sleep(0.05)
+    if series.startswith("floor"):  # the protocol's floor beside the node's own queryables, on its session
+        from benchmarks.service_floor import FLOOR_EXACT_KEY, floor_client_move, lean_move_handler
+        floor = node.session.declare_queryable(FLOOR_EXACT_KEY, lean_move_handler(node.core))
     if series == "client":
         offsets = [(0.2, 0.0, 0.0), (-0.2, 0.0, 0.0)]
 
         def one(i):
             return client.move(mid, offset=offsets[i % 2])
     elif series == "floor":
-        from benchmarks.service_floor import FLOOR_EXACT_KEY, floor_client_move, lean_move_handler
-        floor = node.session.declare_queryable(FLOOR_EXACT_KEY, lean_move_handler(node.core))
         one = floor_client_move(client.session, FLOOR_EXACT_KEY, mid)
     else:
-        if series == "floor_raw":
-            from benchmarks.service_floor import FLOOR_EXACT_KEY, lean_move_handler
-            floor = node.session.declare_queryable(FLOOR_EXACT_KEY, lean_move_handler(node.core))
-            key = client.session.declare_keyexpr(FLOOR_EXACT_KEY)
-        else:
-            key = client.session.declare_keyexpr(client.keys.move(start.landblock))
+        key = client.session.declare_keyexpr(FLOOR_EXACT_KEY if series == "floor_raw"
+                                             else client.keys.move(start.landblock))
         payloads = [request(mid, i) for i in range(2)]
 
         def one(i):

@@ -4,6 +4,8 @@ itself exactly."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 from benchmarks import bench_instructions as bi
@@ -120,31 +122,33 @@ def test_client_move_count_is_counted() -> None:
     assert c["per_call"] > 0 and c["calls"] == [200, 1200]
 
 
-def test_the_section_gives_the_whole_round_trip_after_the_client_move() -> None:
-    trip = {"bound": 218_000.0, "bound_declared": 217_500.0, "service_raw": 305_000.0, "client": 296_000.0,
-            "service_over_bound": 87_500.0, "client_over_service_raw": -9_000.0, "client_over_bound": 78_000.0,
-            "round_trips": [200, 1200]}
+#: one counted round trip as `count_round_trip` gives it, before the floor was counted
+_TRIP = {"bound": 218_000.0, "bound_declared": 217_500.0, "service_raw": 305_000.0, "client": 296_000.0,
+         "service_over_bound": 87_500.0, "client_over_service_raw": -9_000.0, "client_over_bound": 78_000.0,
+         "round_trips": [200, 1200]}
+_TRIP_ROW = "| this checkout | 218,000 | 217,500 | 305,000 | 296,000 | 87,500 | -9,000 | 78,000 |"
+
+
+def _section_of(trip: dict[str, Any]) -> list[str]:
     data = {"rows": [{"name": "flat", "calls": 10, "instructions": 1000, "per_call": 100.0}],
             "client_move": [{"per_call": 41_250.5, "calls": [200, 1200]}], "round_trip": [trip]}
-    lines = bi.section(data, "Measured by ...")
-    row = "| this checkout | 218,000 | 217,500 | 305,000 | 296,000 | 87,500 | -9,000 | 78,000 |"
-    assert lines.index(row) > lines.index("| this checkout | 41,250 |")
+    return bi.section(data, "Measured by ...")
+
+
+def test_the_section_gives_the_whole_round_trip_after_the_client_move() -> None:
+    lines = _section_of(_TRIP)
+    assert lines.index(_TRIP_ROW) > lines.index("| this checkout | 41,250 |")
     assert any("a 200- and a 1200-round-trip run" in line for line in lines)
     assert not any("floor, least client" in line for line in lines)  # counted before the floor was
 
 
 def test_the_section_gives_the_counted_floor_after_the_round_trip() -> None:
     # the floor's figures and their differences from the series above, worked by hand
-    trip = {"bound": 218_000.0, "bound_declared": 217_500.0, "service_raw": 305_000.0, "client": 296_000.0,
-            "service_over_bound": 87_500.0, "client_over_service_raw": -9_000.0, "client_over_bound": 78_000.0,
-            "floor_raw": 258_000.0, "floor": 241_000.0, "floor_over_bound": 23_000.0,
-            "floor_service_over_bound": 40_500.0, "floor_client_over_raw": -17_000.0, "client_over_floor": 55_000.0,
-            "round_trips": [200, 1200]}
-    data = {"rows": [{"name": "flat", "calls": 10, "instructions": 1000, "per_call": 100.0}],
-            "client_move": [{"per_call": 41_250.5, "calls": [200, 1200]}], "round_trip": [trip]}
-    lines = bi.section(data, "Measured by ...")
+    lines = _section_of({**_TRIP, "floor_raw": 258_000.0, "floor": 241_000.0, "floor_over_bound": 23_000.0,
+                         "floor_service_over_bound": 40_500.0, "floor_client_over_raw": -17_000.0,
+                         "client_over_floor": 55_000.0})
     floor_row = "| this checkout | 258,000 | 241,000 | 23,000 | 55,000 |"
-    assert lines.index(floor_row) > lines.index("| this checkout | 218,000 | 217,500 | 305,000 | 296,000 | 87,500 | -9,000 | 78,000 |")
+    assert lines.index(floor_row) > lines.index(_TRIP_ROW)
 
 
 @pytest.mark.skipif(bi.unavailable() is not None, reason=str(bi.unavailable()))
