@@ -649,10 +649,13 @@ def run(quick: bool, engine_root: Path | None = None) -> dict[str, Any]:
                 child.stop()
         users_dir.cleanup()
     from .bench_batches import batch_workload
-    from .round_trip_launches import LAUNCHES, REQUESTS, round_trip_launches
+    from .round_trip_launches import LAUNCHES, ONE_CORE_LAUNCHES, REQUESTS, one_core, round_trip_launches
 
-    # the round trip against its bound again, in fresh launches of every process, the others stopped
-    lat["launches"] = round_trip_launches(engine_root, 3 if quick else LAUNCHES, 300 if quick else REQUESTS)
+    # the round trip against its bound again, in fresh launches of every process, the others stopped; then the
+    # same launches with every process on one core, the steadier reading beside the target's
+    requests = 300 if quick else REQUESTS
+    lat["launches"] = round_trip_launches(engine_root, 3 if quick else LAUNCHES, requests)
+    lat["launches_one_core"] = round_trip_launches(engine_root, 3 if quick else ONE_CORE_LAUNCHES, requests, one_core())
     batches = batch_workload(quick, engine_root)
     workers = workers_scaling(scene, seconds=seconds) if engine_root is None else []
     from .bench_spanning import spanning_batch

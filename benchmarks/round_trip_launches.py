@@ -5,7 +5,17 @@ On this 2-core machine a launch's figure depends on the launch: where the schedu
 bound's process and the asking process, and how their memory falls, decide several µs that stay for the whole
 launch. Seven launches of one tree gave `Client.move` 45 to 60 µs over the bound (median 50), while the
 median of one launch's requests moves by about a microsecond. One launch's figure is one draw, so the
-target is read here from several launches.
+target is read here from several launches: 21, with their quartiles, as the launches of one tree spread over
+20 µs and the median of seven moved by as much as the target's margin between sets. A launch takes 5 to 30 s,
+by the machine.
+
+A set of launches is itself one draw of the machine's state. On the project's 2-core VM, sets of 14 to 21
+launches of one tree, run within the same hour, had medians from 37 to 46 µs, and identical copies of one
+tree, launched in turn, differed by 2 to 4 µs (one copy lower in 32 of 42 pairs). So the launches are also
+run with every process pinned to one core (`ONE_CORE_LAUNCHES`, the launch's affinity set before anything
+starts, which its children inherit): a request then wakes its server on the core it is already on, and
+those launches spread over about 6 µs (32 to 38), their bound some 50 µs faster. The target's verdict is
+read from the unpinned launches, the machine as it is; the one-core figure stands beside it.
 
 The figure also depends on what runs between two requests of a series, not only on the code: asking a
 fourth series beside the three (the raw request again, on a declared key) lowered `Client.move`'s figure by
@@ -32,12 +42,13 @@ what the service's and the client library's own work add. The phase runs after t
 target's three series are asked as before with nothing of the floor's running beside them; the launch then
 stops everything and prints the six medians.
 
-    python3 -m benchmarks.round_trip_launches [LAUNCHES]
+    python3 -m benchmarks.round_trip_launches [LAUNCHES]        (and ONE_CORE_LAUNCHES on one core)
 """
 
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -49,10 +60,12 @@ from . import common
 from .common import log
 from .service_harness import child_env
 
-__all__ = ["LAUNCHES", "REQUESTS", "over_bound", "round_trip_launches"]
+__all__ = ["LAUNCHES", "ONE_CORE_LAUNCHES", "REQUESTS", "one_core", "over_bound", "round_trip_launches"]
 
 #: launches of the whole set of processes (odd: the median is one launch's figure)
-LAUNCHES = 7
+LAUNCHES = 21
+#: launches with every process pinned to one core (a steadier reading beside the target's)
+ONE_CORE_LAUNCHES = 11
 #: requests of each series in a launch (a multiple of the six orders of three series)
 REQUESTS = 1200
 #: the longest a launch may take (start-ups, warm-ups, 6 x REQUESTS round trips, stops)
@@ -72,20 +85,29 @@ def over_bound(launch: dict[str, float]) -> dict[str, float]:
 
 
 def summarise(launches: list[dict[str, float]]) -> dict[str, Any]:
-    """The launches' medians, each one's figures over the bound, and the median and range of those."""
+    """The launches' medians, each one's figures over the bound, and the median, quartiles and range of those."""
     each = [over_bound(m) for m in launches]
     out: dict[str, Any] = {"launches": launches, "over_bound_each": each}
     for key in ("over_bound", "service", "client", "floor_over_bound", "floor_service", "floor_client"):
         values = [e[key] for e in each if key in e]
         if len(values) < len(each):  # launches recorded before the floor was measured
             continue
-        out[key] = {"median": statistics.median(values), "min": min(values), "max": max(values)}
+        q1, _, q3 = statistics.quantiles(values, n=4, method="inclusive") if len(values) > 1 else values * 3
+        out[key] = {"median": statistics.median(values), "min": min(values), "max": max(values), "q1": q1, "q3": q3}
     return out
 
 
-def launch_main(requests: int) -> None:
+def one_core() -> int:
+    """The core the one-core launches run on: the lowest this process may run on."""
+    return min(os.sched_getaffinity(0))
+
+
+def launch_main(requests: int, cpu: int | None = None) -> None:
     """One launch: the service and the bound started, the three series asked in every order; then, the service
-    stopped, the protocol's floor started and asked against the same bound in every order; everything stopped."""
+    stopped, the protocol's floor started and asked against the same bound in every order; everything stopped.
+    With `cpu`, this process and every process it starts run on that core alone."""
+    if cpu is not None:
+        os.sched_setaffinity(0, {cpu})  # before any thread or child: all of them inherit it
     import zenoh
 
     from clients import Client
@@ -101,9 +123,11 @@ def launch_main(requests: int) -> None:
                      "--log-level", "WARNING", "--queue", "4096"], "acphys service ready")
     bound: Child | None = None
     floor: Child | None = None
+    cpus = set(os.sched_getaffinity(service.proc.pid))  # the cores the launch's processes were allowed, read from each
     try:
         bound = Child([sys.executable, "-m", "benchmarks.bench_service", "engine-echo",
                        bound_endpoint.rsplit(":", 1)[1]], "engine echo ready")
+        cpus |= os.sched_getaffinity(bound.proc.pid)
         with zenoh.open(make_config(connect=[bound_endpoint])) as b:
             with Client([endpoint], timeout=30.0) as c:
                 mid = c.register(bench_walker(), start_position(0)).id
@@ -112,6 +136,7 @@ def launch_main(requests: int) -> None:
             # the second phase alone with the bound, as the first was: the service's process gone
             service.stop()
             floor = Child([sys.executable, "-m", "benchmarks.service_floor", str(floor_port)], "floor ready")
+            cpus |= os.sched_getaffinity(floor.proc.pid)
             with Client([f"tcp/127.0.0.1:{floor_port}"], timeout=30.0) as fc:
                 floor_mid = fc.register(bench_walker(), start_position(0)).id
                 # the first phase's bound and raw request, the raw request sent to the floor's literal key
@@ -122,9 +147,9 @@ def launch_main(requests: int) -> None:
         for child in (service, bound, floor):
             if child is not None:
                 child.stop()
-    medians = {name: s["median"] for name, s in got.items()}
+    medians: dict[str, Any] = {name: s["median"] for name, s in got.items()}
     medians.update({"floor_bound": floor_got["engine_echo"]["median"], "floor_raw": floor_got["floor_raw"]["median"],
-                    "floor_move": floor_got["floor_move"]["median"]})
+                    "floor_move": floor_got["floor_move"]["median"], "cpus": sorted(cpus | os.sched_getaffinity(0))})
     print("LAUNCH " + json.dumps(medians), flush=True)
 
 
@@ -136,36 +161,45 @@ def _asked(series: dict[str, Callable[[int], Any]], requests: int) -> dict[str, 
     return common.round_trips_in_every_order(series, requests)
 
 
-def _launch(engine_root: Path | None, requests: int) -> dict[str, float]:
-    p = subprocess.run([sys.executable, "-m", "benchmarks.round_trip_launches", "launch", str(requests)],
+def _launch(engine_root: Path | None, requests: int, cpu: int | None = None) -> dict[str, Any]:
+    """One launch in a child process: each series' median (µs), and `cpus`, the cores its processes could use."""
+    pinned = [] if cpu is None else [str(cpu)]
+    p = subprocess.run([sys.executable, "-m", "benchmarks.round_trip_launches", "launch", str(requests), *pinned],
                        cwd=engine_root or common.ROOT, env=child_env(engine_root), capture_output=True, text=True,
                        timeout=LAUNCH_TIMEOUT_S)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("LAUNCH ")]
     if p.returncode != 0 or not lines:
         raise RuntimeError(f"round-trip launch failed ({p.returncode}):\n{p.stderr[-2000:]}")
-    medians: dict[str, float] = json.loads(lines[-1][7:])
+    medians: dict[str, Any] = json.loads(lines[-1][7:])
     return medians
 
 
 def round_trip_launches(engine_root: Path | None = None, launches: int = LAUNCHES,
-                        requests: int = REQUESTS) -> dict[str, Any]:
-    """`launches` launches one after the other (each alone on the machine), summarised."""
+                        requests: int = REQUESTS, cpu: int | None = None) -> dict[str, Any]:
+    """`launches` launches one after the other (each alone on the machine), summarised; with `cpu`, every
+    process of each launch on that core alone (`cpu` recorded)."""
     got = []
+    where = "" if cpu is None else f" on core {cpu} alone"
     for i in range(launches):
-        got.append(_launch(engine_root, requests))
-        e = over_bound(got[-1])
-        log(f"service: round trip, launch {i + 1} of {launches}: Client.move {e['over_bound']:+.1f} µs over the bound "
-            f"(the service {e['service']:+.1f}, the client library {e['client']:+.1f})")
+        launch = _launch(engine_root, requests, cpu)
+        launch.pop("cpus", None)
+        got.append(launch)
+        e = over_bound(launch)
+        log(f"service: round trip{where}, launch {i + 1} of {launches}: Client.move {e['over_bound']:+.1f} µs over the "
+            f"bound (the service {e['service']:+.1f}, the client library {e['client']:+.1f})")
     out = summarise(got)
     out["requests"] = requests  # of each series in each launch
+    if cpu is not None:
+        out["cpu"] = cpu
     m = out["over_bound"]
-    log(f"service: round trip over the bound, median of {launches} launches {m['median']:+.1f} µs "
-        f"(launches {m['min']:+.1f} to {m['max']:+.1f})")
+    log(f"service: round trip{where} over the bound, median of {launches} launches {m['median']:+.1f} µs "
+        f"(quartiles {m['q1']:+.1f} to {m['q3']:+.1f}, launches {m['min']:+.1f} to {m['max']:+.1f})")
     return out
 
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "launch":
-        launch_main(int(sys.argv[2]))
+        launch_main(int(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else None)
     else:
-        print(json.dumps(round_trip_launches(launches=int(sys.argv[1]) if len(sys.argv) > 1 else LAUNCHES), indent=1))
+        print(json.dumps({"launches": round_trip_launches(launches=int(sys.argv[1]) if len(sys.argv) > 1 else LAUNCHES),
+                          "one_core": round_trip_launches(launches=ONE_CORE_LAUNCHES, cpu=one_core())}, indent=1))

@@ -164,7 +164,7 @@ def test_the_round_trip_verdict_is_the_median_of_the_launches_when_they_were_mea
         {"engine_echo": 305.0, "raw_move": 330.0, "move": 352.0}])
     trip = _row(service_targets(results), "| one move's round trip")
     # the service: 20, 12, 25 -> median 20; the client library: 30, 23, 22 -> median 23
-    assert "47 µs over, the median of 3 fresh launches" in trip and "(launches 35 to 50 µs" in trip
+    assert "47 µs over, the median of 3 fresh launches" in trip and "launches 35 to 50 µs;" in trip
     assert "the service 20 µs, the client library 23 µs" in trip
     assert "in the run's own launch, 455 vs 420 µs, one request at a time in every order: 35 µs over" in trip
     assert trip.endswith("| missed |")  # 47 > 40, though the run's own launch said 35
@@ -177,8 +177,21 @@ def test_the_launches_summary_is_each_launch_over_its_own_bound() -> None:
                      {"engine_echo": 280.0, "raw_move": 310.0, "move": 330.0}])
     assert out["over_bound_each"] == [{"over_bound": 38.0, "service": 20.0, "client": 18.0},
                                       {"over_bound": 50.0, "service": 30.0, "client": 20.0}]
-    assert out["over_bound"] == {"median": 44.0, "min": 38.0, "max": 50.0}
-    assert out["client"] == {"median": 19.0, "min": 18.0, "max": 20.0}
+    # quartiles of two values, interpolated a quarter and three quarters of the way: 38 + 12 / 4, 38 + 36 / 4
+    assert out["over_bound"] == {"median": 44.0, "min": 38.0, "max": 50.0, "q1": 41.0, "q3": 47.0}
+    assert out["client"] == {"median": 19.0, "min": 18.0, "max": 20.0, "q1": 18.5, "q3": 19.5}
+
+
+def test_the_round_trip_row_gives_the_launches_quartiles() -> None:
+    from benchmarks.round_trip_launches import summarise
+
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    # five launches 30, 40, 50, 60, 70 µs over their bounds: the quartiles are the second and fourth, 40 and 60
+    results["service"]["latency"]["launches"] = summarise(
+        [{"engine_echo": 300.0, "raw_move": 310.0, "move": 300.0 + over} for over in (50.0, 30.0, 70.0, 40.0, 60.0)])
+    trip = _row(service_targets(results), "| one move's round trip")
+    assert "50 µs over, the median of 5 fresh launches" in trip
+    assert "(quartiles 40 to 60, launches 30 to 70 µs;" in trip
 
 
 def test_the_launches_note_lists_each_launch_and_their_median() -> None:
@@ -192,7 +205,8 @@ def test_the_launches_note_lists_each_launch_and_their_median() -> None:
     note = _launches_note(lat)
     # over each bound: 38, 50, 45 -> median 45; the service 20, 30, 10 -> 20; the client library 18, 20, 35 -> 20
     assert "in 3 fresh launches" in note and "took +38, +50, +45 µs over each launch's bound" in note
-    assert "median +45 µs (the service +20, the client library +20)" in note
+    # quartiles of 38, 45, 50: 41.5 and 47.5, printed to the µs as 42 and 48
+    assert "median +45 µs (quartiles 42 to 48, launches 38 to 50 µs; the service +20, the client library +20)" in note
 
 
 def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
@@ -209,7 +223,8 @@ def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
     # the floor over its own phase's bound: 322 - 310 = 12, 315 - 300 = 15, 340 - 330 = 10 -> median 12;
     # its server 305 - 310 = -5, 2, -10 -> -5; its client 17, 13, 20 -> 17
     assert [e["floor_over_bound"] for e in launches["over_bound_each"]] == [12.0, 15.0, 10.0]
-    assert launches["floor_over_bound"] == {"median": 12.0, "min": 10.0, "max": 15.0}
+    # quartiles of 10, 12, 15: halfway between the first two and between the last two
+    assert launches["floor_over_bound"] == {"median": 12.0, "min": 10.0, "max": 15.0, "q1": 11.0, "q3": 13.5}
     assert launches["floor_service"]["median"] == -5.0 and launches["floor_client"]["median"] == 17.0
     note = _launches_note({"launches": launches})
     # the round trip's median over the bound: 50, 35, 47 -> 47, of which 47 - 12 = 35 beyond the floor
@@ -221,6 +236,34 @@ def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
     trip = _row(service_targets(results), "| one move's round trip")
     assert "the protocol's own floor, in the same launches, 12 µs over (section 3)" in trip
     assert trip.endswith("| missed |")
+
+
+def test_the_one_core_launches_stand_beside_the_verdict() -> None:
+    from benchmarks.report_service import _launches_note, service_targets
+    from benchmarks.round_trip_launches import summarise
+
+    def launch(bound: float, raw: float, move: float) -> dict[str, float]:
+        return {"engine_echo": bound, "raw_move": raw, "move": move, "floor_bound": bound, "floor_raw": bound - 5.0,
+                "floor_move": bound + 8.0}
+
+    free = summarise([launch(300.0, 320.0, 350.0), launch(310.0, 330.0, 356.0), launch(320.0, 335.0, 362.0)])
+    pinned = summarise([launch(250.0, 262.0, 280.0), launch(254.0, 268.0, 290.0), launch(252.0, 260.0, 284.0)])
+    pinned["cpu"] = 0
+    results = _results(2_275.0, 530.0, [90_000.0, 120_000.0, 100_000.0], [100_000.0, 150_000.0, 125_000.0])
+    results["service"]["latency"].update({"launches": free, "launches_one_core": pinned})
+    trip = _row(service_targets(results), "| one move's round trip")
+    # unpinned over each bound: 50, 46, 42 -> median 46, missed; pinned 30, 36, 32 -> median 32, quartiles 31 and 34
+    assert "46 µs over, the median of 3 fresh launches" in trip and trip.endswith("| missed |")
+    assert ("with every process on one core, 32 µs over in 3 launches (quartiles 31 to 34, launches 30 to 36 µs; "
+            "the floor 8 µs), beside the verdict") in trip
+    note = _launches_note({"launches": free, "launches_one_core": pinned})
+    # pinned: the service 12, 14, 8 -> 12; the client library 18, 22, 24 -> 22; bounds 250, 254, 252 -> 252,
+    # unpinned 300, 310, 320 -> 310
+    assert ("3 more launches ran with every process pinned to core 0 (a request then wakes its server on the core it "
+            "is already on): `Client.move` took +32 µs over each launch's bound at the median (quartiles 31 to 34, "
+            "launches 30 to 36 µs; the service +12, the client library +22, the protocol's floor +8 µs), the bound "
+            "itself 252 µs against 310 µs unpinned") in note
+    assert "one core" not in _launches_note({"launches": free})  # a run without them says nothing of them
 
 
 def test_launches_recorded_before_the_floor_say_nothing_of_it() -> None:

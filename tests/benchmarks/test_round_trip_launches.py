@@ -6,17 +6,31 @@ as a move request says."""
 from __future__ import annotations
 
 import math
+import os
 import sys
 
-from benchmarks.round_trip_launches import _launch
+from benchmarks.round_trip_launches import _launch, one_core
+
+SERIES = {"engine_echo", "raw_move", "move", "floor_bound", "floor_raw", "floor_move"}
 
 
 def test_a_launch_answers_every_series_and_reports_their_medians() -> None:
     medians = _launch(None, 12)  # two requests of each series in each of the six orders
-    assert set(medians) == {"engine_echo", "raw_move", "move", "floor_bound", "floor_raw", "floor_move"}
-    for name, value in medians.items():
+    assert set(medians) == SERIES | {"cpus"}
+    for name in SERIES:
         # a loopback round trip: more than nothing, less than the requests' 10 s timeout
-        assert math.isfinite(value) and 0.0 < value < 10e6, name
+        assert math.isfinite(medians[name]) and 0.0 < medians[name] < 10e6, name
+    # unpinned, the launch's processes may run wherever this one may
+    assert medians["cpus"] == sorted(os.sched_getaffinity(0))
+
+
+def test_a_one_core_launch_runs_every_process_on_that_core() -> None:
+    cpu = one_core()
+    assert cpu == min(os.sched_getaffinity(0))
+    medians = _launch(None, 12, cpu)
+    # read from the launch itself, the service, the bound and the floor: each allowed that core alone
+    assert medians["cpus"] == [cpu]
+    assert all(math.isfinite(medians[name]) and 0.0 < medians[name] < 10e6 for name in SERIES)
 
 
 def test_the_floors_least_client_moves_its_mover_east_and_back() -> None:
