@@ -260,4 +260,4 @@ class MoveCalls:
                                    "send fewer moves per push")
             bodies.append((lb, payload))
         for lb, payload in bodies:  # all checked first: nothing of a refused push is sent
-            self.session.put(self.keys.push(lb), payload)
+            self.session.put(self._lb_key(lb, "push"), payload)  # declared once, as a request's key

@@ -11,7 +11,7 @@ import pytest
 import zenoh
 
 import clients.client as client_module
-from clients import Client
+from clients import Client, Move
 from engine import MoveResult
 from engine.geometry import Position, Vec3
 from service.bus.zconfig import make_config
@@ -61,6 +61,33 @@ def test_a_landblocks_key_is_declared_once_and_requests_go_on_it() -> None:
     assert session.declared == ["acphys/lb/A9B4/move", "acphys/lb/A9B4/get"]
     assert [str(k) for k in session.asked] == ["acphys/lb/A9B4/move"] * 3 + ["acphys/lb/A9B4/get"]
     assert all(isinstance(k, zenoh.KeyExpr) for k in session.asked)
+
+
+class _PushSession(_Session):
+    """Records each put's key and payload."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.put_on: list[tuple[Any, bytes]] = []
+
+    def put(self, key: Any, payload: bytes, **_options: Any) -> None:
+        self.put_on.append((key, payload))
+
+
+def test_a_push_goes_on_its_landblocks_declared_key() -> None:
+    session = _PushSession()
+    client = Client(session=session)  # type: ignore[arg-type]
+    client.locate(7, 0xA9B4)
+    client.locate(8, 0xA9B5)
+    for d in (0.2, -0.2):
+        client.push([Move(7, offset=(d, 0.0, 0.0)), Move(8, offset=(d, 0.0, 0.0))])
+    # one put per landblock per push, each on the landblock's push key, declared once on the session
+    assert session.declared == ["acphys/lb/A9B4/push", "acphys/lb/A9B5/push"]
+    assert [str(k) for k, _ in session.put_on] == ["acphys/lb/A9B4/push", "acphys/lb/A9B5/push"] * 2
+    assert all(isinstance(k, zenoh.KeyExpr) for k, _ in session.put_on)
+    # the payload is the push as protocol.md writes it: one move, for one mover per landblock
+    first = msgpack.unpackb(session.put_on[0][1])
+    assert first == {"v": 1, "move": {"id": 7, "offset": [0.2, 0.0, 0.0]}}
 
 
 def test_a_key_the_session_will_not_declare_is_sent_parsed() -> None:
