@@ -15,6 +15,10 @@ are compared. Two measurements:
 - round trip: each tree's `python -m service` and a client process using that tree's client library,
   one move per request, beside one bare Zenoh echo queried by the same client processes (move / echo).
 
+Blocks in one run compare code warm. For the round trip as the target reads it (fresh launches of every
+process, each series asked in every order), compare two trees with `python3 -m benchmarks.round_trip_launches
+pairs A B`, and compare a tree with a copy of itself first: identical copies differed by a few µs there.
+
 `--engine-root` (e.g. benchmarks/out/compiled, made by `python3 -m benchmarks --build-compiled`) puts a
 compiled engine first on both trees' path. Everything listens on 127.0.0.1; every process is stopped
 at the end; every loop is bounded in count.

@@ -42,7 +42,14 @@ what the service's and the client library's own work add. The phase runs after t
 target's three series are asked as before with nothing of the floor's running beside them; the launch then
 stops everything and prints the six medians.
 
+Two trees compared (`launch_pairs`): launches of each, alternated pair by pair (A then B, then B then A),
+each figure's difference paired launch by launch. Two byte-identical copies of one tree, compared so, differed
+by 2 to 4 µs over the bound on the project's VM (one copy lower in 32 of 42 pairs; the cause not found: not
+the page cache alone). So compare a tree with a copy of itself first, and read a change's difference against
+that; a difference of a few µs between two trees is not a change's unless it stands out of it.
+
     python3 -m benchmarks.round_trip_launches [LAUNCHES]        (and ONE_CORE_LAUNCHES on one core)
+    python3 -m benchmarks.round_trip_launches pairs TREE_A TREE_B [PAIRS [CPU]]
 """
 
 from __future__ import annotations
@@ -60,7 +67,8 @@ from . import common
 from .common import log
 from .service_harness import child_env
 
-__all__ = ["LAUNCHES", "ONE_CORE_LAUNCHES", "REQUESTS", "one_core", "over_bound", "round_trip_launches"]
+__all__ = ["LAUNCHES", "ONE_CORE_LAUNCHES", "REQUESTS", "launch_pairs", "one_core", "over_bound", "paired",
+           "round_trip_launches"]
 
 #: launches of the whole set of processes (odd: the median is one launch's figure)
 LAUNCHES = 21
@@ -197,9 +205,50 @@ def round_trip_launches(engine_root: Path | None = None, launches: int = LAUNCHE
     return out
 
 
+def paired(pairs: list[tuple[dict[str, float], dict[str, float]]]) -> dict[str, dict[str, float]]:
+    """Launch pairs (tree A's launch, tree B's) as each figure over the bound (`over_bound`): each tree's median,
+    and B - A pair by pair: the differences' median and mean, and in how many pairs B's was lower."""
+    figures = [(over_bound(x), over_bound(y)) for x, y in pairs]
+    out: dict[str, dict[str, float]] = {}
+    for key in ("over_bound", "service", "client", "floor_over_bound"):
+        if not figures or any(key not in x or key not in y for x, y in figures):
+            continue  # no pairs, or launches recorded before the floor was measured
+        a, b = [x[key] for x, _ in figures], [y[key] for _, y in figures]
+        differences = [y - x for x, y in zip(a, b)]
+        out[key] = {"a": statistics.median(a), "b": statistics.median(b),
+                    "difference": statistics.median(differences), "mean": statistics.mean(differences),
+                    "b_lower": sum(d < 0 for d in differences), "pairs": len(differences)}
+    return out
+
+
+def launch_pairs(tree_a: Path, tree_b: Path, pairs: int, requests: int = REQUESTS,
+                 cpu: int | None = None) -> dict[str, Any]:
+    """`pairs` launches of each tree (their own benchmarks, service, client library and engine), alternately
+    first, each pair's figures paired (`paired`); with `cpu`, every launch on that core alone."""
+    got: list[tuple[dict[str, float], dict[str, float]]] = []
+    for i in range(pairs):
+        order = (tree_a, tree_b) if i % 2 == 0 else (tree_b, tree_a)
+        first, second = (_launch(tree, requests, cpu) for tree in order)
+        a, b = (first, second) if i % 2 == 0 else (second, first)
+        got.append((a, b))
+        log(f"service: launch pair {i + 1} of {pairs}: Client.move over the bound, A {over_bound(a)['over_bound']:+.1f} "
+            f"µs, B {over_bound(b)['over_bound']:+.1f} µs")
+    summary = paired(got)
+    out = {"tree_a": str(tree_a), "tree_b": str(tree_b), "requests": requests, "pairs": got, "paired": summary}
+    if got:
+        d = summary["over_bound"]
+        log(f"service: B - A over the bound, paired median {d['difference']:+.1f} µs (mean {d['mean']:+.1f}), B lower in "
+            f"{d['b_lower']} of {d['pairs']} pairs")
+    return out
+
+
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "launch":
         launch_main(int(sys.argv[2]), int(sys.argv[3]) if len(sys.argv) > 3 else None)
+    elif len(sys.argv) > 3 and sys.argv[1] == "pairs":
+        print(json.dumps(launch_pairs(Path(sys.argv[2]).resolve(), Path(sys.argv[3]).resolve(),
+                                      int(sys.argv[4]) if len(sys.argv) > 4 else LAUNCHES, REQUESTS,
+                                      int(sys.argv[5]) if len(sys.argv) > 5 else None), indent=1))
     else:
         print(json.dumps({"launches": round_trip_launches(launches=int(sys.argv[1]) if len(sys.argv) > 1 else LAUNCHES),
                           "one_core": round_trip_launches(launches=ONE_CORE_LAUNCHES, cpu=one_core())}, indent=1))

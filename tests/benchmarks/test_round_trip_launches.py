@@ -9,6 +9,8 @@ import math
 import os
 import sys
 
+import pytest
+
 from benchmarks.round_trip_launches import _launch, one_core
 
 SERIES = {"engine_echo", "raw_move", "move", "floor_bound", "floor_raw", "floor_move"}
@@ -59,3 +61,43 @@ def test_the_floors_least_client_moves_its_mover_east_and_back() -> None:
     # each move counted once (seq one more each), and the service's record holds the last one
     assert back.seq == east.seq + 1 and now.seq == back.seq
     assert now.result.position.cell_id == back.result.position.cell_id and now.result.position.frame.origin.x == o2.x
+
+
+def _launch_of(bound: float, raw: float, move: float) -> dict[str, float]:
+    return {"engine_echo": bound, "raw_move": raw, "move": move}
+
+
+def test_launch_pairs_are_paired_launch_by_launch() -> None:
+    from benchmarks.round_trip_launches import paired
+
+    pairs = [(_launch_of(300.0, 320.0, 340.0), _launch_of(310.0, 325.0, 346.0)),   # over: A 40, B 36
+             (_launch_of(290.0, 300.0, 335.0), _launch_of(300.0, 315.0, 350.0)),   # A 45, B 50
+             (_launch_of(305.0, 330.0, 347.0), _launch_of(295.0, 310.0, 333.0))]   # A 42, B 38
+    out = paired(pairs)
+    # B - A: -4, +5, -4 -> median -4, mean -1, B lower in 2 of 3; each arm's own median 42 and 38
+    assert out["over_bound"] == {"a": 42.0, "b": 38.0, "difference": -4.0, "mean": -1.0, "b_lower": 2, "pairs": 3}
+    # the service's share (raw - bound): A 20, 10, 25; B 15, 15, 15 -> differences -5, +5, -10
+    assert out["service"]["difference"] == -5.0 and out["service"]["b_lower"] == 2
+    assert "floor_over_bound" not in out  # launches without the floor's phase say nothing of it
+    assert paired([]) == {}
+
+
+def test_launch_pairs_alternate_which_tree_goes_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pathlib import Path
+
+    import benchmarks.round_trip_launches as launches
+
+    ran: list[tuple[Path | None, int, int | None]] = []
+
+    def launch(tree: Path | None, requests: int, cpu: int | None = None) -> dict[str, float]:
+        ran.append((tree, requests, cpu))
+        # tree A's launches 40 over their bound, tree B's 30, whichever runs first
+        return _launch_of(300.0, 310.0, 340.0 if tree == Path("/a") else 330.0)
+
+    monkeypatch.setattr(launches, "_launch", launch)
+    out = launches.launch_pairs(Path("/a"), Path("/b"), 3, 60, 0)
+    assert [tree for tree, _, _ in ran] == [Path(p) for p in ("/a", "/b", "/b", "/a", "/a", "/b")]
+    assert all(requests == 60 and cpu == 0 for _, requests, cpu in ran)
+    # each pair's launches kept with their own tree, whichever ran first
+    assert [(a["move"], b["move"]) for a, b in out["pairs"]] == [(340.0, 330.0)] * 3
+    assert out["paired"]["over_bound"]["difference"] == -10.0 and out["paired"]["over_bound"]["b_lower"] == 3
