@@ -13,10 +13,19 @@ resource: each query or put on it is matched against every declaration again.
 Nothing on the wire changes: a declared key expression is a mapping between this session and its own
 routing tables. A declaration is not free: 4,096 of them raised a process's RSS by 7.4 MB (about 1.8 KB
 each), and each new one takes longer the more there are (10 µs with a thousand, 13 µs with four
-thousand, 41 µs with sixteen thousand: Zenoh looks its name up among the session's). So at most
-`MAX_ROUTE_KEYS` keys are declared, the first ones met; keys past that are served as before, by
-matching. A mover's State key is undeclared when the mover leaves the instance (removed or handed
-over); an instance with more movers than that publishes the States of the others on parsed keys.
+thousand, 41 µs with sixteen thousand: Zenoh looks its name up among the session's).
+
+Two kinds, two rules:
+- Request keys (`learn`) are declared up to `MAX_ROUTE_KEYS`, the first ones met; later ones are served by
+  matching, as before. They name landblocks and operations, a few per landblock.
+- A held mover's State key (`key_expr`) is always declared, and undeclared when the mover leaves (removed or
+  handed over): its memory grows with the movers, as the movers' own records do. A cap would cost more
+  than it saves, because an undeclared key's put is matched against the declared keys beside it: with
+  1,000 State keys declared under `P/obj`, a put on an undeclared `P/obj/<id>/...` key took 170 to 380 µs,
+  with 4,096 about 1 ms, against 8 µs with none (in-process, over loopback; scratch, 2026-12-07). So a
+  mover past a cap of 4,096 published each State at about 1 ms. The same holds for every other key under
+  `P/obj` that is put on undeclared: a pushed move's error (`P/obj/<id>/error`) costs the same, on the
+  engine thread.
 """
 
 from __future__ import annotations
@@ -30,39 +39,42 @@ __all__ = ["RouteKeys", "MAX_ROUTE_KEYS"]
 
 log = logging.getLogger("acphys.service")
 
-#: most literal keys declared per instance (request keys and State keys together): at most ~7 MB
+#: most request keys declared per instance (~7 MB); held movers' State keys are not counted
 MAX_ROUTE_KEYS = 4096
 
 
 class RouteKeys:
-    """The keys declared on `session` so far: `key_expr(key)` (declaring a new one), `learn(key)` (the same,
-    for a key only received on), `forget(key)` undeclaring one, `close()` undeclaring them all.
+    """The keys declared on `session` so far: `learn(key)` (a request key, declared under the limit),
+    `key_expr(key)` (a held mover's State key, declared whatever the count), `forget(key)` undeclaring one,
+    `close()` undeclaring them all.
 
     Called from the callbacks' Python threads and the engine thread, never from Zenoh's own network
     thread (direct callbacks): that would be Zenoh's thread calling back into its session, which
     zenoh-python does not promise to allow."""
 
-    __slots__ = ("session", "limit", "declared")
+    __slots__ = ("session", "limit", "declared", "requests")
 
     def __init__(self, session: Any, limit: int = MAX_ROUTE_KEYS) -> None:
         self.session = session
-        self.limit = limit
+        self.limit = limit  # of request keys
         self.declared: dict[str, Any] = {}  # key -> Zenoh's declared KeyExpr
+        self.requests = 0  # request keys declared
 
     def learn(self, key: str) -> None:
         """Declare `key` (a literal key a request came on), once, while under the limit."""
-        if key not in self.declared:
-            self._declare(key)
+        if key not in self.declared and self.requests < self.limit and self._declare(key) is not None:
+            self.requests += 1
 
     def key_expr(self, key: str) -> Any:
-        """The key to put on: declared (now, if new and under the limit), else parsed as any key is."""
+        """The key to put a held mover's State on: declared (now, if new), else (the declaration refused: the
+        session closing) parsed as any key is."""
         kx = self.declared.get(key)
         if kx is None:
             kx = self._declare(key)
         return kx if kx is not None else zenoh.KeyExpr(key)
 
     def forget(self, key: str) -> None:
-        """Undeclare `key` (a mover's State key when the mover leaves), freeing its place under the limit."""
+        """Undeclare `key` (a mover's State key when the mover leaves)."""
         kx = self.declared.pop(key, None)
         if kx is not None:
             try:
@@ -71,8 +83,6 @@ class RouteKeys:
                 pass
 
     def _declare(self, key: str) -> Any:
-        if len(self.declared) >= self.limit:
-            return None
         try:
             kx = self.declared[key] = self.session.declare_keyexpr(key)
         except Exception as e:  # the session closing: the key is served by matching, as before
@@ -88,3 +98,4 @@ class RouteKeys:
             except Exception:  # already gone with the session
                 pass
         self.declared.clear()
+        self.requests = 0

@@ -1,5 +1,6 @@
 """The literal keys a node declares on its session (service/bus/route_keys.py): each new request key that
-names one landblock and each mover's State key, once, up to the limit; none for a wildcard or refused key;
+names one landblock, once, up to the limit, and each held mover's State key, once, whatever the count; none
+for a wildcard or refused key;
 all undeclared at shutdown; the requests on them answered and the States on them received as before."""
 
 from __future__ import annotations
@@ -64,24 +65,45 @@ def test_a_declaration_that_fails_is_not_an_error_and_is_tried_again() -> None:
     assert s.declared == ["p/lb/0101/move"]
 
 
-def test_a_key_to_put_on_is_the_declared_one_or_past_the_limit_a_parsed_one() -> None:
+def test_every_held_movers_state_key_is_declared_whatever_the_request_keys_limit() -> None:
     s = RecordingSession()
     rk = RouteKeys(s, limit=1)
+    rk.learn("p/lb/0101/move")
+    rk.learn("p/lb/0102/move")  # past the request keys' limit: not declared
     first = rk.key_expr("p/obj/1/state")
     assert first == "kx:p/obj/1/state" and rk.key_expr("p/obj/1/state") is first  # declared once
+    assert [rk.key_expr(f"p/obj/{i}/state") for i in (2, 3)] == ["kx:p/obj/2/state", "kx:p/obj/3/state"]
+    assert s.declared == ["p/lb/0101/move", "p/obj/1/state", "p/obj/2/state", "p/obj/3/state"]
+    rk.learn("p/lb/0103/move")  # the State keys took no request key's place
+    assert "p/lb/0103/move" not in s.declared
+
+
+def test_a_state_key_the_session_will_not_declare_is_put_on_parsed() -> None:
+    s = RecordingSession(fail=True)
+    rk = RouteKeys(s)
     past = rk.key_expr("p/obj/2/state")
-    assert isinstance(past, zenoh.KeyExpr) and str(past) == "p/obj/2/state"
-    assert s.declared == ["p/obj/1/state"]
+    assert isinstance(past, zenoh.KeyExpr) and str(past) == "p/obj/2/state" and rk.declared == {}
 
 
-def test_a_forgotten_key_is_undeclared_and_frees_its_place() -> None:
+def test_a_forgotten_key_is_undeclared() -> None:
     s = RecordingSession()
     rk = RouteKeys(s, limit=1)
     rk.key_expr("p/obj/1/state")
     rk.forget("p/obj/1/state")
     rk.forget("p/obj/9/state")  # never declared: nothing to undo
     assert s.undeclared == ["kx:p/obj/1/state"] and rk.declared == {}
-    assert rk.key_expr("p/obj/2/state") == "kx:p/obj/2/state"  # the freed place is taken
+    assert rk.key_expr("p/obj/1/state") == "kx:p/obj/1/state" and s.declared == ["p/obj/1/state"] * 2
+
+
+def test_close_undeclares_both_kinds_and_starts_the_count_again() -> None:
+    s = RecordingSession()
+    rk = RouteKeys(s, limit=1)
+    rk.learn("p/lb/0101/move")
+    rk.key_expr("p/obj/1/state")
+    rk.close()
+    assert sorted(s.undeclared) == ["kx:p/lb/0101/move", "kx:p/obj/1/state"] and rk.declared == {}
+    rk.learn("p/lb/0102/move")
+    assert s.declared[-1] == "p/lb/0102/move"
 
 
 def test_only_new_keys_naming_one_landblock_are_learned() -> None:
@@ -186,6 +208,39 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
         assert node.core is not None
         node.core.remove(mid)  # the mover leaves: its State key is let go
         assert state_key not in node._route_keys.declared
+        sub.undeclare()
+    finally:
+        watcher.close()
+        node.shutdown(timeout=5.0)
+
+
+def test_a_node_past_its_request_keys_limit_still_publishes_every_state_on_a_declared_key() -> None:
+    node, where = _started(NodeOptions())
+    watcher = raw_session(where)
+    got: list[str] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: Any) -> None:
+        with lock:
+            got.append(str(sample.key_expr))
+
+    try:
+        route_keys = node._route_keys
+        assert route_keys is not None
+        route_keys.limit = 0  # no request key may be declared: the State keys must not depend on it
+        movers = [_register(node) for _ in range(3)]
+        sub = watcher.declare_subscriber("acphys/obj/*/state", on_sample)
+        bus = node.bus
+        assert bus is not None and wait_until(bus.states_watched, timeout=10.0)
+        cell, _x, _y = global_to_cell(40.0, 40.0)
+        for mid in movers:
+            ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
+                                   msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
+            assert ok
+        state_keys = [f"acphys/obj/{mid:X}/state" for mid in movers]
+        assert wait_until(lambda: sorted(got) == sorted(state_keys), timeout=10.0), got
+        assert all(isinstance(route_keys.declared[k], zenoh.KeyExpr) for k in state_keys)
+        assert not any(k.startswith("acphys/lb/") for k in route_keys.declared)
         sub.undeclare()
     finally:
         watcher.close()
