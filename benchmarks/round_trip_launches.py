@@ -14,8 +14,9 @@ launches of one tree, run within the same hour, had medians from 37 to 46 µs, a
 tree, launched in turn, differed by 2 to 4 µs (one copy lower in 32 of 42 pairs). So the launches are also
 run with every process pinned to one core (`ONE_CORE_LAUNCHES`, the launch's affinity set before anything
 starts, which its children inherit): a request then wakes its server on the core it is already on, and
-those launches spread over about 6 µs (32 to 38), their bound some 50 µs faster. The target's verdict is
-read from the unpinned launches, the machine as it is; the one-core figure stands beside it.
+their bound is 50 to 70 µs faster. A scratch set of 20 such launches spread over 32 to 38 µs; the 11 of the
+first benchmark run with them over 34 to 50. The target's verdict is read from the unpinned launches, the
+machine as it is; the one-core figure stands beside it.
 
 The figure also depends on what runs between two requests of a series, not only on the code: asking a
 fourth series beside the three (the raw request again, on a declared key) lowered `Client.move`'s figure by
