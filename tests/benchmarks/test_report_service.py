@@ -195,14 +195,14 @@ def test_the_round_trip_row_gives_the_launches_quartiles() -> None:
 
 
 def test_the_launches_note_lists_each_launch_and_their_median() -> None:
-    from benchmarks.report_service import _launches_note
+    from benchmarks.report_launches import launches_note
     from benchmarks.round_trip_launches import summarise
 
-    assert _launches_note({}) == ""  # a run without launches says nothing of them
+    assert launches_note({}) == ""  # a run without launches says nothing of them
     lat = {"launches": summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0},
                                   {"engine_echo": 280.0, "raw_move": 310.0, "move": 330.0},
                                   {"engine_echo": 290.0, "raw_move": 300.0, "move": 335.0}])}
-    note = _launches_note(lat)
+    note = launches_note(lat)
     # over each bound: 38, 50, 45 -> median 45; the service 20, 30, 10 -> 20; the client library 18, 20, 35 -> 20
     assert "in 3 fresh launches" in note and "took +38, +50, +45 µs over each launch's bound" in note
     # quartiles of 38, 45, 50: 41.5 and 47.5, printed to the µs as 42 and 48
@@ -210,7 +210,8 @@ def test_the_launches_note_lists_each_launch_and_their_median() -> None:
 
 
 def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
-    from benchmarks.report_service import _launches_note, service_targets
+    from benchmarks.report_launches import launches_note
+    from benchmarks.report_service import service_targets
     from benchmarks.round_trip_launches import summarise
 
     launches = summarise([
@@ -226,7 +227,7 @@ def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
     # quartiles of 10, 12, 15: halfway between the first two and between the last two
     assert launches["floor_over_bound"] == {"median": 12.0, "min": 10.0, "max": 15.0, "q1": 11.0, "q3": 13.5}
     assert launches["floor_service"]["median"] == -5.0 and launches["floor_client"]["median"] == 17.0
-    note = _launches_note({"launches": launches})
+    note = launches_note({"launches": launches})
     # the round trip's median over the bound: 50, 35, 47 -> 47, of which 47 - 12 = 35 beyond the floor
     assert "that floor took +12, +15, +10 µs over each launch's bound, median +12 µs (its server -5, its client +17)" in note
     assert "The rest of the 47 µs, 35 µs, is what the service's own work" in note
@@ -239,7 +240,8 @@ def test_the_launches_floor_is_each_launch_over_its_own_phases_bound() -> None:
 
 
 def test_the_one_core_launches_stand_beside_the_verdict() -> None:
-    from benchmarks.report_service import _launches_note, service_targets
+    from benchmarks.report_launches import launches_note
+    from benchmarks.report_service import service_targets
     from benchmarks.round_trip_launches import summarise
 
     def launch(bound: float, raw: float, move: float) -> dict[str, float]:
@@ -256,23 +258,23 @@ def test_the_one_core_launches_stand_beside_the_verdict() -> None:
     assert "46 µs over, the median of 3 fresh launches" in trip and trip.endswith("| missed |")
     assert ("with every process on one core, 32 µs over in 3 launches (quartiles 31 to 34, launches 30 to 36 µs; "
             "the floor 8 µs), beside the verdict") in trip
-    note = _launches_note({"launches": free, "launches_one_core": pinned})
+    note = launches_note({"launches": free, "launches_one_core": pinned})
     # pinned: the service 12, 14, 8 -> 12; the client library 18, 22, 24 -> 22; bounds 250, 254, 252 -> 252,
     # unpinned 300, 310, 320 -> 310
     assert ("3 more launches ran with every process pinned to core 0 (a request then wakes its server on the core it "
             "is already on): `Client.move` took +32 µs over each launch's bound at the median (quartiles 31 to 34, "
             "launches 30 to 36 µs; the service +12, the client library +22, the protocol's floor +8 µs), the bound "
             "itself 252 µs against 310 µs unpinned") in note
-    assert "one core" not in _launches_note({"launches": free})  # a run without them says nothing of them
+    assert "one core" not in launches_note({"launches": free})  # a run without them says nothing of them
 
 
 def test_launches_recorded_before_the_floor_say_nothing_of_it() -> None:
-    from benchmarks.report_service import _launches_note
+    from benchmarks.report_launches import launches_note
     from benchmarks.round_trip_launches import summarise
 
     launches = summarise([{"engine_echo": 300.0, "raw_move": 320.0, "move": 338.0}])
     assert "floor_over_bound" not in launches
-    assert "floor" not in _launches_note({"launches": launches})
+    assert "floor" not in launches_note({"launches": launches})
 
 
 def test_the_handling_table_says_what_the_service_s_steps_cost_over_the_floor_warm_and_after_a_gap() -> None:
