@@ -44,8 +44,8 @@ target's three series are asked as before with nothing of the floor's running be
 stops everything and prints the six medians.
 
 Two trees compared (`launch_pairs`): launches of each, alternated pair by pair (A then B, then B then A),
-each figure's difference paired launch by launch. Two byte-identical copies of one tree, compared so, differed
-by 2 to 4 µs over the bound on the project's VM (one copy lower in 32 of 42 pairs; the cause not found: not
+each figure's difference paired launch by launch. Two copies of one tree, identical in all a launch runs,
+compared so, differed by 2 to 4 µs over the bound on the project's VM (one copy lower in 32 of 42 pairs; the cause not found: not
 the page cache alone). So compare a tree with a copy of itself first, and read a change's difference against
 that; a difference of a few µs between two trees is not a change's unless it stands out of it.
 
