@@ -15,16 +15,13 @@ import zenoh
 
 from clients.demo.world import global_to_cell
 from engine import load_scene
-from engine.geometry import Position, Vec3
 from service.bus.key_landblocks import KeyLandblocks
 from service.bus.node import NodeOptions, ServiceNode
 from service.bus.route_keys import RouteKeys
 from service.bus.zconfig import make_config
-from service.protocol.codec import encode_mover_spec, encode_position
 from service.protocol.errors import ProtocolError
-from service.protocol.requests import parse_register
 from service.protocol.wire import Keys
-from support.service_harness import DEMO_SCENE, endpoint, free_port, human, raw_query, raw_session, wait_until
+from support.service_harness import DEMO_SCENE, endpoint, free_port, raw_query, raw_session, register_human, wait_until
 
 
 class RecordingSession:
@@ -118,14 +115,6 @@ def test_only_new_keys_naming_one_landblock_are_learned() -> None:
     assert learned == ["acphys/lb/A9B4/move"]
 
 
-def _register(node: ServiceNode) -> int:
-    cell, x, y = global_to_cell(40.0, 40.0)
-    assert node.core is not None
-    req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
-                          "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
-    return int(node.core.register(req)["state"]["id"])
-
-
 def _started(options: NodeOptions) -> tuple[ServiceNode, str]:
     where = endpoint(free_port())
     n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), options)
@@ -137,7 +126,7 @@ def test_a_node_declares_the_keys_it_is_asked_on_and_answers_as_before() -> None
     node, where = _started(NodeOptions())
     client = raw_session(where)
     try:
-        mid = _register(node)
+        mid = register_human(node.core)
         cell, _x, _y = global_to_cell(40.0, 40.0)
         key = f"acphys/lb/{cell >> 16:04X}/move"
         route_keys = node._route_keys
@@ -167,7 +156,7 @@ def test_a_node_on_direct_callbacks_declares_nothing() -> None:
     node, where = _started(NodeOptions(direct_callbacks=True))
     client = raw_session(where)
     try:
-        mid = _register(node)
+        mid = register_human(node.core)
         cell, _x, _y = global_to_cell(40.0, 40.0)
         ok, reply = raw_query(client, f"acphys/lb/{cell >> 16:04X}/move",
                               msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
@@ -192,7 +181,7 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
             got.append((str(sample.key_expr), state["seq"]))
 
     try:
-        mid = _register(node)
+        mid = register_human(node.core)
         state_key = f"acphys/obj/{mid:X}/state"
         sub = watcher.declare_subscriber(state_key, on_sample)
         bus = node.bus
@@ -202,8 +191,14 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
             ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
                                    msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
             assert ok
-        assert wait_until(lambda: len(got) == 2, timeout=10.0)
-        assert got == [(state_key, 1), (state_key, 2)]
+        # the register's State (seq 0) was put before the subscription, yet may still reach it: Zenoh sends
+        # a newly connected peer everything until that peer has told its subscriptions, and the watcher
+        # hands a sample to a subscriber declared while the sample waited in its queue
+        def moved() -> list[tuple[str, int]]:
+            return [g for g in got if g[1] >= 1]
+
+        assert wait_until(lambda: len(moved()) >= 2, timeout=10.0), got
+        assert moved() == [(state_key, 1), (state_key, 2)]
         assert node._route_keys is not None and state_key in node._route_keys.declared
         assert node.core is not None
         node.core.remove(mid)  # the mover leaves: its State key is let go
@@ -221,14 +216,16 @@ def test_a_node_past_its_request_keys_limit_still_publishes_every_state_on_a_dec
     lock = threading.Lock()
 
     def on_sample(sample: Any) -> None:
-        with lock:
-            got.append(str(sample.key_expr))
+        seq = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]["seq"]
+        if seq >= 1:  # not a register's State, which may arrive or not (see the test above)
+            with lock:
+                got.append(str(sample.key_expr))
 
     try:
         route_keys = node._route_keys
         assert route_keys is not None
         route_keys.limit = 0  # no request key may be declared: the State keys must not depend on it
-        movers = [_register(node) for _ in range(3)]
+        movers = [register_human(node.core) for _ in range(3)]
         sub = watcher.declare_subscriber("acphys/obj/*/state", on_sample)
         bus = node.bus
         assert bus is not None and wait_until(bus.states_watched, timeout=10.0)

@@ -30,7 +30,7 @@ from service.core import ServiceCore
 from service.protocol.requests import parse_register
 from service.protocol.wire import ErrorKind
 from service.bus.zconfig import make_config
-from support.service_harness import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, wait_until
+from support.service_harness import DEMO_SCENE, StandInQuery, endpoint, free_port, human, raw_session, register_human, wait_until
 
 LB = 0xA9B4
 MOVE_KEY = "acphys/lb/A9B4/move"
@@ -59,12 +59,8 @@ def node() -> Iterator[ServiceNode]:
 
 
 def _register(node: ServiceNode, gx: float = 40.0) -> int:
-    cell, x, y = global_to_cell(gx, 40.0)
-    core = node.core
-    assert core is not None and (cell >> 16) == LB
-    req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
-                          "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
-    return int(core.register(req)["state"]["id"])
+    assert node.core is not None and (global_to_cell(gx, 40.0)[0] >> 16) == LB
+    return register_human(node.core, gx)
 
 
 def _ask(node: ServiceNode, content: dict[str, Any], key: str = MOVE_KEY) -> StandInQuery:

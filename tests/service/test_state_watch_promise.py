@@ -22,13 +22,10 @@ import zenoh
 
 from clients.demo.world import global_to_cell
 from engine import load_scene
-from engine.geometry import Position, Vec3
 from service.bus.node import NodeOptions, ServiceNode
 from service.bus.publication import MatchWatch
 from service.bus.zconfig import make_config
-from service.protocol.codec import encode_mover_spec, encode_position
-from service.protocol.requests import parse_register
-from support.service_harness import DEMO_SCENE, endpoint, free_port, human, raw_session, wait_until
+from support.service_harness import DEMO_SCENE, endpoint, free_port, raw_session, register_human, wait_until
 
 LB = 0xA9B4
 PREFIX = "acphys"
@@ -44,13 +41,8 @@ class Node:
         self.endpoint = endpoint(free_port())
         self.node = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[self.endpoint]), NodeOptions())
         self.node.start()
-        cell, x, y = global_to_cell(40.0, 40.0)
-        assert (cell >> 16) == LB
-        core = self.node.core
-        assert core is not None
-        req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
-                              "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
-        self.mover = int(core.register(req)["state"]["id"])
+        assert (global_to_cell(40.0, 40.0)[0] >> 16) == LB
+        self.mover = register_human(self.node.core)
 
     @property
     def bus(self) -> Any:

@@ -22,10 +22,12 @@ from typing import Any
 import msgpack
 import zenoh
 
+from clients.demo.world import global_to_cell
 from engine import MoverSpec, SphereSpec, World, load_scene
 from engine.geometry import Position, Vec3
 from engine.world.types import MoveResult
-from service.protocol.codec import encode_state
+from service.protocol.codec import encode_mover_spec, encode_position, encode_state
+from service.protocol.requests import parse_register
 from service.bus.zconfig import make_config
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -140,6 +142,15 @@ def human(contact: bool = False) -> MoverSpec:
         step_down_height=0.4,
         state=state,
     )
+
+
+def register_human(core: Any, gx: float = 40.0, gy: float = 40.0) -> int:
+    """Register a `human()` straight into a node's ServiceCore, 60 m above the demo world's global (gx, gy)
+    (it falls to the ground at its first move); its id."""
+    cell, x, y = global_to_cell(gx, gy)
+    req = parse_register({"v": 1, "mover": encode_mover_spec(human()),
+                          "position": encode_position(Position.at(cell, Vec3(x, y, 60.0)))})
+    return int(core.register(req)["state"]["id"])
 
 
 def demo_world() -> World:
