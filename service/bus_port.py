@@ -27,7 +27,10 @@ class BusPort(Protocol):
         """Publish one request's States as one message on P/states."""
         ...
 
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None: ...
+    def publish_error(self, mover_id: int | None, error: dict[str, Any], held: bool = False) -> None:
+        """Publish a move's error on its mover's error key (P/errors when `mover_id` is None); `held`: the
+        mover is this instance's (said only on the engine thread), so its key may be kept."""
+        ...
 
     def forget_mover(self, mover_id: int) -> None:
         """The mover left this instance (removed, or handed over): what the bus keeps for its key may go."""

@@ -332,7 +332,7 @@ def push_columns(core: ServiceCore, req: ColumnRequest, received: float) -> None
     out, packed = run_columns(core, req, received, forward=True)
     for _i, mid, err in out.errors:
         core.stats.error(err.kind)
-        core.bus.publish_error(mid, ItemError(err, mid).to_wire())
+        core.bus.publish_error(mid, ItemError(err, mid).to_wire(), mid in core.movers)
     if packed:
         core.bus.publish_batch(packed)
 

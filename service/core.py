@@ -425,7 +425,7 @@ class ServiceCore:
         for item, raw in zip(batch.items, raw_items):
             if isinstance(item, ItemError):
                 self.stats.error(item.error.kind)
-                self.bus.publish_error(item.id, item.to_wire())
+                self.bus.publish_error(item.id, item.to_wire(), item.id in self.movers)
                 continue
             fwd = self._forwarded.get(item.id)
             if item.id not in self.movers and fwd is not None:
@@ -436,7 +436,7 @@ class ServiceCore:
                 packed = self.move_one(item, received, each)
             except ProtocolError as e:
                 self.stats.error(e.kind)
-                self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire())
+                self.bus.publish_error(item.id, ItemError(e, item.id, item.tag).to_wire(), item.id in self.movers)
                 continue
             if collect:
                 collected.append(packed)

@@ -97,6 +97,8 @@ class ZenohBus:
         self.handover_timeout = handover_timeout
         self._wait = wait
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
+        #: held movers' error keys, declared at their first error (see `publish_error`)
+        self._error_keys: dict[int, Any] = {}
         # a publisher on P/obj/*/state only for its matching status; kept until the queued requests are
         # answered at shutdown (they ask it)
         self._state_watch: MatchWatch | None = (
@@ -105,22 +107,26 @@ class ZenohBus:
         self._columns_pub: Any = session.declare_publisher(keys.state_columns)
         self._batch_watch: MatchWatch | None = MatchWatch(self._batch_pub) if skip_unwatched_states else None
         self._columns_watch: MatchWatch | None = MatchWatch(self._columns_pub) if skip_unwatched_states else None
+        # a publisher on P/obj/*/error only for its matching status, as for the States
+        self._error_watch: MatchWatch | None = (
+            MatchWatch(session.declare_publisher(keys.obj_error("*"))) if skip_unwatched_states else None)
         self._open = True
 
     def close(self) -> None:
         """Undeclare the publishers and their listeners (the session stays the node's to close)."""
         self._open = False
-        for watch in (self._state_watch, self._batch_watch, self._columns_watch):
+        for watch in (self._state_watch, self._batch_watch, self._columns_watch, self._error_watch):
             if watch is not None:
                 watch.close()
         state_pub = self._state_watch.publisher if self._state_watch is not None else None
-        for pub in (state_pub, self._batch_pub, self._columns_pub):
+        error_pub = self._error_watch.publisher if self._error_watch is not None else None
+        for pub in (state_pub, self._batch_pub, self._columns_pub, error_pub):
             if pub is not None:
                 try:
                     pub.undeclare()
                 except Exception:  # already gone with the session
                     pass
-        self._state_watch = self._batch_watch = self._columns_watch = None
+        self._state_watch = self._batch_watch = self._columns_watch = self._error_watch = None
         self._batch_pub = self._columns_pub = None
 
     # -- would a put reach anyone -------------------------------------------------
@@ -140,6 +146,13 @@ class ZenohBus:
         if watch is None:
             return True
         return watch.matching()
+
+    def errors_watched(self) -> bool:
+        """Whether anyone subscribes to an error key `P/obj/*/error` now (else a mover's error is not put)."""
+        if not self._open:
+            return False
+        watch = self._error_watch
+        return True if watch is None else watch.matching()
 
     def batch_watched(self) -> bool:
         """Whether anyone subscribes to P/states now."""
@@ -164,11 +177,13 @@ class ZenohBus:
         self.session.put(key, state_message(packed_state))
 
     def forget_mover(self, mover_id: int) -> None:
-        """The mover left: its State key is let go (undeclared, when it was declared, which frees its slot).
+        """The mover left: its State key and error key are let go (undeclared, when they were declared).
         Asked of the route keys themselves: the parsed-key cache may have been emptied since the declaration."""
         self._state_keys.pop(mover_id, None)
+        self._error_keys.pop(mover_id, None)
         if self.route_keys is not None:
             self.route_keys.forget(self.keys.state(mover_id))
+            self.route_keys.forget(self.keys.obj_error(mover_id))
 
     def publish_batch(self, packed_states: list[bytes]) -> None:
         """One request's States as one message on P/states."""
@@ -182,13 +197,29 @@ class ZenohBus:
         if pub is not None:
             pub.put(message)
 
-    def publish_error(self, mover_id: int | None, error: dict[str, Any]) -> None:
-        """An error on the mover's error key, or on P/errors when no mover is known."""
+    def publish_error(self, mover_id: int | None, error: dict[str, Any], held: bool = False) -> None:
+        """An error on the mover's error key, or on P/errors when no mover is known; logged either way.
+
+        A mover's error is put only while someone subscribes to an error key, as for the States. Why: a put
+        on an undeclared `P/obj/<id>/...` key costs time in proportion to the keys declared beside it (about
+        0.2 µs each: service/bus/route_keys.py), so a push of many failing moves among thousands of held
+        movers would hold the engine thread for seconds, for nobody. `held` (the mover is this instance's:
+        only the engine thread, which alone lets movers go, may say so) declares the key at its first error
+        and keeps it while the mover stays, so a held mover's later errors take the cached route. An
+        unknown id's key is not declared: ids are the sender's to choose, and each would stay."""
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
         detail = error.get("error")
         if isinstance(detail, dict):  # a pushed move's error: answered here, so logged (rate-limited)
             ERRORS.error(str(detail.get("kind")), "push", key, str(detail.get("message")), id=mover_id)
-        self.put(key, error)
+        if mover_id is None:
+            self.put(key, error)
+            return
+        if not self.errors_watched():
+            return
+        kx = self._error_keys.get(mover_id)
+        if kx is None and held and self.route_keys is not None:
+            kx = self._error_keys[mover_id] = self.route_keys.key_expr(key)
+        self.session.put(key if kx is None else kx, pack(error))
 
     def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
         """A fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""
