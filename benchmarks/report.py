@@ -569,6 +569,10 @@ def write(results: dict[str, Any]) -> None:
         from .bench_wire_decoding import section as wire_section
 
         lines += wire_section(results["wire_decoding"], meta_line(results["wire_decoding"]))
+    if "many_movers" in results:
+        from .bench_many_movers import section as many_movers_section
+
+        lines += many_movers_section(results["many_movers"], meta_line(results["many_movers"]))
     extra = results.get("notes")
     if extra:
         lines += ["## Notes", "", extra, ""]

@@ -27,7 +27,7 @@ from . import common
 from .common import log
 
 SECTIONS = ("engine", "error", "service", "memory", "stress", "queries", "instructions", "navigation", "durability",
-            "wire_decoding")
+            "wire_decoding", "many_movers")
 
 
 def _git_commit() -> str:
@@ -206,6 +206,10 @@ def main(argv: list[str] | None = None) -> int:
                 # without msgspec only the service's half runs: the stored comparison is kept
                 log(f"wire decoding: {data['skipped']}; the stored comparison is kept")
                 continue
+        elif section == "many_movers":
+            from . import bench_many_movers
+
+            data = bench_many_movers.run(args.quick)
         elif section == "memory":
             from . import bench_memory
 

@@ -1,0 +1,235 @@
+"""Many movers: what each held mover costs a service, as the count grows to sixteen thousand.
+
+A service node (service/bus/node.py) runs in this process on the flat benchmark scene, with a watcher: a
+second Zenoh session over loopback that subscribes to every State (`P/obj/*/state`), and at times to every
+error (`P/obj/*/error`). Players (who walk through each other) are registered on a 1.5 m grid in one
+landblock, straight into the node's ServiceCore on this thread, as the engine thread would. At each
+checkpoint (1,000, 4,096 and 16,384 movers) the engine thread's cost is timed:
+
+- a register: the last `SAMPLE` registers before the checkpoint, each on its own;
+- a pushed move with its State published on the mover's declared key, for `SAMPLE` movers spread over
+  the crowd, in one push;
+- a push of `SAMPLE` failing moves, per move: unknown ids with nobody subscribed to an error key, the same
+  with the watcher subscribed, and held movers' (an infinite offset) with the watcher subscribed, their
+  second push (the first declares their error keys);
+- the process's RSS.
+
+And beside them, Zenoh alone on the node's session: a put on an undeclared key under `P/obj`, and on a
+declared one. Zenoh walks the keys declared beside an undeclared key at each put, and beside a new key at
+its declaration (service/bus/route_keys.py): that is what makes a register and an unknown id's error
+grow with the crowd while a held mover's move does not.
+
+Bounded: loopback only, fixed counts.
+"""
+
+from __future__ import annotations
+
+import statistics
+import threading
+import time
+from functools import partial
+from typing import Any
+
+from .common import log
+from .service_harness import bench_walker, free_port, scene_file
+
+#: the checkpoints (movers held), and the quick run's
+COUNTS = (1000, 4096, 16384)
+QUICK_COUNTS = (200, 1000)
+#: registers, moves and failing moves timed at each checkpoint
+SAMPLE = 256
+QUICK_SAMPLE = 64
+#: an id no mover has: the failing pushes' unknown ids start here
+UNKNOWN_BASE = 0x7E000000
+#: the grid the movers stand on (players walk through each other, so the spacing is only for realism)
+GRID_COLUMNS, GRID_SPACING, GRID_ORIGIN = 120, 1.5, 6.0
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/status", encoding="ascii") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+class _Counter:
+    """Samples received by the watcher, counted by the key's last chunk (on Zenoh's threads)."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.counts: dict[str, int] = {}
+
+    def __call__(self, sample: Any) -> None:
+        kind = str(sample.key_expr).rsplit("/", 1)[-1]
+        with self.lock:
+            self.counts[kind] = self.counts.get(kind, 0) + 1
+
+    def count(self, kind: str) -> int:
+        with self.lock:
+            return self.counts.get(kind, 0)
+
+    def reached(self, kind: str, count: int) -> bool:
+        return self.count(kind) >= count
+
+
+def _wait(predicate: Any, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return bool(predicate())
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    import zenoh
+
+    from engine import load_scene
+    from engine.geometry import Position, Vec3
+    from service.bus.node import NodeOptions, ServiceNode
+    from service.bus.zconfig import make_config
+    from service.protocol.codec import encode_mover_spec, encode_position
+    from service.protocol.requests import parse_moves, parse_register
+
+    from .scenes import LB, cell_at
+
+    counts = QUICK_COUNTS if quick else COUNTS
+    sample = QUICK_SAMPLE if quick else SAMPLE
+    where = f"tcp/127.0.0.1:{free_port()}"
+    node = ServiceNode(load_scene(str(scene_file())), make_config(listen=[where]), NodeOptions())
+    node.start()
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("connect/endpoints", f'["{where}"]')
+    conf.insert_json5("listen/endpoints", "[]")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    watcher = zenoh.open(conf)
+    received = _Counter()
+    core, bus, session = node.core, node.bus, node.session
+    assert core is not None and bus is not None and session is not None
+    spec = encode_mover_spec(bench_walker())
+    movers: list[int] = []
+    rows: list[dict[str, Any]] = []
+    unknown = UNKNOWN_BASE
+
+    def register_one() -> float:
+        i = len(movers)
+        x = GRID_ORIGIN + GRID_SPACING * (i % GRID_COLUMNS)
+        y = GRID_ORIGIN + GRID_SPACING * ((i // GRID_COLUMNS) % GRID_COLUMNS)
+        req = parse_register({"v": 1, "mover": spec, "position": encode_position(Position.at(cell_at(LB, x, y),
+                                                                                               Vec3(x, y, 50.0)))})
+        t0 = time.perf_counter()
+        movers.append(int(core.register(req)["state"]["id"]))
+        return time.perf_counter() - t0
+
+    def push_ms_each(items: list[dict[str, Any]]) -> float:
+        msg = {"v": 1, "moves": items}
+        batch = parse_moves(msg)
+        t0 = time.perf_counter()
+        core.push(batch, items, time.monotonic())
+        return (time.perf_counter() - t0) / len(items) * 1e3
+
+    def zenoh_put_us(keys: list[Any]) -> float:
+        t0 = time.perf_counter()
+        for k in keys:
+            session.put(k, b"x")
+        return (time.perf_counter() - t0) / len(keys) * 1e6
+
+    states_sub = watcher.declare_subscriber(f"{node.options.prefix}/obj/*/state", received)
+    try:
+        if not _wait(bus.states_watched):
+            raise RuntimeError("the watcher's State subscription never reached the node")
+        for n in counts:
+            log(f"many movers: registering up to {n}")
+            while len(movers) < n - sample:
+                register_one()
+            register_s = [register_one() for _ in range(sample)]
+            rss = _rss_bytes()
+            spread = movers[:: max(1, len(movers) // sample)][:sample]
+            states_expected = received.count("state") + len(spread)
+            move_ms = push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
+            # every pushed move's State was put and reached the watcher: the figure is of real publications
+            if not _wait(partial(received.reached, "state", states_expected)):
+                raise RuntimeError("the watcher did not receive every pushed move's State")
+            unknowns = [{"id": unknown + k, "offset": [0.2, 0.0, 0.0]} for k in range(sample)]
+            unknown += sample
+            unwatched_ms = push_ms_each(unknowns)
+            errors_sub = watcher.declare_subscriber(f"{node.options.prefix}/obj/*/error", received)
+            if not _wait(bus.errors_watched):
+                raise RuntimeError("the watcher's error subscription never reached the node")
+            errors_expected = received.count("error") + 3 * sample
+            unknowns = [{"id": unknown + k, "offset": [0.2, 0.0, 0.0]} for k in range(sample)]
+            unknown += sample
+            watched_unknown_ms = push_ms_each(unknowns)
+            failing = [{"id": m, "offset": [float("inf"), 0.0, 0.0]} for m in spread]
+            held_first_ms = push_ms_each(failing)
+            held_ms = push_ms_each(failing)
+            if not _wait(partial(received.reached, "error", errors_expected)):
+                raise RuntimeError("the watcher did not receive every watched error")
+            errors_sub.undeclare()
+            if not _wait(lambda: not bus.errors_watched()):
+                raise RuntimeError("the node still sees an error subscriber")
+            undeclared = [f"{node.options.prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
+            unknown += sample
+            declared = [session.declare_keyexpr(f"{node.options.prefix}/obj/{m:X}/note") for m in spread]
+            rows.append({
+                "movers": n, "rss_bytes": rss,
+                "register_ms": statistics.median(register_s) * 1e3,
+                "move_ms": move_ms,
+                "error_unwatched_unknown_ms": unwatched_ms,
+                "error_watched_unknown_ms": watched_unknown_ms,
+                "error_watched_held_first_ms": held_first_ms,
+                "error_watched_held_ms": held_ms,
+                "zenoh_put_undeclared_us": zenoh_put_us(undeclared),
+                "zenoh_put_declared_us": zenoh_put_us(declared),
+            })
+            for kx in declared:
+                session.undeclare(kx)
+            log(f"many movers: {rows[-1]}")
+    finally:
+        states_sub.undeclare()
+        watcher.close()
+        node.shutdown(timeout=10.0)
+    return {"sample": sample, "rows": rows, "received": dict(received.counts)}
+
+
+def per_mover_kb(rows: list[dict[str, Any]]) -> list[float | None]:
+    """The RSS each mover added between one checkpoint and the one before (KB; None for the first)."""
+    out: list[float | None] = [None]
+    for a, b in zip(rows, rows[1:]):
+        out.append((b["rss_bytes"] - a["rss_bytes"]) / (b["movers"] - a["movers"]) / 1024)
+    return out
+
+
+def section(data: dict[str, Any], meta: str) -> list[str]:
+    """The report's section (benchmarks/report.py); `meta` its line on how it was measured."""
+    rows = data["rows"]
+    out = ["## Many movers: what each held mover costs the service", "", meta, "",
+           f"One service node in the benchmark's process, a watcher session over loopback, players registered "
+           f"straight into the node's core (benchmarks/bench_many_movers.py). Each figure is the engine thread's "
+           f"time, per register or per move, over {data['sample']} of them at that count; a pushed move publishes "
+           "its State on its mover's declared key, and every State and watched error counted here reached the "
+           "watcher. Errors are of pushed moves that fail: unknown ids, or held movers' infinite offsets (the "
+           "second push; the first declares their error keys).", "",
+           "| movers held | register (ms) | pushed move + State (ms) | RSS (MB) | RSS per mover since the row "
+           "above (KB) | failing move, nobody subscribed (ms) | unknown id, subscribed (ms) | held mover, "
+           "subscribed (ms) | Zenoh put, undeclared key under `P/obj` (µs) | Zenoh put, declared key (µs) |",
+           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r, kb in zip(rows, per_mover_kb(rows)):
+        out.append(f"| {r['movers']:,} | {r['register_ms']:.2f} | {r['move_ms']:.3f} | {r['rss_bytes'] / 2**20:.0f} | "
+                   f"{'-' if kb is None else f'{kb:.1f}'} | {r['error_unwatched_unknown_ms']:.3f} | "
+                   f"{r['error_watched_unknown_ms']:.3f} | {r['error_watched_held_ms']:.3f} | "
+                   f"{r['zenoh_put_undeclared_us']:.1f} | {r['zenoh_put_declared_us']:.1f} |")
+    first, last = rows[0], rows[-1]
+    grow = last["movers"] / first["movers"]
+    out += ["", f"From {first['movers']:,} to {last['movers']:,} movers ({grow:.1f}x): a register took "
+            f"{last['register_ms'] / first['register_ms']:.1f}x as long, a pushed move with its State "
+            f"{last['move_ms'] / first['move_ms']:.1f}x, an unknown id's error with someone subscribed "
+            f"{last['error_watched_unknown_ms'] / first['error_watched_unknown_ms']:.1f}x, and Zenoh's put on an "
+            f"undeclared key {last['zenoh_put_undeclared_us'] / first['zenoh_put_undeclared_us']:.1f}x. What grows "
+            "with the crowd is Zenoh's: a new or undeclared key is matched against every key declared beside it "
+            "(service/bus/route_keys.py), which a register (its State key's declaration) and an unknown id's error "
+            "pay; a held mover's move and error go on keys declared once. A failing move nobody subscribes to is "
+            "not put at all.", ""]
+    return out

@@ -1,0 +1,53 @@
+"""The many-movers benchmark (benchmarks/bench_many_movers.py): its arithmetic from hand-worked figures, and
+one small real run whose publications are counted at the watcher."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from benchmarks import bench_many_movers
+from benchmarks.bench_many_movers import per_mover_kb, section
+
+MIB = 2**20
+
+
+def _row(movers: int, rss_mib: float, register_ms: float, move_ms: float, unknown_ms: float, put_us: float) -> dict[str, Any]:
+    return {"movers": movers, "rss_bytes": int(rss_mib * MIB), "register_ms": register_ms, "move_ms": move_ms,
+            "error_unwatched_unknown_ms": 0.004, "error_watched_unknown_ms": unknown_ms,
+            "error_watched_held_first_ms": 0.05, "error_watched_held_ms": 0.006,
+            "zenoh_put_undeclared_us": put_us, "zenoh_put_declared_us": 2.0}
+
+
+def test_the_memory_each_mover_adds_is_the_rss_growth_over_the_movers_added() -> None:
+    rows = [_row(1000, 100.0, 0.1, 0.05, 0.2, 200.0), _row(3000, 104.0, 0.2, 0.05, 0.6, 600.0),
+            _row(4000, 104.0, 0.3, 0.05, 0.8, 800.0)]
+    # 4 MiB over 2,000 movers: 4 * 1024 KB / 2000 = 2.048 KB; then nothing over 1,000 more
+    assert per_mover_kb(rows) == [None, pytest.approx(2.048), pytest.approx(0.0)]
+
+
+def test_the_section_gives_each_checkpoint_and_how_each_cost_grew() -> None:
+    rows = [_row(1000, 100.0, 0.1, 0.05, 0.2, 200.0), _row(4000, 106.0, 0.4, 0.06, 0.9, 1000.0)]
+    text = "\n".join(section({"sample": 256, "rows": rows}, "META"))
+    # 6 MiB over 3,000 movers: 6 * 1024 / 3000 = 2.048 KB
+    assert "| 4,000 | 0.40 | 0.060 | 106 | 2.0 | 0.004 | 0.900 | 0.006 | 1000.0 | 2.0 |" in text
+    assert "| 1,000 | 0.10 | 0.050 | 100 | - |" in text
+    # 4.0x the movers: register 0.4 / 0.1, move 0.06 / 0.05, unknown id's error 0.9 / 0.2, put 1000 / 200
+    assert ("From 1,000 to 4,000 movers (4.0x): a register took 4.0x as long, a pushed move with its State 1.2x, "
+            "an unknown id's error with someone subscribed 4.5x, and Zenoh's put on an undeclared key 5.0x") in text
+    assert "over 256 of them" in text
+
+
+def test_a_small_run_publishes_what_it_times(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(bench_many_movers, "QUICK_COUNTS", (20, 40))
+    monkeypatch.setattr(bench_many_movers, "QUICK_SAMPLE", 8)
+    data = bench_many_movers.run(quick=True)
+    assert [r["movers"] for r in data["rows"]] == [20, 40] and data["sample"] == 8
+    for r in data["rows"]:
+        assert all(v > 0 for k, v in r.items() if k != "movers"), r
+    # per checkpoint, three pushes of 8 failing moves while the watcher subscribed to errors (unknown ids, then a
+    # held mover's twice): 2 * 3 * 8; the push nobody subscribed to sent nothing
+    assert data["received"]["error"] == 48
+    # at least the 2 * 8 pushed moves' States (registers' States may come too)
+    assert data["received"]["state"] >= 16
