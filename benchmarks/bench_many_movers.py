@@ -1,8 +1,9 @@
 """Many movers: what each held mover costs a service, as the count grows to sixteen thousand.
 
 A service node (service/bus/node.py) runs in this process on the flat benchmark scene, with a watcher: a
-second Zenoh session over loopback that subscribes to every State (`P/obj/*/state`), and at times to every
-error (`P/obj/*/error`). Players (who walk through each other) are registered on a 1.5 m grid in one
+process of its own (as any subscriber is; in this process its callbacks would take the GIL from the timed
+thread) that subscribes over loopback to every State (`P/obj/*/state`), and at times to every error
+(`P/obj/*/error`), and counts what it receives. Players (who walk through each other) are registered on a 1.5 m grid in one
 landblock, straight into the node's ServiceCore on this thread, as the engine thread would. At each
 checkpoint (1,000, 4,096 and 16,384 movers) the engine thread's cost is timed:
 
@@ -24,14 +25,16 @@ Bounded: loopback only, fixed counts.
 
 from __future__ import annotations
 
+import json
 import statistics
+import sys
 import threading
 import time
 from functools import partial
 from typing import Any
 
 from .common import log
-from .service_harness import bench_walker, free_port, scene_file
+from .service_harness import Child, bench_walker, free_port, scene_file
 
 #: the checkpoints (movers held), and the quick run's
 COUNTS = (1000, 4096, 16384)
@@ -65,12 +68,42 @@ class _Counter:
         with self.lock:
             self.counts[kind] = self.counts.get(kind, 0) + 1
 
-    def count(self, kind: str) -> int:
+    def snapshot(self) -> dict[str, int]:
         with self.lock:
-            return self.counts.get(kind, 0)
+            return dict(self.counts)
 
-    def reached(self, kind: str, count: int) -> bool:
-        return self.count(kind) >= count
+
+def watch_main(endpoint: str, prefix: str) -> None:
+    """The watcher process: subscribes to every State and counts what it receives. It answers queries on
+    `P/bench/watcher`: `count` (the counts so far, as JSON), `errors on` and `errors off` (subscribe to every
+    error key, or stop). Serves until SIGINT."""
+    import zenoh
+
+    from .service_harness import stop_event
+
+    stop = stop_event()
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    conf.insert_json5("listen/endpoints", "[]")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    session = zenoh.open(conf)
+    counter = _Counter()
+    subscribers = {"state": session.declare_subscriber(f"{prefix}/obj/*/state", counter)}
+
+    def on_query(query: Any) -> None:
+        command = query.payload.to_bytes() if query.payload is not None else b"count"
+        if command == b"errors on" and "error" not in subscribers:
+            subscribers["error"] = session.declare_subscriber(f"{prefix}/obj/*/error", counter)
+        elif command == b"errors off" and "error" in subscribers:
+            subscribers.pop("error").undeclare()
+        query.reply(query.key_expr, json.dumps(counter.snapshot()))
+
+    queryable = session.declare_queryable(f"{prefix}/bench/watcher", on_query)
+    print("WATCHING", flush=True)
+    stop.wait()
+    queryable.undeclare()
+    session.close()
 
 
 def _wait(predicate: Any, timeout: float = 10.0) -> bool:
@@ -83,8 +116,6 @@ def _wait(predicate: Any, timeout: float = 10.0) -> bool:
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    import zenoh
-
     from engine import load_scene
     from engine.geometry import Position, Vec3
     from service.bus.node import NodeOptions, ServiceNode
@@ -99,15 +130,24 @@ def run(quick: bool = False) -> dict[str, Any]:
     where = f"tcp/127.0.0.1:{free_port()}"
     node = ServiceNode(load_scene(str(scene_file())), make_config(listen=[where]), NodeOptions())
     node.start()
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", f'["{where}"]')
-    conf.insert_json5("listen/endpoints", "[]")
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    watcher = zenoh.open(conf)
-    received = _Counter()
     core, bus, session = node.core, node.bus, node.session
     assert core is not None and bus is not None and session is not None
+    prefix = node.options.prefix
+    try:
+        watcher = Child([sys.executable, "-m", "benchmarks.bench_many_movers", "watch", where, prefix], "WATCHING")
+    except Exception:
+        node.shutdown(timeout=10.0)
+        raise
+
+    def ask(command: bytes) -> dict[str, int]:
+        """The watcher's counts, after `command`."""
+        for reply in session.get(f"{prefix}/bench/watcher", payload=command, timeout=10.0):
+            if reply.ok is not None:
+                return dict(json.loads(reply.ok.payload.to_bytes()))
+        raise RuntimeError(f"the watcher did not answer {command!r}")
+
+    def received(kind: str, count: int) -> bool:
+        return ask(b"count").get(kind, 0) >= count
     spec = encode_mover_spec(bench_walker())
     movers: list[int] = []
     rows: list[dict[str, Any]] = []
@@ -144,7 +184,6 @@ def run(quick: bool = False) -> dict[str, Any]:
             session.put(k, b"x")
         return (time.perf_counter() - t0) / len(keys) * 1e6
 
-    states_sub = watcher.declare_subscriber(f"{node.options.prefix}/obj/*/state", received)
     try:
         if not _wait(bus.states_watched):
             raise RuntimeError("the watcher's State subscription never reached the node")
@@ -155,37 +194,36 @@ def run(quick: bool = False) -> dict[str, Any]:
             register_s = [register_one() for _ in range(sample)]
             rss = _rss_bytes()
             spread = movers[:: max(1, len(movers) // sample)][:sample]
-            states_expected = received.count("state") + len(spread)
+            states_expected = ask(b"count").get("state", 0) + len(spread)
             move_ms = push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
             bus.publish_states = False  # the same moves back, published nowhere: what the engine and core cost
             unpublished_ms = push_ms_each([{"id": m, "offset": [-0.2, 0.0, 0.0]} for m in spread])
             bus.publish_states = True
             # every pushed move's State was put and reached the watcher: the figure is of real publications
-            if not _wait(partial(received.reached, "state", states_expected)):
+            if not _wait(partial(received, "state", states_expected)):
                 raise RuntimeError("the watcher did not receive every pushed move's State")
             unknowns = [{"id": unknown + k, "offset": [0.2, 0.0, 0.0]} for k in range(sample)]
             unknown += sample
             unwatched_ms = push_ms_each(unknowns)
-            errors_sub = watcher.declare_subscriber(f"{node.options.prefix}/obj/*/error", received)
+            errors_expected = ask(b"errors on").get("error", 0) + 3 * sample
             if not _wait(bus.errors_watched):
                 raise RuntimeError("the watcher's error subscription never reached the node")
-            errors_expected = received.count("error") + 3 * sample
             unknowns = [{"id": unknown + k, "offset": [0.2, 0.0, 0.0]} for k in range(sample)]
             unknown += sample
             watched_unknown_ms = push_ms_each(unknowns)
             failing = [{"id": m, "offset": [float("inf"), 0.0, 0.0]} for m in spread]
             held_first_ms = push_ms_each(failing)
             held_ms = push_ms_each(failing)
-            if not _wait(partial(received.reached, "error", errors_expected)):
+            if not _wait(partial(received, "error", errors_expected)):
                 raise RuntimeError("the watcher did not receive every watched error")
-            errors_sub.undeclare()
+            ask(b"errors off")
             if not _wait(lambda: not bus.errors_watched()):
                 raise RuntimeError("the node still sees an error subscriber")
-            fresh = [f"{node.options.prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
+            fresh = [f"{prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
             unknown += sample
-            undeclared = [f"{node.options.prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
+            undeclared = [f"{prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
             unknown += sample
-            declared = [session.declare_keyexpr(f"{node.options.prefix}/obj/{m:X}/note") for m in spread]
+            declared = [session.declare_keyexpr(f"{prefix}/obj/{m:X}/note") for m in spread]
             rows.append({
                 "movers": n, "rss_bytes": rss,
                 "register_ms": statistics.median(register_s) * 1e3,
@@ -202,11 +240,11 @@ def run(quick: bool = False) -> dict[str, Any]:
             for kx in declared:
                 session.undeclare(kx)
             log(f"many movers: {rows[-1]}")
+        counts_received = ask(b"count")
     finally:
-        states_sub.undeclare()
-        watcher.close()
+        watcher.stop()
         node.shutdown(timeout=10.0)
-    return {"sample": sample, "rows": rows, "received": dict(received.counts)}
+    return {"sample": sample, "rows": rows, "received": counts_received}
 
 
 def per_mover_kb(rows: list[dict[str, Any]]) -> list[float | None]:
@@ -264,3 +302,7 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
             "on keys declared once; a register pays its State key's declaration, and an unknown id's error the "
             "walk at every put; a failing move nobody subscribes to is not put at all.", ""]
     return out
+
+
+if __name__ == "__main__" and sys.argv[1:2] == ["watch"]:
+    watch_main(sys.argv[2], sys.argv[3])
