@@ -1,30 +1,34 @@
 """Many movers: what each held mover costs a service, as the count grows to sixteen thousand.
 
-A service node (service/bus/node.py) runs in this process on the flat benchmark scene, with a watcher: a
-process of its own (as any subscriber is; in this process its callbacks would take the GIL from the timed
-thread) that subscribes over loopback to every State (`P/obj/*/state`), and at times to every error
-(`P/obj/*/error`), and counts what it receives. Players (who walk through each other) are registered on a 1.5 m grid in one
-landblock, straight into the node's ServiceCore on this thread, as the engine thread would. At each
-checkpoint (1,000, 4,096 and 16,384 movers) the engine thread's cost is timed:
+A service node (service/bus/node.py) runs in this process on the flat benchmark scene, its collector tuned
+as `serve` tunes it (service/heap.py), with a watcher: a process of its own (as any subscriber is; in this
+process its callbacks would take the GIL from the timed thread) that subscribes over loopback to every
+State (`P/obj/*/state`), and at times to every error (`P/obj/*/error`), and counts what it receives.
+Players (who walk through each other) are registered on a 1.5 m grid in one landblock, straight into the
+node's ServiceCore on this thread, as the engine thread would. At each checkpoint (1,000, 4,096 and 16,384
+movers) the engine thread's cost is timed:
 
-- a register: the last `SAMPLE` registers before the checkpoint, each on its own;
-- a pushed move with its State published on the mover's declared key, for `SAMPLE` movers spread over
-  the crowd, in one push;
+- a register: the last `SAMPLE` registers before the checkpoint, each on its own; and as many more with
+  the State publication off (no State key declared), removed again;
+- a pushed move, for `SAMPLE` movers spread over the crowd, in one push: with their States published on
+  their declared keys, and with the publication off. An untimed push of the same movers comes first: their
+  records are cold after the registers, the more so the more movers there are (without it, the first
+  timed push paid for that, which read as a publication growing with the crowd);
 - a push of `SAMPLE` failing moves, per move: unknown ids with nobody subscribed to an error key, the same
   with the watcher subscribed, and held movers' (an infinite offset) with the watcher subscribed, their
   second push (the first declares their error keys);
 - the process's RSS.
 
-And beside them, Zenoh alone on the node's session: a put on an undeclared key under `P/obj`, and on a
-declared one. Zenoh walks the keys declared beside an undeclared key at each put, and beside a new key at
-its declaration (service/bus/route_keys.py): that is what makes a register and an unknown id's error
-grow with the crowd while a held mover's move does not.
+And beside them, Zenoh alone on the node's session: declaring a new key under `P/obj`, a put on an
+undeclared key there, and a put on a mover's declared State key. Zenoh walks the keys declared beside an
+undeclared key at each put, and beside a new key at its declaration (service/bus/route_keys.py).
 
 Bounded: loopback only, fixed counts.
 """
 
 from __future__ import annotations
 
+import gc
 import json
 import statistics
 import sys
@@ -128,8 +132,14 @@ def run(quick: bool = False) -> dict[str, Any]:
     counts = QUICK_COUNTS if quick else COUNTS
     sample = QUICK_SAMPLE if quick else SAMPLE
     where = f"tcp/127.0.0.1:{free_port()}"
-    node = ServiceNode(load_scene(str(scene_file())), make_config(listen=[where]), NodeOptions())
-    node.start()
+    # the collector tuned as a serving process has it (service/heap.py), and given back as it was after
+    gc_threshold = gc.get_threshold()
+    node = ServiceNode(load_scene(str(scene_file())), make_config(listen=[where]), NodeOptions(tune_heap=True))
+    try:
+        node.start()
+    except Exception:
+        gc.set_threshold(*gc_threshold)
+        raise
     core, bus, session = node.core, node.bus, node.session
     assert core is not None and bus is not None and session is not None
     prefix = node.options.prefix
@@ -137,6 +147,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         watcher = Child([sys.executable, "-m", "benchmarks.bench_many_movers", "watch", where, prefix], "WATCHING")
     except Exception:
         node.shutdown(timeout=10.0)
+        gc.set_threshold(*gc_threshold)
         raise
 
     def ask(command: bytes) -> dict[str, int]:
@@ -153,14 +164,14 @@ def run(quick: bool = False) -> dict[str, Any]:
     rows: list[dict[str, Any]] = []
     unknown = UNKNOWN_BASE
 
-    def register_one() -> float:
+    def register_one(into: list[int]) -> float:
         i = len(movers)
         x = GRID_ORIGIN + GRID_SPACING * (i % GRID_COLUMNS)
         y = GRID_ORIGIN + GRID_SPACING * ((i // GRID_COLUMNS) % GRID_COLUMNS)
         req = parse_register({"v": 1, "mover": spec, "position": encode_position(Position.at(cell_at(LB, x, y),
                                                                                                Vec3(x, y, 50.0)))})
         t0 = time.perf_counter()
-        movers.append(int(core.register(req)["state"]["id"]))
+        into.append(int(core.register(req)["state"]["id"]))
         return time.perf_counter() - t0
 
     def push_ms_each(items: list[dict[str, Any]]) -> float:
@@ -190,14 +201,27 @@ def run(quick: bool = False) -> dict[str, Any]:
         for n in counts:
             log(f"many movers: registering up to {n}")
             while len(movers) < n - sample:
-                register_one()
-            register_s = [register_one() for _ in range(sample)]
+                register_one(movers)
+            register_s = [register_one(movers) for _ in range(sample)]
+            # registers published nowhere (no State key declared: what the engine and the core cost), removed again
+            bus.publish_states = False
+            quiet: list[int] = []
+            register_quiet_s = [register_one(quiet) for _ in range(sample)]
+            bus.publish_states = True
+            for m in quiet:
+                core.remove(m)
             rss = _rss_bytes()
             spread = movers[:: max(1, len(movers) // sample)][:sample]
             states_expected = ask(b"count").get("state", 0) + len(spread)
-            move_ms = push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
-            bus.publish_states = False  # the same moves back, published nowhere: what the engine and core cost
-            unpublished_ms = push_ms_each([{"id": m, "offset": [-0.2, 0.0, 0.0]} for m in spread])
+            # the same movers three times: untimed first (their records are cold after the registers, more so
+            # the more there are), then with their States published, then published nowhere (what the engine
+            # and the core cost)
+            bus.publish_states = False
+            push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
+            bus.publish_states = True
+            move_ms = push_ms_each([{"id": m, "offset": [-0.2, 0.0, 0.0]} for m in spread])
+            bus.publish_states = False
+            unpublished_ms = push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
             bus.publish_states = True
             # every pushed move's State was put and reached the watcher: the figure is of real publications
             if not _wait(partial(received, "state", states_expected)):
@@ -223,10 +247,12 @@ def run(quick: bool = False) -> dict[str, Any]:
             unknown += sample
             undeclared = [f"{prefix}/obj/{unknown + k:X}/note" for k in range(sample)]
             unknown += sample
-            declared = [session.declare_keyexpr(f"{prefix}/obj/{m:X}/note") for m in spread]
+            # the movers' own State keys, declared again (a second name for the same key): the watcher receives these
+            declared = [session.declare_keyexpr(f"{prefix}/obj/{m:X}/state") for m in spread]
             rows.append({
                 "movers": n, "rss_bytes": rss,
                 "register_ms": statistics.median(register_s) * 1e3,
+                "register_unpublished_ms": statistics.median(register_quiet_s) * 1e3,
                 "move_ms": move_ms,
                 "move_unpublished_ms": unpublished_ms,
                 "error_unwatched_unknown_ms": unwatched_ms,
@@ -244,6 +270,8 @@ def run(quick: bool = False) -> dict[str, Any]:
     finally:
         watcher.stop()
         node.shutdown(timeout=10.0)
+        gc.unfreeze()
+        gc.set_threshold(*gc_threshold)
     return {"sample": sample, "rows": rows, "received": counts_received}
 
 
@@ -259,20 +287,24 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     """The report's section (benchmarks/report.py); `meta` its line on how it was measured."""
     rows = data["rows"]
     out = ["## Many movers: what each held mover costs the service", "", meta, "",
-           f"One service node in the benchmark's process, a watcher session over loopback, players registered "
-           f"straight into the node's core (benchmarks/bench_many_movers.py). Each figure is the engine thread's "
-           f"time, per register or per move, over {data['sample']} of them at that count; a pushed move publishes "
-           "its State on its mover's declared key, and every State and watched error counted here reached the "
-           "watcher. Errors are of pushed moves that fail: unknown ids, or held movers' infinite offsets (the "
-           "second push; the first declares their error keys).", "",
-           "| movers held | register (ms) | pushed move + State (ms) | the same move, published nowhere (ms) | "
-           "RSS (MB) | RSS per mover since the row above (KB) |", "|---:|---:|---:|---:|---:|---:|"]
+           "One service node in the benchmark's process (its collector tuned as `serve` tunes it), a watcher in a "
+           "process of its own over loopback, players registered straight into the node's core, 1.5 m apart in "
+           "one landblock (benchmarks/bench_many_movers.py). Each figure is the engine thread's time, per register "
+           f"or per move, over {data['sample']} of them at that count (the median for registers, the mean for "
+           "moves, which run as one push); every State and watched error counted here reached the watcher. "
+           "\"Published nowhere\" is the same work with the State publication off: no State key declared, no put.",
+           "",
+           "| movers held | register (ms) | register, published nowhere (ms) | pushed move + State (ms) | the same "
+           "move, published nowhere (ms) | RSS (MB) | RSS per mover since the row above (KB) |",
+           "|---:|---:|---:|---:|---:|---:|---:|"]
     for r, kb in zip(rows, per_mover_kb(rows)):
-        out.append(f"| {r['movers']:,} | {r['register_ms']:.2f} | {r['move_ms']:.3f} | {r['move_unpublished_ms']:.3f} | "
-                   f"{r['rss_bytes'] / 2**20:.0f} | {'-' if kb is None else f'{kb:.1f}'} |")
-    out += ["", "Failing pushed moves (ms each), and Zenoh alone on the node's session (µs each): declaring a new key "
-            "under `P/obj` (as a register does for its mover's State key), and putting on a key there that is "
-            "undeclared or declared.", "",
+        out.append(f"| {r['movers']:,} | {r['register_ms']:.2f} | {r['register_unpublished_ms']:.2f} | "
+                   f"{r['move_ms']:.3f} | {r['move_unpublished_ms']:.3f} | {r['rss_bytes'] / 2**20:.0f} | "
+                   f"{'-' if kb is None else f'{kb:.1f}'} |")
+    out += ["", "Pushed moves that fail (ms each): unknown ids, or held movers' infinite offsets (their second push; "
+            "the first declares their error keys). And Zenoh alone on the node's session (µs each): declaring a new "
+            "key under `P/obj`, as a register does for its mover's State key; a put on an undeclared key there, "
+            "which nobody receives; a put on a mover's declared State key, which the watcher receives.", "",
             "| movers held | failing move, nobody subscribed | unknown id, subscribed | held mover, subscribed | "
             "Zenoh: declare a key | put, undeclared key | put, declared key |", "|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
@@ -280,7 +312,6 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
                    f"{r['error_watched_held_ms']:.3f} | {r['zenoh_declare_us']:.1f} | "
                    f"{r['zenoh_put_undeclared_us']:.1f} | {r['zenoh_put_declared_us']:.1f} |")
     first, last = rows[0], rows[-1]
-    grow = last["movers"] / first["movers"]
 
     def times(key: str) -> str:
         return f"{last[key] / first[key]:.1f}x"
@@ -288,15 +319,17 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
     def publication_us(r: dict[str, Any]) -> float:
         return (r["move_ms"] - r["move_unpublished_ms"]) * 1e3
 
-    out += ["", f"From {first['movers']:,} to {last['movers']:,} movers ({grow:.1f}x): a register took "
-            f"{times('register_ms')} as long ({last['register_ms']:.2f} ms, of which Zenoh's declaration of a key "
-            f"beside the others, measured alone, {last['zenoh_declare_us'] / 1e3:.2f} ms); a pushed move with its "
-            f"State {times('move_ms')} and the same move published nowhere {times('move_unpublished_ms')}, so "
-            f"publishing a State cost {publication_us(first):.0f} µs at the first count and "
-            f"{publication_us(last):.0f} µs at the last; an unknown id's error with someone subscribed "
-            f"{times('error_watched_unknown_ms')}, as Zenoh's put on an undeclared key "
-            f"({times('zenoh_put_undeclared_us')}), while a put on a declared key went from "
-            f"{first['zenoh_put_declared_us']:.1f} to {last['zenoh_put_declared_us']:.1f} µs.", "",
+    out += ["", f"From {first['movers']:,} to {last['movers']:,} movers ({last['movers'] / first['movers']:.1f}x):",
+            f"- a register took {times('register_ms')} as long, {last['register_ms']:.2f} ms, and "
+            f"{last['register_unpublished_ms']:.2f} ms published nowhere; Zenoh's declaration of one more key, "
+            f"measured alone, took {last['zenoh_declare_us'] / 1e3:.2f} ms ({times('zenoh_declare_us')});",
+            f"- publishing a pushed move's State added {publication_us(first):.0f} µs at the first count and "
+            f"{publication_us(last):.0f} µs at the last; the move published nowhere took "
+            f"{times('move_unpublished_ms')} as long;",
+            f"- an unknown id's error, with someone subscribed, took {times('error_watched_unknown_ms')} as long, as "
+            f"Zenoh's put on an undeclared key did ({times('zenoh_put_undeclared_us')}); a held mover's took "
+            f"{first['error_watched_held_ms'] * 1e3:.0f} and {last['error_watched_held_ms'] * 1e3:.0f} µs, a put on a "
+            f"declared key {first['zenoh_put_declared_us']:.1f} and {last['zenoh_put_declared_us']:.1f} µs.", "",
             "Why: Zenoh matches a key it has not seen declared against every key declared beside it, at each put "
             "on it and once at its declaration (service/bus/route_keys.py). A held mover's States and errors go "
             "on keys declared once; a register pays its State key's declaration, and an unknown id's error the "
