@@ -206,7 +206,8 @@ class ZenohBus:
         movers would hold the engine thread for seconds, for nobody. `held` (the mover is this instance's:
         only the engine thread, which alone lets movers go, may say so) declares the key at its first error
         and keeps it while the mover stays, so a held mover's later errors take the cached route. An
-        unknown id's key is not declared: ids are the sender's to choose, and each would stay."""
+        unknown id's key is declared for its put alone (`_put_once`): ids are the sender's to choose, and
+        each kept key would stay."""
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
         detail = error.get("error")
         if isinstance(detail, dict):  # a pushed move's error: answered here, so logged (rate-limited)
@@ -219,7 +220,28 @@ class ZenohBus:
         kx = self._error_keys.get(mover_id)
         if kx is None and held and self.route_keys is not None:
             kx = self._error_keys[mover_id] = self.route_keys.key_expr(key)
-        self.session.put(key if kx is None else kx, pack(error))
+        if kx is not None:
+            self.session.put(kx, pack(error))
+        else:
+            self._put_once(key, pack(error))
+
+    def _put_once(self, key: str, payload: bytes) -> None:
+        """A put on a key declared for it alone. Why: Zenoh walks the keys declared beside a key once when
+        it is declared, but at every put when it is not, and from about a hundred declared keys on, declaring,
+        putting and undeclaring cost about 2.5 times less than the undeclared put (scratch, 2026-12-07: 72
+        against 184 µs among 1,600 declared keys); below that the two cost about the same (7 µs with none)."""
+        try:
+            kx = self.session.declare_keyexpr(key)
+        except Exception:  # the session closing: put on the text, as any key
+            self.session.put(key, payload)
+            return
+        try:
+            self.session.put(kx, payload)
+        finally:
+            try:
+                self.session.undeclare(kx)
+            except Exception:  # already gone with the session
+                pass
 
     def forward_push(self, lb: int, item: dict[str, Any], publish_batch: bool = False) -> None:
         """A fire-and-forget move on `lb`'s push key (with `"publish": "batch"` when it came so)."""

@@ -24,15 +24,28 @@ UNKNOWN = 0xBEEF
 
 
 class CountingSession:
-    """The node's session, with every put counted by its key's text (and passed on)."""
+    """The node's session, with every put counted by its key's text, and every put on a key declared on this
+    session (a KeyExpr) and every declaration and undeclaration recorded (and each passed on)."""
 
     def __init__(self, session: Any) -> None:
         self._session = session
         self.puts: Counter[str] = Counter()
+        self.declared_puts: list[str] = []
+        self.calls: list[tuple[str, str]] = []
 
     def put(self, key: Any, payload: Any) -> None:
         self.puts[str(key)] += 1
+        if isinstance(key, zenoh.KeyExpr):
+            self.declared_puts.append(str(key))
         self._session.put(key, payload)
+
+    def declare_keyexpr(self, key: str) -> Any:
+        self.calls.append(("declare", key))
+        return self._session.declare_keyexpr(key)
+
+    def undeclare(self, kx: Any) -> None:
+        self.calls.append(("undeclare", str(kx)))
+        self._session.undeclare(kx)
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._session, name)
@@ -110,8 +123,12 @@ def test_no_error_is_put_while_nobody_subscribes_to_an_error_key(node: Any) -> N
         assert wait_until(bus.errors_watched, timeout=10.0)
         _push_failing(sender, mid)
         assert wait_until(lambda: bool(got), timeout=10.0)
-        assert counting.puts[f"{P}/obj/{mid:X}/error"] == 1 and counting.puts[f"{P}/obj/{UNKNOWN:X}/error"] == 1
-        assert got == [f"{P}/obj/{UNKNOWN:X}/error"]
+        held_key, unknown_key = f"{P}/obj/{mid:X}/error", f"{P}/obj/{UNKNOWN:X}/error"
+        assert counting.puts[held_key] == 1 and counting.puts[unknown_key] == 1
+        assert got == [unknown_key]
+        # both put on declared keys: the unknown id's declared for that put alone, then let go
+        assert counting.declared_puts == [held_key, unknown_key]
+        assert [c for c in counting.calls if c[1] == unknown_key] == [("declare", unknown_key), ("undeclare", unknown_key)]
         sub.undeclare()
     finally:
         sender.close()
