@@ -326,14 +326,17 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
             f"- publishing a pushed move's State added {publication_us(first):.0f} µs at the first count and "
             f"{publication_us(last):.0f} µs at the last; the move published nowhere took "
             f"{times('move_unpublished_ms')} as long;",
-            f"- an unknown id's error, with someone subscribed, took {times('error_watched_unknown_ms')} as long, as "
-            f"Zenoh's put on an undeclared key did ({times('zenoh_put_undeclared_us')}); a held mover's took "
+            f"- an unknown id's error, with someone subscribed, took {times('error_watched_unknown_ms')} as long, "
+            f"{last['error_watched_unknown_ms']:.2f} ms: it is put on a key declared for it alone, whose declaration "
+            f"grew as above, where a put on an undeclared key took {last['zenoh_put_undeclared_us'] / 1e3:.2f} ms "
+            f"({times('zenoh_put_undeclared_us')}); a held mover's took "
             f"{first['error_watched_held_ms'] * 1e3:.0f} and {last['error_watched_held_ms'] * 1e3:.0f} µs, a put on a "
             f"declared key {first['zenoh_put_declared_us']:.1f} and {last['zenoh_put_declared_us']:.1f} µs.", "",
             "Why: Zenoh matches a key it has not seen declared against every key declared beside it, at each put "
             "on it and once at its declaration (service/bus/route_keys.py). A held mover's States and errors go "
-            "on keys declared once; a register pays its State key's declaration, and an unknown id's error the "
-            "walk at every put; a failing move nobody subscribes to is not put at all.", ""]
+            "on keys declared once; a register pays its State key's declaration, and so does an unknown id's "
+            "error, whose key is declared for its put alone (service/bus/publication.py, `publish_error`); a "
+            "failing move nobody subscribes to is not put at all.", ""]
     return out
 
 
