@@ -11,7 +11,8 @@ movers) the engine thread's cost is timed:
 - a register: the last `SAMPLE` registers before the checkpoint, each on its own; and as many more with
   the State publication off (no State key declared), removed again;
 - a pushed move, for `SAMPLE` movers spread over the crowd, in one push: with their States published on
-  their declared keys, and with the publication off. An untimed push of the same movers comes first: their
+  their declared keys, and with the publication off, `MOVE_REPEATS` pushes of each, alternately (the
+  median of each). An untimed push of the same movers comes first: their
   records are cold after the registers, the more so the more movers there are (without it, the first
   timed push paid for that, which read as a publication growing with the crowd);
 - a push of `SAMPLE` failing moves, per move: unknown ids with nobody subscribed to an error key, the same
@@ -46,6 +47,8 @@ QUICK_COUNTS = (200, 1000)
 #: registers, moves and failing moves timed at each checkpoint
 SAMPLE = 256
 QUICK_SAMPLE = 64
+#: pushes of the spread movers with their States published, and as many without, alternately
+MOVE_REPEATS = 5
 #: an id no mover has: the failing pushes' unknown ids start here
 UNKNOWN_BASE = 0x7E000000
 #: the grid the movers stand on (players walk through each other, so the spacing is only for realism)
@@ -212,17 +215,21 @@ def run(quick: bool = False) -> dict[str, Any]:
                 core.remove(m)
             rss = _rss_bytes()
             spread = movers[:: max(1, len(movers) // sample)][:sample]
-            states_expected = ask(b"count").get("state", 0) + len(spread)
+            states_expected = ask(b"count").get("state", 0) + MOVE_REPEATS * len(spread)
             # the same movers three times: untimed first (their records are cold after the registers, more so
             # the more there are), then with their States published, then published nowhere (what the engine
             # and the core cost)
             bus.publish_states = False
             push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
+            published: list[float] = []
+            unpublished: list[float] = []
+            for _ in range(MOVE_REPEATS):  # alternately, back and forth: the medians
+                bus.publish_states = True
+                published.append(push_ms_each([{"id": m, "offset": [-0.2, 0.0, 0.0]} for m in spread]))
+                bus.publish_states = False
+                unpublished.append(push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread]))
             bus.publish_states = True
-            move_ms = push_ms_each([{"id": m, "offset": [-0.2, 0.0, 0.0]} for m in spread])
-            bus.publish_states = False
-            unpublished_ms = push_ms_each([{"id": m, "offset": [0.2, 0.0, 0.0]} for m in spread])
-            bus.publish_states = True
+            move_ms, unpublished_ms = statistics.median(published), statistics.median(unpublished)
             # every pushed move's State was put and reached the watcher: the figure is of real publications
             if not _wait(partial(received, "state", states_expected)):
                 raise RuntimeError("the watcher did not receive every pushed move's State")
@@ -272,7 +279,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         node.shutdown(timeout=10.0)
         gc.unfreeze()
         gc.set_threshold(*gc_threshold)
-    return {"sample": sample, "rows": rows, "received": counts_received}
+    return {"sample": sample, "move_repeats": MOVE_REPEATS, "rows": rows, "received": counts_received}
 
 
 def per_mover_kb(rows: list[dict[str, Any]]) -> list[float | None]:
@@ -290,8 +297,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
            "One service node in the benchmark's process (its collector tuned as `serve` tunes it), a watcher in a "
            "process of its own over loopback, players registered straight into the node's core, 1.5 m apart in "
            "one landblock (benchmarks/bench_many_movers.py). Each figure is the engine thread's time, per register "
-           f"or per move, over {data['sample']} of them at that count (the median for registers, the mean for "
-           "moves, which run as one push); every State and watched error counted here reached the watcher. "
+           f"or per move, over {data['sample']} of them at that count (the median for registers; for moves, which "
+           f"run as one push, the mean of a push, the median of {data.get('move_repeats', 1)} pushes); every State and watched error counted here reached the watcher. "
            "\"Published nowhere\" is the same work with the State publication off: no State key declared, no put.",
            "",
            "| movers held | register (ms) | register, published nowhere (ms) | pushed move + State (ms) | the same "

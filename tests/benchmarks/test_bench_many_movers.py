@@ -34,7 +34,7 @@ def test_the_section_gives_each_checkpoint_and_how_each_cost_grew() -> None:
     rows = [_row(1000, 100.0, 0.1, 0.05, 0.2, 200.0),
             _row(4000, 106.0, 0.4, 0.06, 0.9, 1000.0, unpublished_ms=0.052, declare_us=250.0, declared_us=2.5,
                  held_ms=0.007)]
-    text = "\n".join(section({"sample": 256, "rows": rows}, "META"))
+    text = "\n".join(section({"sample": 256, "move_repeats": 5, "rows": rows}, "META"))
     # 6 MiB over 3,000 movers: 6 * 1024 / 3000 = 2.048 KB; a register published nowhere is given as half
     assert "| 4,000 | 0.40 | 0.20 | 0.060 | 0.052 | 106 | 2.0 |" in text
     assert "| 1,000 | 0.10 | 0.05 | 0.050 | 0.040 | 100 | - |" in text
@@ -50,6 +50,7 @@ def test_the_section_gives_each_checkpoint_and_how_each_cost_grew() -> None:
             "declared for it alone, whose declaration grew as above, where a put on an undeclared key took 1.00 ms "
             "(5.0x); a held mover's took 6 and 7 µs, a put on a declared key 2.0 and 2.5 µs.") in text
     assert "From 1,000 to 4,000 movers (4.0x):" in text and "over 256 of them" in text
+    assert "the median of 5 pushes" in text
 
 
 def test_a_small_run_publishes_what_it_times(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -62,5 +63,5 @@ def test_a_small_run_publishes_what_it_times(monkeypatch: pytest.MonkeyPatch) ->
     # per checkpoint, three pushes of 8 failing moves while the watcher subscribed to errors (unknown ids, then a
     # held mover's twice): 2 * 3 * 8; the push nobody subscribed to sent nothing
     assert data["received"]["error"] == 48
-    # at least the 2 * 8 pushed moves' States (registers' States may come too)
-    assert data["received"]["state"] >= 16
+    # at least the 2 checkpoints * 5 published pushes * 8 moves' States (registers' States come too)
+    assert data["received"]["state"] >= 2 * bench_many_movers.MOVE_REPEATS * 8 and data["move_repeats"] == 5
