@@ -258,7 +258,8 @@ class ServiceCore:
         if self.log is not None:
             self.log.movers(REGISTER, rec.id, rec.seq, rec.mover, encode_mover_spec(rec.spec))
             self.commit()
-        self.bus.publish_state(rec.id, self._packer.pack(state))
+        if self.bus.states_watched():  # as for a move's: unwatched, its State key is not even declared yet
+            self.bus.publish_state(rec.id, self._packer.pack(state))
         return {"state": state}
 
     def update(self, mover_id: int, spec: MoverSpec) -> dict[str, Any]:

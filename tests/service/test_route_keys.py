@@ -191,9 +191,9 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
             ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
                                    msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
             assert ok
-        # the register's State (seq 0) was put before the subscription, yet may still reach it: Zenoh sends
-        # a newly connected peer everything until that peer has told its subscriptions, and the watcher
-        # hands a sample to a subscriber declared while the sample waited in its queue
+        # only the moves' States count: a register's (seq 0), when put before the subscription, may still
+        # reach it (Zenoh sends a newly connected peer everything until that peer has told its
+        # subscriptions, and the watcher hands a queued sample to a subscriber declared meanwhile)
         def moved() -> list[tuple[str, int]]:
             return [g for g in got if g[1] >= 1]
 
@@ -238,6 +238,42 @@ def test_a_node_past_its_request_keys_limit_still_publishes_every_state_on_a_dec
         assert wait_until(lambda: sorted(got) == sorted(state_keys), timeout=10.0), got
         assert all(isinstance(route_keys.declared[k], zenoh.KeyExpr) for k in state_keys)
         assert not any(k.startswith("acphys/lb/") for k in route_keys.declared)
+        sub.undeclare()
+    finally:
+        watcher.close()
+        node.shutdown(timeout=5.0)
+
+
+def test_a_mover_registered_while_nobody_watches_has_no_state_key_until_its_first_watched_state() -> None:
+    node, where = _started(NodeOptions())
+    watcher = raw_session(where)
+    got: list[tuple[str, int]] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: Any) -> None:
+        state = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]
+        with lock:
+            got.append((str(sample.key_expr), state["seq"]))
+
+    try:
+        route_keys, bus = node._route_keys, node.bus
+        assert route_keys is not None and bus is not None and not bus.states_watched()
+        quiet = register_human(node.core)
+        # unwatched, the register's State is not put, so its key is not declared (a declaration costs more
+        # the more keys are declared: docs/performance.md, "Many movers")
+        assert f"acphys/obj/{quiet:X}/state" not in route_keys.declared
+        sub = watcher.declare_subscriber("acphys/obj/*/state", on_sample)
+        assert wait_until(bus.states_watched, timeout=10.0)
+        watched = register_human(node.core)  # watched: its State is put, on its key declared now
+        assert isinstance(route_keys.declared.get(f"acphys/obj/{watched:X}/state"), zenoh.KeyExpr)
+        cell, _x, _y = global_to_cell(40.0, 40.0)
+        ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
+                               msgpack.packb({"v": 1, "move": {"id": quiet, "offset": [0.5, 0.0, 0.0]}}))
+        assert ok  # the quiet mover's first watched State declares its key
+        expected = [(f"acphys/obj/{watched:X}/state", 0), (f"acphys/obj/{quiet:X}/state", 1)]
+        assert wait_until(lambda: len(got) >= 2, timeout=10.0), got
+        assert sorted(got) == sorted(expected)
+        assert isinstance(route_keys.declared.get(f"acphys/obj/{quiet:X}/state"), zenoh.KeyExpr)
         sub.undeclare()
     finally:
         watcher.close()
