@@ -299,7 +299,8 @@ def section(data: dict[str, Any], meta: str) -> list[str]:
            "one landblock (benchmarks/bench_many_movers.py). Each figure is the engine thread's time, per register "
            f"or per move, over {data['sample']} of them at that count (the median for registers; for moves, which "
            f"run as one push, the mean of a push, the median of {data.get('move_repeats', 1)} pushes); every State and watched error counted here reached the watcher. "
-           "\"Published nowhere\" is the same work with the State publication off: no State key declared, no put.",
+           "\"Published nowhere\" is the same work with the State publication off: no State key declared, no put, "
+           "as for a register or a move while nobody subscribes to a State key.",
            "",
            "| movers held | register (ms) | register, published nowhere (ms) | pushed move + State (ms) | the same "
            "move, published nowhere (ms) | RSS (MB) | RSS per mover since the row above (KB) |",
