@@ -167,38 +167,51 @@ def test_a_node_on_direct_callbacks_declares_nothing() -> None:
         node.shutdown(timeout=5.0)
 
 
+class StatesSeen:
+    """A State subscriber's callback: what it received, as (key, seq), in arrival order. `moves()` leaves out
+    the registers' States (seq 0): one put before the subscription may still reach it (Zenoh sends a newly
+    connected peer everything until that peer has told its subscriptions, and the watcher hands a queued
+    sample to a subscriber declared meanwhile)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._got: list[tuple[str, int]] = []
+
+    def __call__(self, sample: Any) -> None:
+        seq = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]["seq"]
+        with self._lock:
+            self._got.append((str(sample.key_expr), seq))
+
+    def all(self) -> list[tuple[str, int]]:
+        with self._lock:
+            return list(self._got)
+
+    def moves(self) -> list[tuple[str, int]]:
+        return [g for g in self.all() if g[1] >= 1]
+
+
+def _move(session: zenoh.Session, mover_id: int) -> None:
+    """One move of the mover at the demo start, asked over the bus; it must resolve."""
+    cell, _x, _y = global_to_cell(40.0, 40.0)
+    ok, _reply = raw_query(session, f"acphys/lb/{cell >> 16:04X}/move",
+                           msgpack.packb({"v": 1, "move": {"id": mover_id, "offset": [0.5, 0.0, 0.0]}}))
+    assert ok
 
 
 def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> None:
     node, where = _started(NodeOptions())
     watcher = raw_session(where)
-    got: list[tuple[str, int]] = []
-    lock = threading.Lock()
-
-    def on_sample(sample: Any) -> None:
-        state = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]
-        with lock:
-            got.append((str(sample.key_expr), state["seq"]))
-
+    seen = StatesSeen()
     try:
         mid = register_human(node.core)
         state_key = f"acphys/obj/{mid:X}/state"
-        sub = watcher.declare_subscriber(state_key, on_sample)
+        sub = watcher.declare_subscriber(state_key, seen)
         bus = node.bus
         assert bus is not None and wait_until(bus.states_watched, timeout=10.0)
-        cell, _x, _y = global_to_cell(40.0, 40.0)
         for _ in range(2):  # the first put declares the key, the second takes its route
-            ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
-                                   msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
-            assert ok
-        # only the moves' States count: a register's (seq 0), when put before the subscription, may still
-        # reach it (Zenoh sends a newly connected peer everything until that peer has told its
-        # subscriptions, and the watcher hands a queued sample to a subscriber declared meanwhile)
-        def moved() -> list[tuple[str, int]]:
-            return [g for g in got if g[1] >= 1]
-
-        assert wait_until(lambda: len(moved()) >= 2, timeout=10.0), got
-        assert moved() == [(state_key, 1), (state_key, 2)]
+            _move(watcher, mid)
+        assert wait_until(lambda: len(seen.moves()) >= 2, timeout=10.0), seen.all()
+        assert seen.moves() == [(state_key, 1), (state_key, 2)]
         assert node._route_keys is not None and state_key in node._route_keys.declared
         assert node.core is not None
         node.core.remove(mid)  # the mover leaves: its State key is let go
@@ -212,30 +225,19 @@ def test_a_published_state_goes_out_on_its_declared_key_and_is_received() -> Non
 def test_a_node_past_its_request_keys_limit_still_publishes_every_state_on_a_declared_key() -> None:
     node, where = _started(NodeOptions())
     watcher = raw_session(where)
-    got: list[str] = []
-    lock = threading.Lock()
-
-    def on_sample(sample: Any) -> None:
-        seq = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]["seq"]
-        if seq >= 1:  # not a register's State, which may arrive or not (see the test above)
-            with lock:
-                got.append(str(sample.key_expr))
-
+    seen = StatesSeen()
     try:
         route_keys = node._route_keys
         assert route_keys is not None
         route_keys.limit = 0  # no request key may be declared: the State keys must not depend on it
         movers = [register_human(node.core) for _ in range(3)]
-        sub = watcher.declare_subscriber("acphys/obj/*/state", on_sample)
+        sub = watcher.declare_subscriber("acphys/obj/*/state", seen)
         bus = node.bus
         assert bus is not None and wait_until(bus.states_watched, timeout=10.0)
-        cell, _x, _y = global_to_cell(40.0, 40.0)
         for mid in movers:
-            ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
-                                   msgpack.packb({"v": 1, "move": {"id": mid, "offset": [0.5, 0.0, 0.0]}}))
-            assert ok
+            _move(watcher, mid)
         state_keys = [f"acphys/obj/{mid:X}/state" for mid in movers]
-        assert wait_until(lambda: sorted(got) == sorted(state_keys), timeout=10.0), got
+        assert wait_until(lambda: sorted(k for k, _seq in seen.moves()) == sorted(state_keys), timeout=10.0), seen.all()
         assert all(isinstance(route_keys.declared[k], zenoh.KeyExpr) for k in state_keys)
         assert not any(k.startswith("acphys/lb/") for k in route_keys.declared)
         sub.undeclare()
@@ -247,14 +249,7 @@ def test_a_node_past_its_request_keys_limit_still_publishes_every_state_on_a_dec
 def test_a_mover_registered_while_nobody_watches_has_no_state_key_until_its_first_watched_state() -> None:
     node, where = _started(NodeOptions())
     watcher = raw_session(where)
-    got: list[tuple[str, int]] = []
-    lock = threading.Lock()
-
-    def on_sample(sample: Any) -> None:
-        state = msgpack.unpackb(sample.payload.to_bytes(), raw=False)["state"]
-        with lock:
-            got.append((str(sample.key_expr), state["seq"]))
-
+    seen = StatesSeen()
     try:
         route_keys, bus = node._route_keys, node.bus
         assert route_keys is not None and bus is not None and not bus.states_watched()
@@ -262,17 +257,14 @@ def test_a_mover_registered_while_nobody_watches_has_no_state_key_until_its_firs
         # unwatched, the register's State is not put, so its key is not declared (a declaration costs more
         # the more keys are declared: docs/performance.md, "Many movers")
         assert f"acphys/obj/{quiet:X}/state" not in route_keys.declared
-        sub = watcher.declare_subscriber("acphys/obj/*/state", on_sample)
+        sub = watcher.declare_subscriber("acphys/obj/*/state", seen)
         assert wait_until(bus.states_watched, timeout=10.0)
         watched = register_human(node.core)  # watched: its State is put, on its key declared now
         assert isinstance(route_keys.declared.get(f"acphys/obj/{watched:X}/state"), zenoh.KeyExpr)
-        cell, _x, _y = global_to_cell(40.0, 40.0)
-        ok, _reply = raw_query(watcher, f"acphys/lb/{cell >> 16:04X}/move",
-                               msgpack.packb({"v": 1, "move": {"id": quiet, "offset": [0.5, 0.0, 0.0]}}))
-        assert ok  # the quiet mover's first watched State declares its key
+        _move(watcher, quiet)  # the quiet mover's first watched State declares its key
         expected = [(f"acphys/obj/{watched:X}/state", 0), (f"acphys/obj/{quiet:X}/state", 1)]
-        assert wait_until(lambda: len(got) >= 2, timeout=10.0), got
-        assert sorted(got) == sorted(expected)
+        assert wait_until(lambda: len(seen.all()) >= 2, timeout=10.0), seen.all()
+        assert sorted(seen.all()) == sorted(expected)
         assert isinstance(route_keys.declared.get(f"acphys/obj/{quiet:X}/state"), zenoh.KeyExpr)
         sub.undeclare()
     finally:
