@@ -106,7 +106,9 @@ class SubscriptionCalls:
                          mover_id: int | None = None) -> Subscription:
         """Errors of fire-and-forget moves (`push`): `callback(mover_id or None, error)` with the error as
         a ServiceError, on a Zenoh thread. With `mover_id`, that mover's errors; without, every mover's
-        and those no mover can be named for (a push that could not be read). Returns the
+        and those no mover can be named for (a push that could not be read). As for States, a
+        subscription receives the errors of pushes that come after its declaration reached the service
+        (the service puts a mover's error only while someone subscribes to an error key). Returns the
         `Subscription`."""
 
         def on_sample(sample: zenoh.Sample) -> None:
