@@ -207,7 +207,8 @@ class ZenohBus:
         only the engine thread, which alone lets movers go, may say so) declares the key at its first error
         and keeps it while the mover stays, so a held mover's later errors take the cached route. An
         unknown id's key is declared for its put alone (`_put_once`): ids are the sender's to choose, and
-        each kept key would stay."""
+        each kept key would stay. On direct callbacks (no route keys) nothing is declared: the node's busy
+        errors are published from Zenoh's own threads there."""
         key = self.keys.errors if mover_id is None else self.keys.obj_error(mover_id)
         detail = error.get("error")
         if isinstance(detail, dict):  # a pushed move's error: answered here, so logged (rate-limited)
@@ -222,6 +223,8 @@ class ZenohBus:
             kx = self._error_keys[mover_id] = self.route_keys.key_expr(key)
         if kx is not None:
             self.session.put(kx, pack(error))
+        elif self.route_keys is None:  # direct callbacks: nothing is declared from Zenoh's own threads
+            self.session.put(key, pack(error))
         else:
             self._put_once(key, pack(error))
 

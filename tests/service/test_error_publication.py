@@ -132,3 +132,29 @@ def test_no_error_is_put_while_nobody_subscribes_to_an_error_key(node: Any) -> N
         sub.undeclare()
     finally:
         sender.close()
+
+
+def test_a_node_on_direct_callbacks_declares_no_error_key() -> None:
+    """Direct callbacks run on Zenoh's own threads, which declare nothing (service/bus/route_keys.py): an
+    unknown id's error goes on its key's text, and is received."""
+    where = endpoint(free_port())
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), NodeOptions(direct_callbacks=True))
+    n.start()
+    watcher = raw_session(where)
+    try:
+        mid = register_human(n.core)
+        bus = n.bus
+        assert bus is not None
+        counting = bus.session = CountingSession(bus.session)
+        got: list[str] = []
+        sub = watcher.declare_subscriber(f"{P}/obj/*/error", lambda s: got.append(str(s.key_expr)))
+        assert wait_until(bus.errors_watched, timeout=10.0)
+        _push_failing(watcher, mid)
+        unknown_key = f"{P}/obj/{UNKNOWN:X}/error"
+        assert wait_until(lambda: unknown_key in got, timeout=10.0), got
+        assert counting.calls == [] and counting.puts[unknown_key] == 1
+        assert unknown_key not in counting.declared_puts
+        sub.undeclare()
+    finally:
+        watcher.close()
+        n.shutdown(timeout=5.0)
