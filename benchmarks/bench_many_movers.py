@@ -86,15 +86,12 @@ def watch_main(endpoint: str, prefix: str) -> None:
     error key, or stop). Serves until SIGINT."""
     import zenoh
 
+    from service.bus.zconfig import make_config
+
     from .service_harness import stop_event
 
     stop = stop_event()
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
-    conf.insert_json5("listen/endpoints", "[]")
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    session = zenoh.open(conf)
+    session = zenoh.open(make_config(connect=[endpoint]))  # the service's own defaults, as its tests' sessions
     counter = _Counter()
     subscribers = {"state": session.declare_subscriber(f"{prefix}/obj/*/state", counter)}
 

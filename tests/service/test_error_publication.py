@@ -51,15 +51,29 @@ class CountingSession:
         return getattr(self._session, name)
 
 
+def _started(options: NodeOptions) -> tuple[ServiceNode, str]:
+    where = endpoint(free_port())
+    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), options)
+    n.start()
+    return n, where
+
+
 @pytest.fixture()
 def node() -> Any:
-    where = endpoint(free_port())
-    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), NodeOptions())
-    n.start()
+    n, where = _started(NodeOptions())
     try:
         yield n, where
     finally:
         n.shutdown(timeout=5.0)
+
+
+def _counted(n: ServiceNode) -> tuple[int, Any, CountingSession]:
+    """A mover registered in `n`, `n`'s bus, and the bus's session now counted."""
+    mid = register_human(n.core)
+    bus = n.bus
+    assert bus is not None
+    counting = bus.session = CountingSession(bus.session)
+    return mid, bus, counting
 
 
 def _push_failing(sender: zenoh.Session, mover_id: int) -> None:
@@ -107,10 +121,7 @@ def test_no_error_is_put_while_nobody_subscribes_to_an_error_key(node: Any) -> N
     n, where = node
     sender = raw_session(where)
     try:
-        mid = register_human(n.core)
-        bus = n.bus
-        assert bus is not None
-        counting = bus.session = CountingSession(bus.session)
+        mid, bus, counting = _counted(n)
         stats = n.stats
         before = dict(stats.errors)
         _push_failing(sender, mid)
@@ -137,15 +148,10 @@ def test_no_error_is_put_while_nobody_subscribes_to_an_error_key(node: Any) -> N
 def test_a_node_on_direct_callbacks_declares_no_error_key() -> None:
     """Direct callbacks run on Zenoh's own threads, which declare nothing (service/bus/route_keys.py): an
     unknown id's error goes on its key's text, and is received."""
-    where = endpoint(free_port())
-    n = ServiceNode(load_scene(str(DEMO_SCENE)), make_config(listen=[where]), NodeOptions(direct_callbacks=True))
-    n.start()
+    n, where = _started(NodeOptions(direct_callbacks=True))
     watcher = raw_session(where)
     try:
-        mid = register_human(n.core)
-        bus = n.bus
-        assert bus is not None
-        counting = bus.session = CountingSession(bus.session)
+        mid, bus, counting = _counted(n)
         got: list[str] = []
         sub = watcher.declare_subscriber(f"{P}/obj/*/error", lambda s: got.append(str(s.key_expr)))
         assert wait_until(bus.errors_watched, timeout=10.0)
