@@ -97,8 +97,6 @@ class ZenohBus:
         self.handover_timeout = handover_timeout
         self._wait = wait
         self._state_keys: dict[int, zenoh.KeyExpr] = {}
-        #: held movers' error keys, declared at their first error (see `publish_error`)
-        self._error_keys: dict[int, Any] = {}
         # a publisher on P/obj/*/state only for its matching status; kept until the queued requests are
         # answered at shutdown (they ask it)
         self._state_watch: MatchWatch | None = (
@@ -180,7 +178,6 @@ class ZenohBus:
         """The mover left: its State key and error key are let go (undeclared, when they were declared).
         Asked of the route keys themselves: the parsed-key cache may have been emptied since the declaration."""
         self._state_keys.pop(mover_id, None)
-        self._error_keys.pop(mover_id, None)
         if self.route_keys is not None:
             self.route_keys.forget(self.keys.state(mover_id))
             self.route_keys.forget(self.keys.obj_error(mover_id))
@@ -218,15 +215,15 @@ class ZenohBus:
             return
         if not self.errors_watched():
             return
-        kx = self._error_keys.get(mover_id)
-        if kx is None and held and self.route_keys is not None:
-            kx = self._error_keys[mover_id] = self.route_keys.key_expr(key)
+        payload, rk = pack(error), self.route_keys
+        if rk is None:  # direct callbacks: nothing is declared from Zenoh's own threads
+            self.session.put(key, payload)
+            return
+        kx = rk.key_expr(key) if held else rk.declared.get(key)
         if kx is not None:
-            self.session.put(kx, pack(error))
-        elif self.route_keys is None:  # direct callbacks: nothing is declared from Zenoh's own threads
-            self.session.put(key, pack(error))
+            self.session.put(kx, payload)
         else:
-            self._put_once(key, pack(error))
+            self._put_once(key, payload)
 
     def _put_once(self, key: str, payload: bytes) -> None:
         """A put on a key declared for it alone. Why: Zenoh walks the keys declared beside a key once when
